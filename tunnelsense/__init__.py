@@ -1,0 +1,47 @@
+"""tunnelsense: scikit-learn estimators that find roadside landmarks in sensor data.
+
+Two published methods, as estimators that compose in :class:`sklearn.pipeline.Pipeline`:
+
+* emergency-telephone indicators in far-infrared tunnel video (Wang et al., 2013);
+* street-parked vehicles from a vertically scanning laser range finder
+  (Hirahara and Ikeuchi).
+
+A sample is one frame or one scan (:class:`FrameRecord`, :class:`ScanRecord`); see
+``docs/architecture.md``.
+"""
+
+from tunnelsense._records import (
+    MOT_GT_COLUMNS,
+    OBJECT_CLASSES,
+    RUN_GT_COLUMNS,
+    RUN_LABELS,
+    FrameRecord,
+    FrameSequence,
+    LaserGeometry,
+    Run,
+    ScanRecord,
+    ScanSequence,
+    Tour,
+    check_frames,
+    check_scans,
+    to_xy,
+)
+from tunnelsense._version import __version__
+
+__all__ = [
+    "FrameRecord",
+    "FrameSequence",
+    "LaserGeometry",
+    "MOT_GT_COLUMNS",
+    "OBJECT_CLASSES",
+    "RUN_GT_COLUMNS",
+    "RUN_LABELS",
+    "Run",
+    "ScanRecord",
+    "ScanSequence",
+    "Tour",
+    "__version__",
+    "check_frames",
+    "check_scans",
+    "to_xy",
+]
