@@ -1,0 +1,15 @@
+"""Simulators of labelled data: far-infrared tunnel tours and laser street runs.
+
+No public data of either kind exists, so tunnelsense makes its own, grounded in the
+geometry of the sensors and the scenes the papers describe.
+"""
+
+from tunnelsense.datasets._street import STREET_SCENARIOS, make_street_scans
+from tunnelsense.datasets._tunnel import TUNNEL_SCENARIOS, make_tunnel_tour
+
+__all__ = [
+    "STREET_SCENARIOS",
+    "TUNNEL_SCENARIOS",
+    "make_street_scans",
+    "make_tunnel_tour",
+]
