@@ -1,0 +1,24 @@
+"""Street-parked vehicles from a vertically scanning laser range finder.
+
+Section III of Hirahara and Ikeuchi's method (``lrf-street-parking-detection.txt``) as
+array functions and scikit-learn estimators on scan records; see ``docs/street.md``.
+"""
+
+from tunnelsense.street._clustering import link_scans, single_linkage
+from tunnelsense.street._restoration import (
+    compensate_tilt,
+    estimate_tilt,
+    no_return,
+    restore_points,
+)
+from tunnelsense.street._roi import roi_mask
+
+__all__ = [
+    "compensate_tilt",
+    "estimate_tilt",
+    "link_scans",
+    "no_return",
+    "restore_points",
+    "roi_mask",
+    "single_linkage",
+]

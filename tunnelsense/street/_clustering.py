@@ -1,0 +1,258 @@
+"""Intra-scan and inter-scan clustering (paper sections III-D, III-E).
+
+*Intra-scan*: the returns of one scan inside the region of interest are grouped by
+single linkage (nearest-neighbour hierarchical clustering) and the tree is cut at
+``cut`` (0.6 m).  Cutting a single-linkage tree at ``cut`` gives exactly the connected
+components of the graph joining every two points at most ``cut`` apart, which is what
+:func:`single_linkage` computes, for many scans at once:
+
+1. points are taken in beam order; consecutive points at most ``cut`` apart are joined
+   into *chains* (every chain lies in one component);
+2. two chains of the same scan whose bounding boxes come within ``cut`` are compared
+   point against point (only the points within ``cut`` of the other chain's box), and
+   joined when some pair is at most ``cut`` apart;
+3. connected components of the chain graph are the clusters.
+
+Step 2 makes it exact: splitting on gaps between consecutive beams alone (step 1) is
+*not* single linkage (two legs, a wall beside a narrow occluder, no-return beams).
+
+*Inter-scan*: an intra-cluster joins the inter-cluster of a cluster of the previous
+scan when their mean depths differ by less than ``link_distance`` (0.5 m); an
+inter-cluster that finds nothing to link in the next scan is finished (an
+*object-cluster*).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["link_scans", "single_linkage"]
+
+_CHUNK = 4_000_000  # largest number of point pairs compared at once
+
+
+def _components(n, a, b):
+    """Labels of the connected components of ``n`` nodes with edges ``a``-``b``."""
+    if len(a) == 0:
+        return np.arange(n)
+    g = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(n, n))
+    return connected_components(g, directed=False)[1]
+
+
+def _ranges_expand(starts, counts):
+    """Concatenation of ``arange(s, s + c)`` for every start/count (vectorized)."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+    owner = np.repeat(np.arange(len(counts)), counts)
+    offs = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+    return np.repeat(starts, counts) + offs, owner
+
+
+def _cross_linked(x, y, a_idx, a_own, b_idx, b_own, n_pairs, cut):
+    """For every pair ``p``, whether some point of ``a_idx[a_own == p]`` is within
+    ``cut`` of some point of ``b_idx[b_own == p]`` (both sorted by owner)."""
+    hit = np.zeros(n_pairs, dtype=bool)
+    if len(a_idx) == 0 or len(b_idx) == 0:
+        return hit
+    nb = np.bincount(b_own, minlength=n_pairs)
+    b_start = np.cumsum(nb) - nb
+    per_a = nb[a_own]
+    # process the a-points in chunks to bound memory
+    cum = np.cumsum(per_a)
+    lo = 0
+    while lo < len(a_idx):
+        done = cum[lo - 1] if lo else 0
+        hi = int(np.searchsorted(cum, done + _CHUNK, side="right"))
+        hi = max(hi, lo + 1)
+        cnt = per_a[lo:hi]
+        bi, owner = _ranges_expand(b_start[a_own[lo:hi]], cnt)
+        ai = a_idx[lo:hi][owner]
+        bj = b_idx[bi]
+        dx = x[ai] - x[bj]
+        dy = y[ai] - y[bj]
+        close = np.sqrt(dx * dx + dy * dy) <= cut
+        hit[a_own[lo:hi][owner[close]]] = True
+        lo = hi
+    return hit
+
+
+def _single_linkage_groups(x, y, group, cut):
+    """Single-linkage labels of points grouped in contiguous ``group`` runs.
+
+    Returns labels numbered from 0 within every group, in order of first appearance.
+    """
+    n = len(x)
+    if n == 0:
+        return np.empty(0, dtype=np.int64)
+    # 1. chains of consecutive points
+    dx = np.diff(x)
+    dy = np.diff(y)
+    link = (np.sqrt(dx * dx + dy * dy) <= cut) & (group[1:] == group[:-1])
+    new_chain = np.r_[True, ~link]
+    chain = np.cumsum(new_chain) - 1
+    starts = np.flatnonzero(new_chain)
+    n_chains = len(starts)
+    lengths = np.diff(np.r_[starts, n])
+    xmin = np.minimum.reduceat(x, starts)
+    xmax = np.maximum.reduceat(x, starts)
+    ymin = np.minimum.reduceat(y, starts)
+    ymax = np.maximum.reduceat(y, starts)
+    cgroup = group[starts]
+    # 2. candidate chain pairs of the same group with boxes within cut
+    grp_change = np.r_[True, cgroup[1:] != cgroup[:-1]]
+    grp_first = np.flatnonzero(grp_change)
+    grp_size = np.diff(np.r_[grp_first, n_chains])
+    grp_end = np.repeat(grp_first + grp_size, grp_size)  # one past the group's last
+    partners = grp_end - np.arange(n_chains) - 1
+    bi, ai = _ranges_expand(np.arange(n_chains) + 1, partners)
+    ea = np.empty(0, dtype=np.int64)
+    eb = np.empty(0, dtype=np.int64)
+    if len(ai):
+        margin = cut * (1 + 1e-9)
+        gapx = np.maximum(xmin[bi] - xmax[ai], xmin[ai] - xmax[bi])
+        gapy = np.maximum(ymin[bi] - ymax[ai], ymin[ai] - ymax[bi])
+        keep = (gapx <= margin) & (gapy <= margin)
+        ai, bi = ai[keep], bi[keep]
+        if len(ai):
+            # points of a within cut of b's box, and vice versa
+            pa, own_a = _ranges_expand(starts[ai], lengths[ai])
+            pb, own_b = _ranges_expand(starts[bi], lengths[bi])
+            ina = (
+                (x[pa] >= xmin[bi][own_a] - margin)
+                & (x[pa] <= xmax[bi][own_a] + margin)
+                & (y[pa] >= ymin[bi][own_a] - margin)
+                & (y[pa] <= ymax[bi][own_a] + margin)
+            )
+            inb = (
+                (x[pb] >= xmin[ai][own_b] - margin)
+                & (x[pb] <= xmax[ai][own_b] + margin)
+                & (y[pb] >= ymin[ai][own_b] - margin)
+                & (y[pb] <= ymax[ai][own_b] + margin)
+            )
+            hit = _cross_linked(
+                x, y, pa[ina], own_a[ina], pb[inb], own_b[inb], len(ai), cut
+            )
+            ea, eb = ai[hit], bi[hit]
+    # 3. components of the chain graph, numbered by first appearance within each group
+    comp = _components(n_chains, ea, eb)[chain]
+    _, first = np.unique(comp, return_index=True)
+    order = np.empty(len(first), dtype=np.int64)
+    order[np.argsort(first)] = np.arange(len(first))
+    glob = order[comp]
+    pgroup_first = np.r_[True, group[1:] != group[:-1]]
+    base = np.maximum.accumulate(np.where(pgroup_first, glob, 0))
+    return glob - base
+
+
+def single_linkage(points, cut=0.6, *, groups=None):
+    """Flat single-linkage clusters of 2-D points, the tree cut at ``cut``.
+
+    Equal (up to relabelling) to
+    ``scipy.cluster.hierarchy.fcluster(single(points), cut, criterion="distance")``:
+    two points share a cluster when a path of steps at most ``cut`` long joins them.
+    Fast when the points come in scan (beam) order, exact in any order.
+
+    Parameters
+    ----------
+    points : array-like of shape (n_points, 2)
+        ``(depth, height)`` in metres, finite.
+    cut : float, default=0.6
+        Cut height of the dendrogram (m); the paper's 600 mm.
+    groups : array-like of shape (n_points,) of int, default=None
+        Cluster several scans at once: points of different groups are never joined.
+        Each group must be contiguous (for example the scan number, non-decreasing).
+
+    Returns
+    -------
+    labels : ndarray of shape (n_points,) of int64
+        Cluster number, from 0 within each group, in order of first appearance.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import single_linkage
+    >>> pts = np.array([[2.0, 0.5], [5.0, 0.5], [2.0, 1.0], [5.3, 1.0], [2.5, 0.2]])
+    >>> single_linkage(pts, 0.6).tolist()
+    [0, 1, 0, 1, 0]
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"points must have shape (n_points, 2); got shape {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite (drop no-return beams first)")
+    if not (np.isfinite(cut) and cut >= 0):
+        raise ValueError(f"cut must be a finite number >= 0; got {cut!r}")
+    if groups is None:
+        g = np.zeros(len(pts), dtype=np.int64)
+    else:
+        g = np.asarray(groups)
+        if g.shape != (len(pts),):
+            raise ValueError(
+                f"groups must have shape ({len(pts)},) like points; got {g.shape}"
+            )
+        change = np.r_[True, g[1:] != g[:-1]] if len(g) else np.empty(0, bool)
+        if len(np.unique(g)) != int(change.sum()):
+            raise ValueError("groups must be contiguous (each group in one run)")
+        g = np.cumsum(change) - 1
+    return _single_linkage_groups(pts[:, 0].copy(), pts[:, 1].copy(), g, float(cut))
+
+
+def link_scans(position, mean_depth, follows, link_distance=0.5):
+    """Inter-scan clustering: object-cluster number of every intra-cluster.
+
+    Parameters
+    ----------
+    position : ndarray of shape (n_clusters,) of int
+        Index of each intra-cluster's scan in the scan order (non-decreasing).
+    mean_depth : ndarray of shape (n_clusters,)
+        Mean depth (m) of each intra-cluster.
+    follows : ndarray of shape (n_positions,) of bool
+        ``follows[p]`` is True when scan ``p`` directly follows scan ``p - 1`` (same
+        run, next scan number); linking never crosses a False.
+    link_distance : float, default=0.5
+        Clusters of consecutive scans link when their mean depths differ by less.
+
+    Returns
+    -------
+    objects : ndarray of shape (n_clusters,) of int64
+        Object-cluster number, from 0, in order of first appearance.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import link_scans
+    >>> link_scans(np.array([0, 0, 1, 2, 3]), np.array([2.0, 5.0, 5.3, 5.6, 5.9]),
+    ...            np.array([False, True, True, False])).tolist()
+    [0, 1, 1, 1, 2]
+    """
+    pos = np.asarray(position, dtype=np.int64)
+    md = np.asarray(mean_depth, dtype=np.float64)
+    follows = np.asarray(follows, dtype=bool)
+    n = len(pos)
+    if n == 0:
+        return np.empty(0, dtype=np.int64)
+    # sort by (position, depth); find for each cluster the previous scan's clusters
+    # with depth in (d - link, d + link)
+    order = np.lexsort((md, pos))
+    spos, smd = pos[order], md[order]
+    span = float(np.nanmax(np.abs(smd))) * 2 + 4 * link_distance + 1.0
+    key = spos * span + smd
+    lo = np.searchsorted(key, (spos - 1) * span + smd - link_distance, side="right")
+    hi = np.searchsorted(key, (spos - 1) * span + smd + link_distance, side="left")
+    ok = follows[spos] & (spos > 0)
+    cnt = np.where(ok, np.maximum(hi - lo, 0), 0)
+    prev, owner = _ranges_expand(lo, cnt)
+    # guard against float error at the key boundaries
+    good = (spos[prev] == spos[owner] - 1) & (
+        np.abs(smd[prev] - smd[owner]) < link_distance
+    )
+    comp = _components(n, prev[good], owner[good])
+    labels = np.empty(n, dtype=np.int64)
+    labels[order] = comp
+    _, first = np.unique(labels, return_index=True)
+    renum = np.empty(len(first), dtype=np.int64)
+    renum[np.argsort(first)] = np.arange(len(first))
+    return renum[labels]
