@@ -186,7 +186,9 @@ class FrameRecord:
 
     def evolve(self, **payload) -> FrameRecord:
         """Return a record with the same identity and image, payload updated."""
-        return FrameRecord(self.tour, self.frame, self.source, {**self.payload, **payload})
+        return FrameRecord(
+            self.tour, self.frame, self.source, {**self.payload, **payload}
+        )
 
     def __repr__(self):
         keys = ", ".join(self.payload) or "-"
@@ -349,7 +351,9 @@ class _RecordSequence(Sequence):
     @property
     def groups(self) -> np.ndarray:
         """The tour (run) name of every record, for ``GroupKFold``."""
-        return np.array([getattr(r, self._group_attr) for r in self._records], dtype=object)
+        return np.array(
+            [getattr(r, self._group_attr) for r in self._records], dtype=object
+        )
 
     def __repr__(self):
         names = dict.fromkeys(getattr(r, self._group_attr) for r in self._records)
@@ -386,7 +390,8 @@ class FrameSequence(_RecordSequence):
                 f"got shape {images.shape}"
             )
         return cls(
-            FrameRecord(str(tour), first_frame + i, images[i]) for i in range(len(images))
+            FrameRecord(str(tour), first_frame + i, images[i])
+            for i in range(len(images))
         )
 
 
@@ -427,17 +432,21 @@ class ScanSequence(_RecordSequence):
 # Bundles: records + ground truth + metadata
 # --------------------------------------------------------------------------------------
 def _empty_gt(columns, dtypes):
-    return pd.DataFrame({c: pd.Series(dtype=d) for c, d in zip(columns, dtypes, strict=True)})
+    return pd.DataFrame(
+        {c: pd.Series(dtype=d) for c, d in zip(columns, dtypes, strict=True)}
+    )
 
 
 def empty_mot_gt() -> pd.DataFrame:
     """An empty ground-truth table with the MOTChallenge columns and dtypes."""
-    return _empty_gt(MOT_GT_COLUMNS, ["int64", "int64"] + ["float64"] * 5 + ["int64", "float64"])
+    return _empty_gt(
+        MOT_GT_COLUMNS, ["int64", "int64"] + ["float64"] * 5 + ["int64", "float64"]
+    )
 
 
 def empty_run_gt() -> pd.DataFrame:
     """An empty laser-run ground-truth table (``id,first_scan,last_scan,label``)."""
-    return _empty_gt(RUN_GT_COLUMNS, ["int64", "int64", "int64", "object"])
+    return _empty_gt(RUN_GT_COLUMNS, ["int64", "int64", "int64", str])
 
 
 @dataclass(frozen=True, eq=False)
@@ -472,8 +481,13 @@ class Tour:
     def from_array(cls, name, images, gt=None, *, frame_rate=30.0, info=None):
         """A tour held in memory, from an array ``(n_frames, height, width)``."""
         frames = FrameSequence.from_array(images, tour=name)
-        return cls(str(name), frames, empty_mot_gt() if gt is None else gt,
-                   float(frame_rate), dict(info or {}))
+        return cls(
+            str(name),
+            frames,
+            empty_mot_gt() if gt is None else gt,
+            float(frame_rate),
+            dict(info or {}),
+        )
 
     @property
     def image_shape(self) -> tuple[int, int]:
@@ -496,7 +510,9 @@ class Tour:
         min_height : float, default=0.0
             Keep only boxes at least this tall (px).
         """
-        return _boxes_per_frame(self.gt, [r.frame for r in self.frames], classes, min_height)
+        return _boxes_per_frame(
+            self.gt, [r.frame for r in self.frames], classes, min_height
+        )
 
     def xy(self):
         """``(X, y, groups)`` of this tour alone; see :func:`to_xy`."""
@@ -508,7 +524,8 @@ def _boxes_per_frame(gt, frame_numbers, classes, min_height=0.0):
     keep = gt["class"].isin(list(classes)) & (gt["bb_height"] >= min_height)
     sel = gt.loc[keep, ["frame", *cols]]
     by_frame = {
-        int(f): g[cols].to_numpy(dtype=np.float64) for f, g in sel.groupby("frame", sort=False)
+        int(f): g[cols].to_numpy(dtype=np.float64)
+        for f, g in sel.groupby("frame", sort=False)
     }
     empty = np.empty((0, 4), dtype=np.float64)
     return [by_frame.get(int(f), empty) for f in frame_numbers]
@@ -542,7 +559,9 @@ class Run:
     def from_arrays(cls, name, ranges, stamps, geometry, gt=None, *, info=None):
         """A run from ``ranges`` (n_scans, n_beams), ``stamps`` and its geometry."""
         scans = ScanSequence.from_arrays(ranges, stamps, geometry, run=name)
-        return cls(str(name), scans, empty_run_gt() if gt is None else gt, dict(info or {}))
+        return cls(
+            str(name), scans, empty_run_gt() if gt is None else gt, dict(info or {})
+        )
 
     @property
     def geometry(self) -> LaserGeometry:
@@ -557,7 +576,9 @@ class Run:
         """
         n = len(self.scans)
         per_scan = [[] for _ in range(n)]
-        for oid, first, last, label in self.gt[list(RUN_GT_COLUMNS)].itertuples(index=False):
+        for oid, first, last, label in self.gt[list(RUN_GT_COLUMNS)].itertuples(
+            index=False
+        ):
             code = RUN_LABELS[label]
             for s in range(max(int(first), 0), min(int(last), n - 1) + 1):
                 per_scan[s].append((int(oid), code))

@@ -1,0 +1,66 @@
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tunnelsense import LaserGeometry, Run, Tour, __version__
+from tunnelsense._cli import main
+from tunnelsense.io import write_run, write_tour
+
+
+def test_version_and_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"tunnelsense {__version__}"
+    assert main([]) == 0
+    assert "info" in capsys.readouterr().out
+
+
+def test_info_on_tour_and_run(tmp_path, capsys):
+    gt = pd.DataFrame(
+        {
+            "frame": [1, 2, 2],
+            "id": [1, 1, 2],
+            "bb_left": 1.0,
+            "bb_top": 1.0,
+            "bb_width": 2.0,
+            "bb_height": 3.0,
+            "conf": 1.0,
+            "class": [1, 1, 2],
+            "visibility": 1.0,
+        }
+    )
+    write_tour(Tour.from_array("t", np.zeros((3, 8, 10), np.uint8), gt), tmp_path / "t")
+    assert main(["info", str(tmp_path / "t"), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["kind"] == "tunnel" and facts["frames"] == 3
+    assert facts["objects"] == {"indicator": 1, "lamp": 1}
+    assert (facts["width"], facts["height"], facts["frame_rate"]) == (10, 8, 30.0)
+    assert main(["info", str(tmp_path / "t")]) == 0
+    assert "3 frames of 10x8 px" in capsys.readouterr().out
+
+    g = LaserGeometry(-1.4, 0.0087, 0.05, 8.191, 2.0)
+    rgt = pd.DataFrame(
+        {
+            "id": [1, 2, 3],
+            "first_scan": [0, 1, 2],
+            "last_scan": [1, 3, 3],
+            "label": ["parked", "parked", "passing"],
+        }
+    )
+    write_run(
+        Run.from_arrays("r", np.ones((4, 6)), np.arange(4) / 75, g, rgt), tmp_path / "r"
+    )
+    assert main(["info", str(tmp_path / "r"), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["kind"] == "street" and facts["scans"] == 4 and facts["beams"] == 6
+    assert facts["objects"] == {"parked": 2, "passing": 1}
+    assert facts["scan_rate"] == pytest.approx(75.0)
+
+
+def test_info_on_missing_source_is_a_clear_error(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "nope")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("tunnelsense: error:") and "nope: not found" in err

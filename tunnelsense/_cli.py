@@ -1,0 +1,174 @@
+"""The ``tunnelsense`` command."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from tunnelsense._version import __version__
+
+__all__ = ["main"]
+
+
+def _cmd_info(args) -> int:
+    from tunnelsense.io import describe
+
+    facts = describe(args.source)
+    if args.json:
+        print(json.dumps(facts, indent=2, sort_keys=True))
+        return 0
+    if facts["kind"] == "tunnel":
+        print(
+            f"{facts['name']}: far-infrared tour, {facts['frames']} frames of "
+            f"{facts['width']}x{facts['height']} px ({facts['dtype']}), "
+            f"{facts['frame_rate']:g} fps"
+        )
+    else:
+        rate = facts["scan_rate"]
+        print(
+            f"{facts['name']}: laser run, {facts['scans']} scans of {facts['beams']} "
+            f"beams"
+            + (f", {rate:g} scans/s" if rate else "")
+            + f", mount height {facts['mount_height']:g} m"
+        )
+    objects = facts["objects"]
+    print(
+        "objects: "
+        + (
+            ", ".join(f"{n} {k}" for k, n in sorted(objects.items()))
+            if objects
+            else "none in the ground truth"
+        )
+    )
+    for key, value in sorted(facts["info"].items()):
+        print(f"  {key}: {value}")
+    return 0
+
+
+def _cmd_simulate(args) -> int:
+    from tunnelsense._progress import Progress
+    from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+    from tunnelsense.io import write_run, write_tour
+
+    out = Path(args.outdir)
+    start = time.perf_counter()
+    if args.kind == "tunnel":
+        tour = make_tunnel_tour(
+            args.frames, scenario=args.scenario, random_state=args.seed, name=out.name
+        )
+        write_tour(tour, out, progress=Progress(len(tour), "writing frames"))
+        n_ind = tour.gt.loc[tour.gt["class"] == 1, "id"].nunique()
+        print(
+            f"wrote {out}: {len(tour)} frames, scenario {args.scenario}, seed "
+            f"{args.seed}, {n_ind} indicators ({time.perf_counter() - start:.1f} s)"
+        )
+    else:
+        run = make_street_scans(
+            args.scans, scenario=args.scenario, random_state=args.seed, name=out.name
+        )
+        write_run(run, out)
+        counts = run.gt["label"].value_counts().to_dict()
+        print(
+            f"wrote {out}: {len(run)} scans, scenario {args.scenario}, seed "
+            f"{args.seed}, {counts.get('parked', 0)} parked and "
+            f"{counts.get('passing', 0)} passing vehicles "
+            f"({time.perf_counter() - start:.1f} s)"
+        )
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tunnelsense",
+        description="Find roadside landmarks in vehicle sensor data: emergency-telephone "
+        "indicators in far-infrared tunnel video, street-parked vehicles in laser scans.",
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"tunnelsense {__version__}"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("info", help="describe a tour folder, video or laser run")
+    p.add_argument(
+        "source",
+        help="MOTChallenge folder, image folder, video file or "
+        "laser run folder (scans.npz + gt.csv)",
+    )
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("simulate", help="write a simulated tour or laser run")
+    kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
+    from tunnelsense.datasets import STREET_SCENARIOS, TUNNEL_SCENARIOS
+
+    t = kinds.add_parser(
+        "tunnel", help="a far-infrared tunnel tour (MOTChallenge folder)"
+    )
+    t.add_argument("outdir")
+    t.add_argument("--frames", type=int, default=1500, help="frames (default 1500)")
+    t.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    t.add_argument(
+        "--scenario",
+        default=TUNNEL_SCENARIOS[0] if TUNNEL_SCENARIOS else None,
+        choices=TUNNEL_SCENARIOS or None,
+    )
+    s = kinds.add_parser("street", help="a laser street run (scans.npz + gt.csv)")
+    s.add_argument("outdir")
+    s.add_argument("--scans", type=int, default=4000, help="scans (default 4000)")
+    s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument(
+        "--scenario",
+        default=STREET_SCENARIOS[0] if STREET_SCENARIOS else None,
+        choices=STREET_SCENARIOS or None,
+    )
+    p.set_defaults(func=_cmd_simulate)
+
+    _register_methods(sub)
+    return parser
+
+
+def _register_methods(sub) -> None:
+    """Let each detector add its ``train`` / ``detect`` / ``evaluate`` commands."""
+    import importlib
+    import importlib.util
+
+    modules = [
+        m
+        for m in ("tunnelsense._cli_tunnel", "tunnelsense._cli_street")
+        if importlib.util.find_spec(m) is not None
+    ]
+    if not modules:
+        return
+    verbs = {}
+    for verb, text in (
+        ("train", "fit a detector on labelled tours or runs"),
+        ("detect", "run a fitted detector"),
+        ("evaluate", "score detections against ground truth"),
+    ):
+        v = sub.add_parser(verb, help=text)
+        verbs[verb] = v.add_subparsers(dest="kind", metavar="KIND", required=True)
+    for module in modules:
+        importlib.import_module(module).register(verbs)
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.func(args) or 0)
+    except (FileNotFoundError, ValueError, OSError) as exc:
+        print(f"tunnelsense: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("tunnelsense: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,45 @@
+"""Reading and writing tours and laser runs in the formats other tools use.
+
+* Far-infrared tours: MOTChallenge sequence folders (``seqinfo.ini``, ``img1/``,
+  ``gt/gt.txt``), plain image folders and video files through OpenCV (8- and 16-bit);
+  detections as MOTChallenge results files.
+* Laser runs: ``scans.npz`` with ROS ``sensor_msgs/LaserScan`` field names, and
+  ``gt.csv`` (``id,first_scan,last_scan,label``).
+"""
+
+from tunnelsense.io._describe import describe, open_source
+from tunnelsense.io._images import iter_video, read_image
+from tunnelsense.io._laser import read_run, read_run_gt, write_run, write_run_gt
+from tunnelsense.io._mot import (
+    MOT_RESULT_COLUMNS,
+    open_tour,
+    read_image_folder,
+    read_mot_gt,
+    read_mot_results,
+    read_tour,
+    read_video,
+    write_mot_gt,
+    write_mot_results,
+    write_tour,
+)
+
+__all__ = [
+    "MOT_RESULT_COLUMNS",
+    "describe",
+    "iter_video",
+    "open_source",
+    "open_tour",
+    "read_image",
+    "read_image_folder",
+    "read_mot_gt",
+    "read_mot_results",
+    "read_run",
+    "read_run_gt",
+    "read_tour",
+    "read_video",
+    "write_mot_gt",
+    "write_mot_results",
+    "write_run",
+    "write_run_gt",
+    "write_tour",
+]

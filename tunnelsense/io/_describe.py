@@ -1,0 +1,75 @@
+"""What a tour folder, video or laser run holds (``tunnelsense info``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from tunnelsense._records import OBJECT_CLASSES, Run, Tour
+from tunnelsense.io._laser import read_run
+from tunnelsense.io._mot import open_tour
+
+__all__ = ["describe", "open_source"]
+
+
+def open_source(source) -> Tour | Run:
+    """Read a tour (MOTChallenge folder, image folder, video) or a laser run."""
+    source = Path(source)
+    if (source.is_dir() and (source / "scans.npz").exists()) or source.suffix == ".npz":
+        return read_run(source)
+    return open_tour(source)
+
+
+def describe(source) -> dict:
+    """Describe a tour or a laser run as a JSON-able dict.
+
+    Keys: ``kind`` (``"tunnel"`` or ``"street"``), ``name``, ``frames`` or ``scans``,
+    ``objects`` (class or label name -> number of distinct object ids), and the image
+    size and frame rate, or the beams, scan rate and geometry.
+    """
+    data = source if isinstance(source, Tour | Run) else open_source(source)
+    if isinstance(data, Tour):
+        height, width = data.image_shape
+        gt = data.gt
+        objects = {
+            OBJECT_CLASSES.get(int(c), f"class {int(c)}"): int(g["id"].nunique())
+            for c, g in gt.groupby("class")
+        }
+        dtype = str(data.frames[0].image.dtype)
+        return {
+            "kind": "tunnel",
+            "name": data.name,
+            "frames": len(data),
+            "width": width,
+            "height": height,
+            "dtype": dtype,
+            "frame_rate": data.frame_rate,
+            "duration_s": round(len(data) / data.frame_rate, 3)
+            if data.frame_rate
+            else None,
+            "objects": objects,
+            "info": {k: str(v) for k, v in data.info.items()},
+        }
+    g = data.geometry
+    stamps = np.array([r.stamp for r in data.scans])
+    rate = (
+        float((len(stamps) - 1) / (stamps[-1] - stamps[0]))
+        if len(stamps) > 1 and stamps[-1] > stamps[0]
+        else None
+    )
+    return {
+        "kind": "street",
+        "name": data.name,
+        "scans": len(data),
+        "beams": int(len(data.scans[0].ranges)),
+        "scan_rate": None if rate is None else round(rate, 3),
+        "angle_min_deg": round(float(np.degrees(g.angle_min)), 4),
+        "angle_increment_deg": round(float(np.degrees(g.angle_increment)), 4),
+        "range_max": g.range_max,
+        "mount_height": g.mount_height,
+        "objects": {
+            str(k): int(v["id"].nunique()) for k, v in data.gt.groupby("label")
+        },
+        "info": data.info,
+    }

@@ -1,0 +1,119 @@
+"""Decoding frames with OpenCV: image files (8- and 16-bit) and video files."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["IMAGE_EXTENSIONS", "read_image", "read_png_size", "read_video_frame"]
+
+#: File endings read as image frames (case-insensitive).
+IMAGE_EXTENSIONS = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp", ".pgm", ".pnm")
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _to_gray(image: np.ndarray, where: str) -> np.ndarray:
+    """Single-channel frame: colour images (FIR false colour, grey saved as RGB) -> grey."""
+    if image.ndim == 3:
+        if image.shape[2] == 1:
+            image = image[:, :, 0]
+        elif image.shape[2] == 3:
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        elif image.shape[2] == 4:
+            image = cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
+        else:
+            raise ValueError(
+                f"{where}: expected 1, 3 or 4 channels, got {image.shape[2]}"
+            )
+    if image.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"{where}: expected 8-bit or 16-bit pixels, got {image.dtype}")
+    return np.ascontiguousarray(image)
+
+
+def read_png_size(path) -> tuple[int, int]:
+    """``(height, width)`` of a PNG from its header, without decoding it.
+
+    Raises ``ValueError`` naming the file when it is not a PNG or is too short.
+    """
+    with open(path, "rb") as f:
+        head = f.read(24)
+    if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
+        raise ValueError(f"{path}: not a PNG file (bad signature or header)")
+    width, height = struct.unpack(">II", head[16:24])
+    return int(height), int(width)
+
+
+def read_image(path) -> np.ndarray:
+    """Decode one frame: a 2-D ``uint8`` or ``uint16`` array.
+
+    Colour images are converted to grey.  A missing, empty, truncated or corrupt file
+    raises an exception naming it.
+
+    Parameters
+    ----------
+    path : str or Path
+        An image file OpenCV can decode (PNG, TIFF, JPEG, BMP, PGM).
+
+    Returns
+    -------
+    image : ndarray of shape (height, width), uint8 or uint16
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: frame file not found")
+    data = np.fromfile(path, dtype=np.uint8)
+    if data.size == 0:
+        raise ValueError(f"{path}: empty file, expected an image")
+    if data[:8].tobytes() == _PNG_SIGNATURE and b"IEND" not in data[-12:].tobytes():
+        # libpng may hand back a partly decoded frame for a truncated file.
+        raise ValueError(
+            f"{path}: truncated PNG (no IEND chunk at the end of the file)"
+        )
+    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ValueError(f"{path}: corrupt image, OpenCV could not decode it")
+    return _to_gray(image, str(path))
+
+
+def open_video(path) -> cv2.VideoCapture:
+    """Open a video file with OpenCV, raising a clear error when it cannot."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: video file not found")
+    capture = cv2.VideoCapture(str(path))
+    if not capture.isOpened():
+        raise ValueError(f"{path}: OpenCV cannot open this file as a video")
+    return capture
+
+
+def read_video_frame(path, index: int) -> np.ndarray:
+    """Decode frame ``index`` (0-based) of a video file as a 2-D array."""
+    capture = open_video(path)
+    try:
+        if index and not capture.set(cv2.CAP_PROP_POS_FRAMES, index):
+            raise ValueError(f"{path}: cannot seek to frame {index}")
+        ok, image = capture.read()
+    finally:
+        capture.release()
+    if not ok or image is None:
+        raise ValueError(
+            f"{path}: cannot decode frame {index} (the video ends earlier)"
+        )
+    return _to_gray(image, f"{path} frame {index}")
+
+
+def iter_video(path):
+    """Yield the frames of a video file one by one (2-D arrays), decoding sequentially."""
+    capture = open_video(path)
+    try:
+        while True:
+            ok, image = capture.read()
+            if not ok:
+                return
+            yield _to_gray(image, str(path))
+    finally:
+        capture.release()

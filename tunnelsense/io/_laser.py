@@ -1,0 +1,241 @@
+"""Laser runs on disk: ``scans.npz`` (ROS LaserScan field names) and ``gt.csv``.
+
+A run folder holds::
+
+    scans.npz   ranges (n_scans, n_beams) m, angle_min, angle_increment, range_min,
+                range_max, stamps (n_scans,) s, mount_height m; optional angle_max,
+                info_json (a JSON string of run information)
+    gt.csv      id,first_scan,last_scan,label   (0-based, inclusive; parked | passing)
+
+No return may be written as NaN, +inf or a range ``>= range_max``: drivers differ, and
+all three are accepted.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tunnelsense._records import (
+    RUN_GT_COLUMNS,
+    RUN_LABELS,
+    LaserGeometry,
+    Run,
+    empty_run_gt,
+)
+
+__all__ = ["read_run", "read_run_gt", "write_run", "write_run_gt"]
+
+_SCALARS = ("angle_min", "angle_increment", "range_min", "range_max", "mount_height")
+
+
+def _load_npz(path: Path) -> dict:
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: scans file not found")
+    try:
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as exc:
+        raise ValueError(f"{path}: corrupt or not an .npz file ({exc})") from None
+
+
+def read_run(path) -> Run:
+    """Read a laser run folder (``scans.npz`` + optional ``gt.csv``) as a :class:`~tunnelsense.Run`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The run folder, or its ``scans.npz`` file.
+
+    Returns
+    -------
+    run : Run
+        Scans numbered from 0, ground truth (empty when there is no ``gt.csv``), and
+        the run information stored in ``info_json``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder or ``scans.npz`` is missing.
+    ValueError
+        ``scans.npz`` is corrupt, lacks a field, has ranges of the wrong shape, or an
+        ``angle_max`` that does not match the number of beams; ``gt.csv`` is malformed
+        (the message names the file and line).
+    """
+    path = Path(path)
+    if path.is_dir():
+        folder, npz_path = path, path / "scans.npz"
+    elif path.suffix == ".npz":
+        folder, npz_path = path.parent, path
+    else:
+        raise FileNotFoundError(f"{path}: run folder not found")
+    data = _load_npz(npz_path)
+    missing = [k for k in ("ranges", "stamps", *_SCALARS) if k not in data]
+    if missing:
+        raise ValueError(f"{npz_path}: lacks field(s) {', '.join(missing)}")
+    ranges = data["ranges"]
+    if ranges.ndim != 2 or ranges.dtype.kind not in "fiu":
+        raise ValueError(
+            f"{npz_path}: ranges must be a numeric array of shape (n_scans, n_beams); "
+            f"got {ranges.dtype} of shape {ranges.shape}"
+        )
+    stamps = data["stamps"]
+    if stamps.shape != (ranges.shape[0],):
+        raise ValueError(
+            f"{npz_path}: stamps must have shape ({ranges.shape[0]},) to match ranges; "
+            f"got {stamps.shape}"
+        )
+    scalars = {}
+    for k in _SCALARS:
+        value = data[k]
+        if value.size != 1 or not np.isfinite(value).all():
+            raise ValueError(
+                f"{npz_path}: {k} must be one finite number; got {value!r}"
+            )
+        scalars[k] = float(value.reshape(()))
+    if "angle_max" in data:
+        angle_max = float(np.asarray(data["angle_max"]).reshape(()))
+        expected = scalars["angle_min"] + scalars["angle_increment"] * (
+            ranges.shape[1] - 1
+        )
+        if not np.isclose(
+            angle_max, expected, atol=abs(scalars["angle_increment"]) / 4
+        ):
+            n_expected = (angle_max - scalars["angle_min"]) / scalars[
+                "angle_increment"
+            ] + 1
+            raise ValueError(
+                f"{npz_path}: angle_min, angle_max and angle_increment describe "
+                f"{n_expected:.0f} beams, but ranges has {ranges.shape[1]}"
+            )
+    info = {}
+    if "info_json" in data:
+        try:
+            info = json.loads(str(data["info_json"]))
+        except json.JSONDecodeError as exc:
+            raise ValueError(
+                f"{npz_path}: info_json is not valid JSON ({exc})"
+            ) from None
+    name = str(info.pop("name", folder.resolve().name))
+    gt_path = folder / "gt.csv"
+    gt = read_run_gt(gt_path) if gt_path.exists() else empty_run_gt()
+    geometry = LaserGeometry(**scalars)
+    return Run.from_arrays(
+        name, ranges.astype(np.float64, copy=False), stamps, geometry, gt, info=info
+    )
+
+
+def read_run_gt(path) -> pd.DataFrame:
+    """Read a laser run's ``gt.csv`` (``id,first_scan,last_scan,label``).
+
+    Raises ``ValueError`` naming the file and line for a missing column, a non-integer
+    scan number, ``first_scan > last_scan`` or a label other than ``parked`` /
+    ``passing``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: ground-truth file not found")
+    try:
+        gt = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a readable CSV file ({exc})") from None
+    gt.columns = [c.strip() for c in gt.columns]
+    missing = [c for c in RUN_GT_COLUMNS if c not in gt.columns]
+    if missing:
+        raise ValueError(
+            f"{path}: lacks column(s) {', '.join(missing)} (expected header "
+            f"{','.join(RUN_GT_COLUMNS)})"
+        )
+    out = {}
+    for c in ("id", "first_scan", "last_scan"):
+        values = []
+        for i, v in enumerate(gt[c], start=2):
+            try:
+                values.append(int(v.strip()))
+            except ValueError:
+                raise ValueError(
+                    f"{path}, line {i}: {c} is {v!r}, expected an integer"
+                ) from None
+        out[c] = np.array(values, dtype=np.int64)
+    labels = [v.strip() for v in gt["label"]]
+    for i, label in enumerate(labels, start=2):
+        if label not in RUN_LABELS:
+            raise ValueError(
+                f"{path}, line {i}: unknown label {label!r}, expected one of "
+                f"{', '.join(RUN_LABELS)}"
+            )
+    for i, (a, b) in enumerate(
+        zip(out["first_scan"], out["last_scan"], strict=True), 2
+    ):
+        if a < 0 or b < a:
+            raise ValueError(
+                f"{path}, line {i}: first_scan={a}, last_scan={b}; expected "
+                "0 <= first_scan <= last_scan"
+            )
+    return pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
+
+
+def write_run_gt(gt: pd.DataFrame, path) -> None:
+    """Write a laser run's ground truth as ``gt.csv``."""
+    missing = [c for c in RUN_GT_COLUMNS if c not in gt.columns]
+    if missing:
+        raise ValueError(f"cannot write {path}: the table lacks columns {missing}")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    gt[list(RUN_GT_COLUMNS)].to_csv(path, index=False, lineterminator="\n")
+
+
+def _write_npz(path: Path, arrays: dict) -> None:
+    """Like ``np.savez_compressed`` but byte-identical for identical arrays.
+
+    NumPy stamps each member with the current time; a fixed timestamp makes the same
+    run give the same file.
+    """
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key, value in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            with zf.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.asanyarray(value), allow_pickle=False)
+
+
+def write_run(run: Run, path) -> Path:
+    """Write a laser run as a folder with ``scans.npz`` and ``gt.csv``.
+
+    Parameters
+    ----------
+    run : Run
+        Its scans must be numbered 0..n-1 in order and share one geometry.
+    path : str or Path
+        The folder to write (created).
+
+    Returns
+    -------
+    path : Path
+    """
+    path = Path(path)
+    numbers = [r.scan for r in run.scans]
+    if numbers != list(range(len(numbers))):
+        raise ValueError("run.scans must be numbered 0..n-1 in order to be written")
+    geometry = run.geometry
+    if any(r.geometry != geometry for r in run.scans):
+        raise ValueError(f"the scans of run {run.name!r} do not share one geometry")
+    ranges = run.scans.ranges()
+    path.mkdir(parents=True, exist_ok=True)
+    arrays = {
+        "ranges": ranges,
+        "stamps": np.array([r.stamp for r in run.scans], dtype=np.float64),
+        **{k: np.float64(getattr(geometry, k)) for k in _SCALARS},
+        "angle_max": np.float64(
+            geometry.angle_min + geometry.angle_increment * (ranges.shape[1] - 1)
+        ),
+        "info_json": np.array(
+            json.dumps({"name": run.name, **run.info}, sort_keys=True)
+        ),
+    }
+    _write_npz(path / "scans.npz", arrays)
+    write_run_gt(run.gt, path / "gt.csv")
+    return path

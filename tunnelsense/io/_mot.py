@@ -1,0 +1,471 @@
+"""Far-infrared tours on disk: MOTChallenge sequence folders, image folders, videos.
+
+A MOTChallenge sequence folder holds::
+
+    seqinfo.ini        [Sequence] name, imDir, frameRate, seqLength, imWidth, imHeight, imExt
+    img1/000001.png    one image per frame (8-bit or 16-bit), numbered from 1
+    gt/gt.txt          frame,id,bb_left,bb_top,bb_width,bb_height,conf,class,visibility
+
+Results files use MOTChallenge's 10 columns
+``frame,id,bb_left,bb_top,bb_width,bb_height,conf,x,y,z`` with ``x, y, z = -1``.
+"""
+
+from __future__ import annotations
+
+import configparser
+import io
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from tunnelsense._records import (
+    MOT_GT_COLUMNS,
+    FrameRecord,
+    FrameSequence,
+    ImageFile,
+    Tour,
+    VideoFrame,
+    empty_mot_gt,
+)
+from tunnelsense.io._images import (
+    IMAGE_EXTENSIONS,
+    open_video,
+    read_image,
+    read_png_size,
+)
+
+__all__ = [
+    "MOT_RESULT_COLUMNS",
+    "read_image_folder",
+    "read_mot_gt",
+    "read_mot_results",
+    "read_tour",
+    "read_video",
+    "write_mot_gt",
+    "write_mot_results",
+    "write_tour",
+]
+
+#: Column names of a MOTChallenge results file.
+MOT_RESULT_COLUMNS = (
+    "frame",
+    "id",
+    "bb_left",
+    "bb_top",
+    "bb_width",
+    "bb_height",
+    "conf",
+    "x",
+    "y",
+    "z",
+)
+
+_SEQINFO_KEYS = (
+    "name",
+    "imDir",
+    "frameRate",
+    "seqLength",
+    "imWidth",
+    "imHeight",
+    "imExt",
+)
+_INT_COLUMNS = {"frame", "id", "class"}
+
+
+# --------------------------------------------------------------------------------------
+# Comma-separated MOT tables
+# --------------------------------------------------------------------------------------
+def _parse_line_by_line(path, text, columns):
+    """Slow path: find the first bad line and say what is wrong with it."""
+    rows = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        fields = [f.strip() for f in line.split(",")]
+        if len(fields) != len(columns):
+            raise ValueError(
+                f"{path}, line {lineno}: {len(fields)} columns, expected "
+                f"{len(columns)} ({','.join(columns)})"
+            )
+        row = []
+        for name, value in zip(columns, fields, strict=True):
+            try:
+                number = float(value)
+            except ValueError:
+                raise ValueError(
+                    f"{path}, line {lineno}: column {name!r} is {value!r}, "
+                    "expected a number"
+                ) from None
+            if name in _INT_COLUMNS and not number.is_integer():
+                raise ValueError(
+                    f"{path}, line {lineno}: column {name!r} is {value!r}, "
+                    "expected an integer"
+                )
+            row.append(number)
+        rows.append(row)
+    return rows
+
+
+def _read_table(path, columns) -> pd.DataFrame:
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: file not found")
+    text = path.read_text(encoding="utf-8", errors="replace")
+    int_columns = [c for c in columns if c in _INT_COLUMNS]
+    if not text.strip():
+        table = pd.DataFrame({c: pd.Series(dtype=np.float64) for c in columns})
+    else:
+        try:  # fast path; any doubt goes to the line-by-line parser, which says where
+            table = pd.read_csv(
+                io.StringIO(text),
+                header=None,
+                names=list(columns),
+                dtype=np.float64,
+                skip_blank_lines=True,
+                skipinitialspace=True,
+            )
+            ints = table[int_columns].to_numpy()
+            ok = (
+                not table.isna().to_numpy().any()
+                and np.array_equal(ints, np.round(ints))
+                and all(
+                    line.count(",") == len(columns) - 1
+                    for line in text.splitlines()
+                    if line.strip()
+                )
+            )
+        except (ValueError, pd.errors.ParserError):
+            ok = False
+        if not ok:
+            rows = _parse_line_by_line(path, text, columns)
+            table = pd.DataFrame(rows, columns=list(columns), dtype=np.float64)
+    for c in int_columns:
+        table[c] = table[c].to_numpy().astype(np.int64)
+    return table
+
+
+def read_mot_gt(path) -> pd.DataFrame:
+    """Read a MOTChallenge ``gt.txt`` (9 columns) as a DataFrame.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ground-truth file.
+
+    Returns
+    -------
+    gt : DataFrame
+        Columns ``frame,id,bb_left,bb_top,bb_width,bb_height,conf,class,visibility``;
+        ``frame``, ``id`` and ``class`` as int64, the rest float64.
+
+    Raises
+    ------
+    ValueError
+        A line with another number of columns, or a field that is not a number (the
+        message names the file and the line).
+    """
+    return _read_table(path, MOT_GT_COLUMNS)
+
+
+def _write_table(frame: pd.DataFrame, path, columns):
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise ValueError(f"cannot write {path}: the table lacks columns {missing}")
+    out = frame[list(columns)].copy()
+    for c in columns:
+        if c in _INT_COLUMNS:
+            out[c] = out[c].astype(np.int64)
+        else:
+            out[c] = out[c].astype(np.float64)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    # repr-formatted floats read back to the same bits.
+    out.to_csv(path, header=False, index=False, lineterminator="\n")
+
+
+def write_mot_gt(gt: pd.DataFrame, path) -> None:
+    """Write ground truth as a MOTChallenge ``gt.txt`` (floats round-trip exactly)."""
+    _write_table(gt, path, MOT_GT_COLUMNS)
+
+
+def read_mot_results(path) -> pd.DataFrame:
+    """Read a MOTChallenge results file (10 columns) as a DataFrame."""
+    return _read_table(path, MOT_RESULT_COLUMNS)
+
+
+def write_mot_results(results: pd.DataFrame, path) -> None:
+    """Write detections as a MOTChallenge results file.
+
+    ``results`` needs ``frame,id,bb_left,bb_top,bb_width,bb_height,conf``; ``x, y, z``
+    are written as -1 unless given.
+    """
+    results = results.copy()
+    for c in ("x", "y", "z"):
+        if c not in results.columns:
+            results[c] = -1.0
+    _write_table(results, path, MOT_RESULT_COLUMNS)
+
+
+# --------------------------------------------------------------------------------------
+# Sequence folders
+# --------------------------------------------------------------------------------------
+def _read_seqinfo(path: Path) -> dict:
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{path}: seqinfo.ini not found (not a MOTChallenge folder)"
+        )
+    parser = configparser.ConfigParser(interpolation=None)
+    parser.optionxform = str
+    try:
+        parser.read(path, encoding="utf-8")
+    except configparser.Error as exc:
+        raise ValueError(f"{path}: not a valid ini file: {exc}") from None
+    if not parser.has_section("Sequence"):
+        raise ValueError(f"{path}: no [Sequence] section")
+    items = dict(parser.items("Sequence"))
+    lower = {k.lower(): k for k in items}
+    info = {}
+    missing = []
+    for key in _SEQINFO_KEYS:
+        if key in items:
+            info[key] = items.pop(key)
+        elif key.lower() in lower:
+            info[key] = items.pop(lower[key.lower()])
+        else:
+            missing.append(key)
+    if missing:
+        raise ValueError(
+            f"{path}: [Sequence] lacks required key(s) {', '.join(missing)}"
+        )
+    for key in ("seqLength", "imWidth", "imHeight"):
+        try:
+            info[key] = int(info[key])
+        except ValueError:
+            raise ValueError(
+                f"{path}: {key} is {info[key]!r}, expected an integer"
+            ) from None
+        if info[key] < 0 or (key != "seqLength" and info[key] == 0):
+            raise ValueError(
+                f"{path}: {key} is {info[key]}, expected a positive integer"
+            )
+    try:
+        info["frameRate"] = float(info["frameRate"])
+    except ValueError:
+        raise ValueError(
+            f"{path}: frameRate is {info['frameRate']!r}, expected a number"
+        ) from None
+    if not info["imExt"].startswith("."):
+        info["imExt"] = "." + info["imExt"]
+    info["extra"] = items
+    return info
+
+
+def _check_sizes(files, shape):
+    """Check PNG frame sizes from their headers (cheap); others are checked on decode."""
+    for f in files:
+        if f.suffix.lower() == ".png":
+            size = read_png_size(f)
+            if size != shape:
+                raise ValueError(
+                    f"{f}: frame is {size[1]}x{size[0]} px, expected "
+                    f"{shape[1]}x{shape[0]} px like the rest of its tour"
+                )
+
+
+def read_tour(path) -> Tour:
+    """Read a MOTChallenge sequence folder as a :class:`~tunnelsense.Tour`.
+
+    Frames are not decoded here: each :class:`~tunnelsense.FrameRecord` decodes its
+    image on access, so a tour of any length loads at once.  The PNG headers of all
+    frames are checked against ``imWidth`` x ``imHeight``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The sequence folder (holding ``seqinfo.ini``).
+
+    Returns
+    -------
+    tour : Tour
+        Frames numbered from 1, ground truth from ``gt/gt.txt`` (empty when there is
+        none), frame rate, and the other ``[Sequence]`` keys in ``tour.info``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder, ``seqinfo.ini`` or a frame file is missing.
+    ValueError
+        ``seqinfo.ini`` lacks a required key, a frame has another size, or ``gt.txt``
+        is malformed (the message names the file and line).
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"{path}: tour folder not found")
+    seq = _read_seqinfo(path / "seqinfo.ini")
+    shape = (seq["imHeight"], seq["imWidth"])
+    image_dir = path / seq["imDir"]
+    files = [
+        image_dir / f"{i:06d}{seq['imExt']}" for i in range(1, seq["seqLength"] + 1)
+    ]
+    for f in files:
+        if not f.is_file():
+            raise FileNotFoundError(
+                f"{f}: frame file not found (seqinfo.ini says seqLength="
+                f"{seq['seqLength']})"
+            )
+    _check_sizes(files, shape)
+    frames = FrameSequence(
+        FrameRecord(seq["name"], i, ImageFile(f, shape)) for i, f in enumerate(files, 1)
+    )
+    gt_path = path / "gt" / "gt.txt"
+    gt = read_mot_gt(gt_path) if gt_path.exists() else empty_mot_gt()
+    if len(gt):
+        bad = gt.index[(gt["frame"] < 1) | (gt["frame"] > seq["seqLength"])]
+        if len(bad):
+            raise ValueError(
+                f"{gt_path}, line {bad[0] + 1}: frame {gt['frame'][bad[0]]} is outside "
+                f"1..{seq['seqLength']}"
+            )
+    return Tour(seq["name"], frames, gt, seq["frameRate"], dict(seq["extra"]))
+
+
+def write_tour(tour: Tour, path, *, progress=None) -> Path:
+    """Write a tour as a MOTChallenge sequence folder (PNG frames, lossless).
+
+    Parameters
+    ----------
+    tour : Tour
+        Its frames must be numbered 1..n in order.
+    path : str or Path
+        The folder to write (created; existing files of the same names are replaced).
+    progress : callable or None, default=None
+        Called as ``progress(n_done, n_total)`` after each frame.
+
+    Returns
+    -------
+    path : Path
+    """
+    path = Path(path)
+    numbers = [r.frame for r in tour.frames]
+    if numbers != list(range(1, len(numbers) + 1)):
+        raise ValueError(
+            "tour.frames must be numbered 1..n in order to be written as a "
+            "MOTChallenge sequence"
+        )
+    height, width = tour.image_shape
+    image_dir = path / "img1"
+    image_dir.mkdir(parents=True, exist_ok=True)
+    for i, record in enumerate(tour.frames, 1):
+        image = record.image
+        if image.shape != (height, width):
+            raise ValueError(
+                f"frame {record.frame} of tour {tour.name!r} is {image.shape[1]}x"
+                f"{image.shape[0]} px, expected {width}x{height} px"
+            )
+        target = image_dir / f"{i:06d}.png"
+        if not cv2.imwrite(str(target), image):
+            raise OSError(f"{target}: OpenCV could not write the frame")
+        if progress is not None:
+            progress(i, len(tour.frames))
+    parser = configparser.ConfigParser(interpolation=None)
+    parser.optionxform = str
+    section = {
+        "name": tour.name,
+        "imDir": "img1",
+        "frameRate": f"{tour.frame_rate:g}",
+        "seqLength": str(len(tour.frames)),
+        "imWidth": str(width),
+        "imHeight": str(height),
+        "imExt": ".png",
+    }
+    for key, value in tour.info.items():
+        if key not in section:
+            section[str(key)] = str(value)
+    parser["Sequence"] = section
+    with open(path / "seqinfo.ini", "w", encoding="utf-8") as f:
+        parser.write(f)
+    write_mot_gt(tour.gt, path / "gt" / "gt.txt")
+    return path
+
+
+# --------------------------------------------------------------------------------------
+# Image folders and videos
+# --------------------------------------------------------------------------------------
+def read_image_folder(path, *, frame_rate=30.0) -> Tour:
+    """Read a plain folder of image files (sorted by name) as a tour without ground truth.
+
+    Parameters
+    ----------
+    path : str or Path
+        A folder of frames (PNG, TIFF, JPEG, BMP, PGM; 8-bit or 16-bit).
+    frame_rate : float, default=30.0
+        Frames per second (a folder does not say).
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"{path}: image folder not found")
+    files = sorted(
+        (
+            p
+            for p in path.iterdir()
+            if p.suffix.lower() in IMAGE_EXTENSIONS and p.is_file()
+        ),
+        key=lambda p: p.name,
+    )
+    if not files:
+        raise ValueError(
+            f"{path}: no image files (expected files ending in {', '.join(IMAGE_EXTENSIONS)})"
+        )
+    first = files[0]
+    shape = (
+        read_png_size(first)
+        if first.suffix.lower() == ".png"
+        else read_image(first).shape
+    )
+    _check_sizes(files, shape)
+    name = path.resolve().name
+    frames = FrameSequence(
+        FrameRecord(name, i, ImageFile(f, shape)) for i, f in enumerate(files, 1)
+    )
+    return Tour(name, frames, empty_mot_gt(), float(frame_rate), {"source": str(path)})
+
+
+def read_video(path) -> Tour:
+    """Read a video file (through OpenCV) as a tour without ground truth.
+
+    Frames are decoded on access (a seek per frame); for a pass over the whole video,
+    :func:`iter_video` decodes sequentially and is faster.  Colour video is converted
+    to grey.
+    """
+    path = Path(path)
+    capture = open_video(path)
+    try:
+        fps = capture.get(cv2.CAP_PROP_FPS) or 30.0
+        n = 0
+        while capture.grab():
+            n += 1
+    finally:
+        capture.release()
+    if n == 0:
+        raise ValueError(f"{path}: the video holds no frames OpenCV can decode")
+    name = path.stem
+    frames = FrameSequence(
+        FrameRecord(name, i + 1, VideoFrame(path, i)) for i in range(n)
+    )
+    return Tour(name, frames, empty_mot_gt(), float(fps), {"source": str(path)})
+
+
+def open_tour(source) -> Tour:
+    """Read a tour from a MOTChallenge folder, an image folder or a video file."""
+    source = Path(source)
+    if source.is_dir():
+        if (source / "seqinfo.ini").exists():
+            return read_tour(source)
+        return read_image_folder(source)
+    if source.is_file():
+        return read_video(source)
+    raise FileNotFoundError(
+        f"{source}: not found (expected a MOTChallenge folder, an image folder or a "
+        "video file)"
+    )
