@@ -650,7 +650,7 @@ def to_xy(datasets: Iterable[Tour | Run] | Tour | Run, *, classes=(1,)):
 def _as_records(X, record_type, container, name):
     if isinstance(X, container):
         return list(X)
-    if isinstance(X, np.ndarray) or isinstance(X, str | bytes | Mapping):
+    if isinstance(X, np.ndarray | str | bytes | Mapping):
         raise TypeError(
             f"{name} must be a sequence of {record_type.__name__} "
             f"(for example a {container.__name__}); got {type(X).__name__}"

@@ -176,7 +176,7 @@ def test_truncated_and_corrupt_png(tour, tmp_path):
     back = read_tour(tmp_path / "s")  # headers are fine: frames decode lazily
     assert np.array_equal(back.frames[0].image, tour.frames[0].image)
     with pytest.raises(ValueError, match=r"000002.png: truncated PNG"):
-        back.frames[1].image
+        _ = back.frames[1].image
     f.write_bytes(data[:100] + b"\x00" * 50 + data[150:])
     with pytest.raises(ValueError, match=r"000002.png: corrupt image"):
         read_image(f)
