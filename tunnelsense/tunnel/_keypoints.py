@@ -1,0 +1,313 @@
+"""Keypoint detection (section 3.1): a uniform grid and an intensity band.
+
+Points are sampled on a uniform grid, every 6 px across and 7 px down (an emergency
+telephone indicator is taller than it is wide), which cuts the number of candidates by
+nearly two orders of magnitude; the grid points whose intensity lies in a band
+``[low, high]`` are the keypoints.  The paper sets the band to [160, 190] by the
+3-sigma rule on the intensities of indicator pixels, assumed Gaussian; this module
+can also learn it that way from labelled frames.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
+
+from tunnelsense._records import FrameSequence, check_frames
+
+__all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
+
+
+def _check_image(image, index, record):
+    if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype not in (
+        np.uint8,
+        np.uint16,
+    ):
+        desc = (
+            f"an array of dtype {image.dtype} and shape {image.shape}"
+            if isinstance(image, np.ndarray)
+            else type(image).__name__
+        )
+        raise ValueError(
+            f"X[{index}] ({record.tour!r}, frame {record.frame}): the image must be a "
+            f"2-D uint8 or uint16 array; got {desc}"
+        )
+    return image
+
+
+def sample_keypoints(
+    image, low=160, high=190, *, row_stride=7, col_stride=6, row_offset=0, col_offset=0
+) -> np.ndarray:
+    """Grid points of ``image`` whose intensity lies in ``[low, high]``.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+        The frame.
+    low, high : float, default=160, 190
+        The intensity band, inclusive, in the frame's own units.
+    row_stride, col_stride : int, default=7, 6
+        Grid spacing down and across (px).
+    row_offset, col_offset : int, default=0
+        Row and column of the first grid point.
+
+    Returns
+    -------
+    keypoints : ndarray of shape (n, 3), int32
+        ``(row, col, intensity)`` of every keypoint, in raster order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((20, 20), np.uint8)
+    >>> img[7, 12] = 170
+    >>> sample_keypoints(img)
+    array([[  7,  12, 170]], dtype=int32)
+    """
+    grid = image[row_offset::row_stride, col_offset::col_stride]
+    # Compare in the image's dtype when the band is representable there (fast path).
+    lo = np.ceil(low)
+    hi = np.floor(high)
+    info = np.iinfo(grid.dtype)
+    if hi < lo or hi < info.min or lo > info.max:
+        return np.empty((0, 3), dtype=np.int32)
+    lo = grid.dtype.type(max(lo, info.min))
+    hi = grid.dtype.type(min(hi, info.max))
+    mask = (grid >= lo) & (grid <= hi)
+    i, j = np.nonzero(mask)
+    out = np.empty((len(i), 3), dtype=np.int32)
+    out[:, 0] = i * row_stride + row_offset
+    out[:, 1] = j * col_stride + col_offset
+    out[:, 2] = grid[i, j]
+    return out
+
+
+def indicator_band(images, boxes, n_sigma=3.0):
+    """The intensity band ``mean +/- n_sigma * sd`` of the pixels inside indicator boxes.
+
+    The paper's 3-sigma rule: indicator intensities are assumed Gaussian, and the band
+    keeps all but about 0.3 % of them.
+
+    Parameters
+    ----------
+    images : iterable of ndarray of shape (height, width)
+        The frames.
+    boxes : iterable of ndarray of shape (k, 4)
+        Per frame, the indicator boxes ``(left, top, width, height)``; a box covers the
+        pixels ``left <= col < left + width``, ``top <= row < top + height``.
+    n_sigma : float, default=3.0
+        Half-width of the band in standard deviations.
+
+    Returns
+    -------
+    low, high : float
+        The band, in the frames' units.  Raises ``ValueError`` when the boxes cover
+        no pixel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((10, 10), 100, np.uint8)
+    >>> img[2:6, 2:4] = [[170], [180], [170], [180]]
+    >>> indicator_band([img], [np.array([[2, 2, 2, 4.]])])
+    (160.0, 190.0)
+    """
+    total = 0.0
+    total_sq = 0.0
+    count = 0
+    for image, frame_boxes in zip(images, boxes, strict=True):
+        h, w = image.shape
+        for left, top, width, height in np.asarray(frame_boxes).reshape(-1, 4):
+            c0 = max(int(np.ceil(left)), 0)
+            r0 = max(int(np.ceil(top)), 0)
+            c1 = min(int(np.ceil(left + width)), w)
+            r1 = min(int(np.ceil(top + height)), h)
+            if c1 <= c0 or r1 <= r0:
+                continue
+            patch = image[r0:r1, c0:c1].astype(np.float64)
+            total += patch.sum()
+            total_sq += np.square(patch).sum()
+            count += patch.size
+    if count == 0:
+        raise ValueError(
+            "y holds no indicator box covering any pixel: cannot learn the intensity "
+            "band (use band='fixed' or pass labelled frames)"
+        )
+    mean = total / count
+    sd = np.sqrt(max(total_sq / count - mean * mean, 0.0))
+    return float(mean - n_sigma * sd), float(mean + n_sigma * sd)
+
+
+class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
+    """Keypoints of FIR frames: uniform grid points within an intensity band.
+
+    Stage 1 of the FIR indicator detector (section 3.1 of the paper).  A frame stage:
+    it takes a :class:`~tunnelsense.FrameSequence` (or any sequence of
+    :class:`~tunnelsense.FrameRecord`, such as the plain list a CV fold gives) and
+    returns a :class:`~tunnelsense.FrameSequence` of the same frames, in the same
+    order, each evolved with
+
+    * ``payload["keypoints"]``: ndarray of shape (n, 3), int32 -- the columns are
+      ``(row, col, intensity)`` and the rows are in raster order (row by row, left to
+      right).
+
+    The image of each frame is read once per call.  The input is validated once per
+    call, not per frame.
+
+    Parameters
+    ----------
+    low : float, default=160
+        Lower end of the intensity band (inclusive), in the frame's own units.
+    high : float, default=190
+        Upper end of the intensity band (inclusive), in the frame's own units.
+    band : {"fixed", "learned"}, default="fixed"
+        ``"fixed"`` uses ``[low, high]``.  ``"learned"`` sets the band in ``fit`` by
+        the paper's 3-sigma rule: the mean plus or minus ``n_sigma`` standard
+        deviations of the intensities of all pixels inside the indicator boxes ``y``.
+    n_sigma : float, default=3.0
+        Half-width of a learned band, in standard deviations.
+    row_stride : int, default=7
+        Grid spacing down the frame (px).
+    col_stride : int, default=6
+        Grid spacing across the frame (px).
+    row_offset : int, default=0
+        Row of the first grid point.
+    col_offset : int, default=0
+        Column of the first grid point.
+
+    Attributes
+    ----------
+    low_, high_ : float
+        The band in use (``low``/``high``, or the learned one).
+    n_frames_fit_ : int
+        Number of frames seen by ``fit``.
+
+    Notes
+    -----
+    **16-bit frames.**  The band is compared with the raw pixel values, so it is in the
+    frame's units: the default [160, 190] is meant for 8-bit frames (the paper's
+    [0, 255] range).  For 16-bit frames either pass the band in raw counts (``low``,
+    ``high``) or use ``band="learned"``, which learns it in whatever units the labelled
+    frames have.  ``payload["keypoints"]`` then holds the raw 16-bit intensities.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import FrameSequence
+    >>> from tunnelsense.tunnel import IntensityKeypointSampler
+    >>> img = np.zeros((1, 30, 30), np.uint8)
+    >>> img[0, 14:22, 12:16] = 175
+    >>> out = IntensityKeypointSampler().fit_transform(FrameSequence.from_array(img))
+    >>> out[0].payload["keypoints"]
+    array([[ 14,  12, 175],
+           [ 21,  12, 175]], dtype=int32)
+    """
+
+    _parameter_constraints: dict = {
+        "low": [Interval(numbers.Real, None, None, closed="neither")],
+        "high": [Interval(numbers.Real, None, None, closed="neither")],
+        "band": [StrOptions({"fixed", "learned"})],
+        "n_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "row_stride": [Interval(numbers.Integral, 1, None, closed="left")],
+        "col_stride": [Interval(numbers.Integral, 1, None, closed="left")],
+        "row_offset": [Interval(numbers.Integral, 0, None, closed="left")],
+        "col_offset": [Interval(numbers.Integral, 0, None, closed="left")],
+    }
+
+    def __init__(
+        self,
+        low=160,
+        high=190,
+        *,
+        band="fixed",
+        n_sigma=3.0,
+        row_stride=7,
+        col_stride=6,
+        row_offset=0,
+        col_offset=0,
+    ):
+        self.low = low
+        self.high = high
+        self.band = band
+        self.n_sigma = n_sigma
+        self.row_stride = row_stride
+        self.col_stride = col_stride
+        self.row_offset = row_offset
+        self.col_offset = col_offset
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False
+        tags.transformer_tags.preserves_dtype = []
+        if self.band == "learned":
+            tags.target_tags.required = True
+        return tags
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Set the intensity band (fixed, or learned from labelled frames).
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord
+            The frames.
+        y : sequence of array-like of shape (k_i, 4), default=None
+            Per frame, the indicator boxes ``(left, top, width, height)``; required
+            when ``band="learned"``.
+
+        Returns
+        -------
+        self : IntensityKeypointSampler
+        """
+        records, boxes = check_frames(X, y)
+        if self.band == "learned":
+            if boxes is None:
+                raise ValueError(
+                    "IntensityKeypointSampler(band='learned') requires y: per frame, "
+                    "the (k, 4) indicator boxes to learn the band from"
+                )
+            images = [
+                _check_image(r.image, i, r) for i, r in enumerate(records) if len(boxes[i])
+            ]
+            self.low_, self.high_ = indicator_band(
+                images, [b for b in boxes if len(b)], self.n_sigma
+            )
+        else:
+            if self.low > self.high:
+                raise ValueError(
+                    f"low must not exceed high; got low={self.low}, high={self.high}"
+                )
+            self.low_, self.high_ = float(self.low), float(self.high)
+        self.n_frames_fit_ = len(records)
+        return self
+
+    def transform(self, X):
+        """Detect the keypoints of every frame.
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord
+            The frames.
+
+        Returns
+        -------
+        X_new : FrameSequence
+            The same frames, each with ``payload["keypoints"]`` (see class docstring).
+        """
+        check_is_fitted(self)
+        records, _ = check_frames(X)
+        kw = dict(
+            row_stride=self.row_stride,
+            col_stride=self.col_stride,
+            row_offset=self.row_offset,
+            col_offset=self.col_offset,
+        )
+        out = []
+        for i, r in enumerate(records):
+            image = _check_image(r.image, i, r)
+            out.append(r.evolve(keypoints=sample_keypoints(image, self.low_, self.high_, **kw)))
+        return FrameSequence(out)

@@ -1,0 +1,478 @@
+"""Keypoint verification (section 3.2): a mixture of patch-histogram centres.
+
+Each keypoint is described by the normalized intensity histogram of the square patch
+around it.  Training clusters the histograms of positive keypoints (inside indicator
+boxes, k=40) and of negative ones (k=400) with k-means, scores every positive centre
+by its mean Euclidean distance to the negative centres (the paper's ``Eu``, eq. 3) and
+keeps the 10 best.  A keypoint is verified when its histogram lies within
+``max_distance`` (0.14) of its nearest kept centre.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.cluster import KMeans, MiniBatchKMeans
+from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
+
+from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense.tunnel._common import is_record_input, keypoints_of, points_in_boxes
+
+__all__ = [
+    "KMeansHistogramVerifier",
+    "fit_kmeans",
+    "patch_histograms",
+    "rank_positive_centers",
+]
+
+
+def _intensity_range(dtype, intensity_range):
+    if intensity_range is not None:
+        lo, hi = intensity_range
+        return int(lo), int(hi)
+    return 0, int(np.iinfo(dtype).max) + 1
+
+
+def bin_lut(dtype, bins, intensity_range=None) -> np.ndarray:
+    """Lookup table from every pixel value of ``dtype`` to its histogram bin."""
+    lo, hi = _intensity_range(dtype, intensity_range)
+    values = np.arange(int(np.iinfo(dtype).max) + 1, dtype=np.int64)
+    q = ((values - lo) * bins) // (hi - lo)
+    return np.clip(q, 0, bins - 1).astype(np.intp)
+
+
+def patch_histograms(
+    image, rows, cols, *, patch_size=11, bins=32, intensity_range=None, lut=None
+) -> np.ndarray:
+    """Normalized intensity histograms of the square patches centred on keypoints.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+        The frame.
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    patch_size : int, default=11
+        Side of the square patch (px); patches are clipped to the frame by repeating
+        its edge pixels.
+    bins : int, default=32
+        Number of equal-width bins over ``intensity_range``.
+    intensity_range : (int, int) or None, default=None
+        Values ``[lo, hi)`` spanned by the bins (values outside go to the end bins);
+        ``None`` is the full range of the dtype (``[0, 256)`` for 8 bits,
+        ``[0, 65536)`` for 16 bits).
+    lut : ndarray or None, default=None
+        A precomputed value-to-bin table (:func:`bin_lut`); saves its cost per call.
+
+    Returns
+    -------
+    histograms : ndarray of shape (n, bins), float32
+        Each row sums to 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((20, 20), 200, np.uint8)
+    >>> img[:, :10] = 8
+    >>> patch_histograms(img, np.array([10]), np.array([10]), patch_size=4, bins=4)
+    array([[0.5, 0. , 0. , 0.5]], dtype=float32)
+    """
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    n = len(rows)
+    if lut is None:
+        lut = bin_lut(image.dtype, bins, intensity_range)
+    h, w = image.shape
+    offsets = np.arange(patch_size, dtype=np.intp) - patch_size // 2
+    ri = np.clip(rows[:, None] + offsets, 0, h - 1)
+    ci = np.clip(cols[:, None] + offsets, 0, w - 1)
+    q = lut[image[ri[:, :, None], ci[:, None, :]]].reshape(n, -1)
+    q += (np.arange(n, dtype=np.intp) * bins)[:, None]
+    counts = np.bincount(q.ravel(), minlength=n * bins).reshape(n, bins)
+    return (counts * np.float32(1.0 / (patch_size * patch_size))).astype(np.float32)
+
+
+def fit_kmeans(
+    X, n_clusters, *, batch_size=4096, n_steps=300, max_full_samples=20_000,
+    random_state=None,
+) -> np.ndarray:
+    """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
+
+    * ``n_samples <= n_clusters``: the distinct rows are the centres.
+    * ``n_samples <= max_full_samples``: :class:`~sklearn.cluster.KMeans` (Lloyd,
+      k-means++, one init).
+    * otherwise: :class:`~sklearn.cluster.MiniBatchKMeans` fed by ``partial_fit``
+      with ``n_steps`` batches of ``batch_size`` rows drawn uniformly at random
+      (``MiniBatchKMeans.fit`` draws each batch with a weighted choice over all rows,
+      which is pathologically slow at millions of rows), the first batch (at least
+      ``3 * n_clusters`` rows) seeding k-means++.  Memory beyond ``X`` stays at a
+      few batches.
+
+    Returns
+    -------
+    centers : ndarray of shape (n_centers, n_features), float64
+        ``n_centers = min(n_clusters, number of distinct rows)``.
+    """
+    rng = check_random_state(random_state)
+    n = len(X)
+    if n <= max(n_clusters, 1) * 4:
+        distinct = np.unique(X, axis=0)
+        if len(distinct) <= n_clusters:
+            return distinct.astype(np.float64)
+    if n <= max_full_samples:
+        km = KMeans(n_clusters, n_init=1, random_state=rng.randint(2**31 - 1))
+        return km.fit(X).cluster_centers_.astype(np.float64)
+    batch = max(int(batch_size), 3 * n_clusters)
+    km = MiniBatchKMeans(
+        n_clusters,
+        batch_size=batch,
+        random_state=rng.randint(2**31 - 1),
+        n_init=1,
+        reassignment_ratio=0.01,
+    )
+    first = max(batch, 3 * n_clusters)
+    km.partial_fit(X[np.sort(rng.choice(n, min(first, n), replace=False))])
+    for _ in range(int(n_steps) - 1):
+        km.partial_fit(X[np.sort(rng.randint(0, n, batch))])
+    return km.cluster_centers_.astype(np.float64)
+
+
+def rank_positive_centers(positive_centers, negative_centers):
+    """The paper's ``Eu`` (eq. 3): mean distance of each positive centre to the negative ones."""
+    p = np.asarray(positive_centers, dtype=np.float64)
+    q = np.asarray(negative_centers, dtype=np.float64)
+    d2 = (p * p).sum(1)[:, None] - 2 * p @ q.T + (q * q).sum(1)[None, :]
+    return np.sqrt(np.maximum(d2, 0)).mean(axis=1)
+
+
+def _nearest_distance(H, centers, centers_sq):
+    """Distance from each histogram row to its nearest centre, shape (n,)."""
+    H = np.asarray(H, dtype=np.float64)
+    d2 = (H * H).sum(1)[:, None] - 2 * H @ centers.T + centers_sq[None, :]
+    return np.sqrt(np.maximum(d2.min(axis=1), 0)) if len(centers) else np.full(
+        len(H), np.inf
+    )
+
+
+class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
+    """Verify keypoints by their patch histogram: k-means centres of positives.
+
+    Stage 2 of the FIR indicator detector (section 3.2 of the paper).  One class, two
+    modes, chosen by the input:
+
+    * **frame mode** (``X`` a :class:`~tunnelsense.FrameSequence` or any sequence of
+      :class:`~tunnelsense.FrameRecord` whose ``payload["keypoints"]`` was set by
+      :class:`IntensityKeypointSampler`).  ``fit(X, y)`` takes per frame the ``(k, 4)``
+      indicator boxes ``(left, top, width, height)``; a keypoint is positive when it
+      lies inside a box (``left <= col < left + width``, same for rows).
+      ``transform`` returns a :class:`~tunnelsense.FrameSequence` of the same frames,
+      each evolved with
+
+      - ``payload["keypoints"]``: the verified keypoints, shape (n_kept, 3), int32,
+        ``(row, col, intensity)`` in raster order;
+      - ``payload["sampled_keypoints"]``: all the keypoints the sampler found.
+
+    * **tabular mode** (``X`` a 2-D array of histograms, one row per keypoint;
+      ``y`` equal to ``pos_label`` (1, or ``True``) for positive keypoints, any other
+      value for negatives).  ``transform`` gives the distances to the
+      kept centres, shape (n, n_centers_) (as :meth:`sklearn.cluster.KMeans.transform`
+      does); ``predict`` gives 1 for verified rows and 0 for rejected ones.  It is not
+      a :class:`~sklearn.base.ClassifierMixin`: it models the positive class only (a
+      mixture of its centres and one radius), so accuracy on arbitrary labelled blobs
+      is not what it promises.  The tabular mode passes ``parametrize_with_checks``
+      as a transformer.
+
+    A verifier fitted in frame mode also verifies raw histograms (tabular
+    ``transform`` / ``predict``).
+
+    Parameters
+    ----------
+    patch_size : int, default=11
+        Side (px) of the square patch around each keypoint.  11 px spans about two
+        grid steps (6 px across, 7 px down), so neighbouring keypoints see
+        overlapping patches, and covers most of a small indicator (15 to 20 px tall)
+        together with the dark wall around it, which separates it from the uniform
+        halo of a lamp.
+    bins : int, default=32
+        Number of equal-width intensity bins (the paper's 32-bin histograms).
+    intensity_range : (int, int) or None, default=None
+        Pixel values ``[lo, hi)`` the bins span; ``None`` is the dtype's full range
+        (``[0, 256)`` for 8-bit frames).  Set it for 16-bit frames, whose useful
+        range is usually a small part of ``[0, 65536)``.
+    n_positive_clusters : int, default=40
+        k of k-means on the positive histograms.
+    n_negative_clusters : int, default=400
+        k of k-means on the negative histograms.
+    n_centers : int, default=10
+        Number of positive centres kept (those farthest, on average, from the
+        negative centres).
+    max_distance : float, default=0.14
+        A histogram is verified when its Euclidean distance to the nearest kept centre
+        is at most this.
+    batch_size : int, default=4096
+        Rows per mini-batch of the large-set k-means (see ``max_full_samples``).
+    n_steps : int, default=300
+        Mini-batches drawn (uniformly, with replacement) for a large-set k-means.
+    max_full_samples : int, default=20000
+        A set of at most this many histograms is clustered with full Lloyd
+        :class:`~sklearn.cluster.KMeans`; larger sets with mini-batch k-means fed
+        by ``partial_fit``.  Memory beyond the histograms themselves stays at a few
+        batches; histograms are kept as float32 when given so.
+    pos_label : int, float, bool or str, default=1
+        Tabular mode: the value of ``y`` that marks a positive histogram.
+    random_state : int, RandomState instance or None, default=None
+        Seeds k-means (initialisation and batches).
+
+    Attributes
+    ----------
+    positive_centers_ : ndarray of shape (n_positive_centers, bins)
+        k-means centres of the positive histograms.
+    negative_centers_ : ndarray of shape (n_negative_centers, bins)
+        k-means centres of the negative histograms.
+    center_scores_ : ndarray of shape (n_positive_centers,)
+        ``Eu`` of every positive centre: its mean distance to the negative centres.
+    centers_ : ndarray of shape (n_centers_, bins)
+        The kept positive centres, best first.
+    n_centers_ : int
+        Number of kept centres (``n_centers``, or fewer when there are fewer distinct
+        positive histograms).
+    n_positive_, n_negative_ : int
+        Numbers of positive and negative histograms used in ``fit``.
+    n_features_in_ : int
+        Histogram length (``bins`` in frame mode).
+
+    Examples
+    --------
+    Tabular mode, on histograms:
+
+    >>> import numpy as np
+    >>> from tunnelsense.tunnel import KMeansHistogramVerifier
+    >>> rng = np.random.default_rng(0)
+    >>> pos = rng.dirichlet(np.r_[np.ones(4), 50 * np.ones(2), np.ones(2)], 200)
+    >>> neg = rng.dirichlet(np.r_[50 * np.ones(2), np.ones(6)], 2000)
+    >>> X, y = np.vstack([pos, neg]), np.r_[np.ones(200), np.zeros(2000)]
+    >>> v = KMeansHistogramVerifier(random_state=0).fit(X, y)
+    >>> v.centers_.shape
+    (10, 8)
+    >>> float(v.predict(pos).mean()) > 0.9, float(v.predict(neg).mean()) < 0.01
+    (True, True)
+    """
+
+    _parameter_constraints: dict = {
+        "patch_size": [Interval(numbers.Integral, 1, None, closed="left")],
+        "bins": [Interval(numbers.Integral, 1, None, closed="left")],
+        "intensity_range": [tuple, list, None],
+        "n_positive_clusters": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_negative_clusters": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_centers": [Interval(numbers.Integral, 1, None, closed="left")],
+        "max_distance": [Interval(numbers.Real, 0, None, closed="left")],
+        "batch_size": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_steps": [Interval(numbers.Integral, 1, None, closed="left")],
+        "max_full_samples": [Interval(numbers.Integral, 1, None, closed="left")],
+        "pos_label": [numbers.Real, str, "boolean"],
+        "random_state": ["random_state"],
+    }
+
+    def __init__(
+        self,
+        *,
+        patch_size=11,
+        bins=32,
+        intensity_range=None,
+        n_positive_clusters=40,
+        n_negative_clusters=400,
+        n_centers=10,
+        max_distance=0.14,
+        batch_size=4096,
+        n_steps=300,
+        max_full_samples=20_000,
+        pos_label=1,
+        random_state=None,
+    ):
+        self.patch_size = patch_size
+        self.bins = bins
+        self.intensity_range = intensity_range
+        self.n_positive_clusters = n_positive_clusters
+        self.n_negative_clusters = n_negative_clusters
+        self.n_centers = n_centers
+        self.max_distance = max_distance
+        self.batch_size = batch_size
+        self.n_steps = n_steps
+        self.max_full_samples = max_full_samples
+        self.pos_label = pos_label
+        self.random_state = random_state
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.required = True
+        return tags
+
+    # ------------------------------------------------------------------ helpers
+    def _check_range(self):
+        if self.intensity_range is None:
+            return
+        r = tuple(self.intensity_range)
+        if len(r) != 2 or not r[0] < r[1]:
+            raise ValueError(
+                "intensity_range must be None or a pair (lo, hi) with lo < hi; "
+                f"got {self.intensity_range!r}"
+            )
+
+    def _frame_histograms(self, records, luts, index_offset=0):
+        """Yield (record, keypoints, histograms) per frame."""
+        for i, r in enumerate(records):
+            kp = keypoints_of(r, i + index_offset, "KMeansHistogramVerifier")
+            image = r.image
+            if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype not in (
+                np.uint8,
+                np.uint16,
+            ):
+                raise ValueError(
+                    f"X[{i}] ({r.tour!r}, frame {r.frame}): the image must be a 2-D "
+                    "uint8 or uint16 array"
+                )
+            lut = luts.get(image.dtype)
+            if lut is None:
+                lut = luts[image.dtype] = bin_lut(
+                    image.dtype, self.bins, self.intensity_range
+                )
+            H = patch_histograms(
+                image, kp[:, 0], kp[:, 1], patch_size=self.patch_size, bins=self.bins,
+                lut=lut,
+            )
+            yield r, kp, H
+
+    def _fit_centers(self, positive, negative):
+        n_pos, n_neg = len(positive), len(negative)
+        if n_pos == 0 or n_neg == 0:
+            which = "positive" if n_pos == 0 else "negative"
+            raise ValueError(
+                f"KMeansHistogramVerifier needs positive and negative histograms; y "
+                f"has only 1 class (no {which} sample among {n_pos + n_neg})"
+            )
+        rng = check_random_state(self.random_state)
+        kw = dict(
+            batch_size=self.batch_size,
+            n_steps=self.n_steps,
+            max_full_samples=self.max_full_samples,
+        )
+        self.positive_centers_ = fit_kmeans(
+            positive, self.n_positive_clusters, random_state=rng, **kw
+        )
+        self.negative_centers_ = fit_kmeans(
+            negative, self.n_negative_clusters, random_state=rng, **kw
+        )
+        self.center_scores_ = rank_positive_centers(
+            self.positive_centers_, self.negative_centers_
+        )
+        order = np.argsort(-self.center_scores_, kind="stable")[: self.n_centers]
+        self.centers_ = self.positive_centers_[order]
+        self.n_centers_ = len(self.centers_)
+        self._centers_sq = (self.centers_ * self.centers_).sum(1)
+        self.n_positive_, self.n_negative_ = n_pos, n_neg
+
+    # ------------------------------------------------------------------ API
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Learn the positive centres from labelled keypoints or histograms.
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord, or array-like of shape (n_samples, n_bins)
+            Frame records with ``payload["keypoints"]`` (frame mode), or histograms
+            (tabular mode).
+        y : sequence of array-like of shape (k_i, 4), or array-like of shape (n_samples,)
+            Frame mode: per frame, the indicator boxes ``(left, top, width, height)``.
+            Tabular mode: ``pos_label`` for positive histograms.
+
+        Returns
+        -------
+        self : KMeansHistogramVerifier
+        """
+        self._check_range()
+        if is_record_input(X):
+            records, boxes = check_frames(X, y)
+            if boxes is None:
+                raise ValueError(
+                    "KMeansHistogramVerifier requires y: per frame, the (k, 4) "
+                    "indicator boxes that label keypoints positive"
+                )
+            pos, neg = [], []
+            for (_, kp, H), b in zip(self._frame_histograms(records, {}), boxes, strict=True):
+                inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
+                pos.append(H[inside])
+                neg.append(H[~inside])
+            empty = np.empty((0, self.bins), np.float32)
+            self._fit_centers(np.concatenate(pos or [empty]), np.concatenate(neg or [empty]))
+            self.n_features_in_ = int(self.bins)
+            self.n_frames_fit_ = len(records)
+            return self
+        X, y = validate_data(
+            self, X, y, dtype=[np.float64, np.float32], y_numeric=False
+        )
+        y = column_or_1d(y)
+        positive = y == self.pos_label
+        self._fit_centers(X[positive], X[~positive])
+        return self
+
+    def distances(self, X):
+        """Distance from every histogram to its nearest kept centre (tabular mode).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        distances : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
+        return _nearest_distance(X, self.centers_, self._centers_sq)
+
+    def predict(self, X):
+        """1 for histograms within ``max_distance`` of a kept centre, else 0.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        verified : ndarray of shape (n_samples,), int
+        """
+        return (self.distances(X) <= self.max_distance).astype(np.int64)
+
+    def transform(self, X):
+        """Keep the verified keypoints of every frame, or measure centre distances.
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord, or array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        X_new : FrameSequence or ndarray of shape (n_samples, n_centers_)
+            Frame mode: the evolved records (see the class docstring).  Tabular mode:
+            the distance of every histogram to every kept centre.
+        """
+        check_is_fitted(self)
+        if is_record_input(X):
+            records, _ = check_frames(X)
+            centers, centers_sq = self.centers_, self._centers_sq
+            limit = float(self.max_distance)
+            out = []
+            for r, kp, H in self._frame_histograms(records, {}):
+                keep = _nearest_distance(H, centers, centers_sq) <= limit
+                out.append(r.evolve(keypoints=kp[keep], sampled_keypoints=kp))
+            return FrameSequence(out)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
+        X = np.asarray(X, dtype=np.float64)
+        d2 = (
+            (X * X).sum(1)[:, None] - 2 * X @ self.centers_.T + self._centers_sq[None, :]
+        )
+        return np.sqrt(np.maximum(d2, 0))
