@@ -5,6 +5,12 @@ array functions and scikit-learn estimators on scan records; see ``docs/street.m
 """
 
 from tunnelsense.street._clustering import link_scans, single_linkage
+from tunnelsense.street._detector import (
+    OBJECT_COLUMNS,
+    ScanClusterer,
+    make_parking_pipeline,
+    split_profile,
+)
 from tunnelsense.street._restoration import (
     compensate_tilt,
     estimate_tilt,
@@ -14,6 +20,10 @@ from tunnelsense.street._restoration import (
 from tunnelsense.street._roi import roi_mask
 
 __all__ = [
+    "OBJECT_COLUMNS",
+    "ScanClusterer",
+    "make_parking_pipeline",
+    "split_profile",
     "compensate_tilt",
     "estimate_tilt",
     "link_scans",

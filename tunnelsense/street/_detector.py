@@ -1,0 +1,668 @@
+"""The street-parked vehicle detector as a scikit-learn estimator on scan records.
+
+:class:`ScanClusterer` runs the whole of the paper's Fig. 6 on a sequence of scans:
+restoration, tilt compensation, region of interest, intra-scan single linkage,
+inter-scan linking, three-region merging and labelling; plus, beyond the paper, the
+splitting of nose-to-tail vehicles merged into one object and the rejection of objects
+too short to be a vehicle (pedestrians, bins, bollards).
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.pipeline import Pipeline
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
+
+from tunnelsense._records import RUN_LABELS, check_scans
+from tunnelsense.street._clustering import _single_linkage_groups, link_scans
+from tunnelsense.street._restoration import (
+    compensate_tilt,
+    estimate_tilt,
+    no_return,
+    restore_points,
+)
+from tunnelsense.street._roi import roi_mask
+
+__all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline", "split_profile"]
+
+#: Columns of the object table returned by :meth:`ScanClusterer.detect`.
+OBJECT_COLUMNS = (
+    "run",
+    "id",
+    "first_scan",
+    "last_scan",
+    "label",
+    "mean_depth",
+    "region",
+    "length",
+    "top_height",
+    "n_points",
+)
+
+#: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
+#: the paper's measurement vehicle drove at about 40 km/h.
+DEFAULT_SPEED = 40 / 3.6
+
+#: Scan period (s) assumed when a run's stamps do not give one (75 scans/s).
+DEFAULT_SCAN_PERIOD = 1 / 75
+
+
+def split_profile(top, step, *, min_length=2.0, ratio=0.6):
+    """Where to split an object whose height profile has two humps.
+
+    Two vehicles parked nose to tail and merged into one object show, along the track,
+    two humps of the top height (roofs, 1.2-2 m) with a valley between them (bumpers,
+    0.3-0.7 m, or the road seen through the gap).  A single vehicle has one hump:
+    its low parts (bumpers, bonnet, boot) are at its ends.
+
+    The split point is the scan of lowest ``top / min(left peak, right peak)`` among
+    the scans that leave at least ``min_length`` metres on both sides; it is accepted
+    when that ratio is at most ``ratio``.  Applied recursively to both parts.
+
+    Parameters
+    ----------
+    top : ndarray of shape (n_scans,)
+        Top height (m) of the object in each of its scans (NaN where not seen).
+    step : float
+        Distance (m) travelled between two scans.
+    min_length : float, default=2.0
+        Shortest part (m) a split may leave.
+    ratio : float, default=0.6
+        Largest valley-to-peak ratio that splits.
+
+    Returns
+    -------
+    cuts : list of int
+        Scan offsets where a new object starts (sorted).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import split_profile
+    >>> car = np.r_[0.5, 0.9, 0.9, 1.4, 1.45, 1.4, 1.0, 0.5]
+    >>> split_profile(np.r_[car, car], step=0.6)
+    [8]
+    >>> split_profile(car, step=0.6)
+    []
+    """
+    top = np.asarray(top, dtype=np.float64)
+    top = np.where(np.isnan(top), 0.0, top)
+    n = len(top)
+    k = max(int(np.ceil(min_length / max(step, 1e-9))), 1)
+    if n < 2 * k + 1:
+        return []
+    left = np.maximum.accumulate(top)
+    right = np.maximum.accumulate(top[::-1])[::-1]
+    idx = np.arange(k, n - k)
+    peak = np.minimum(left[idx - 1], right[idx + 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        score = np.where(peak > 0, top[idx] / peak, np.inf)
+    j = int(np.argmin(score))
+    if not score[j] <= ratio:
+        return []
+    cut = int(idx[j])
+    # the valley scan goes with its higher neighbour (a bumper with its own body)
+    start = cut + 1 if top[cut - 1] > top[cut + 1] else cut
+    start = min(max(start, k), n - k)
+    a = split_profile(top[:start], step, min_length=min_length, ratio=ratio)
+    b = split_profile(top[start:], step, min_length=min_length, ratio=ratio)
+    return [*a, start, *(start + c for c in b)]
+
+
+class ScanClusterer(TransformerMixin, BaseEstimator):
+    """Detect street-parked and passing vehicles in vertical laser scans.
+
+    The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
+    :meth:`detect` over scans of one or several runs (sorted by ``(run, scan)``;
+    objects never cross a run boundary or a gap in the scan numbers):
+
+    1. polar to ``(depth, height)`` with the sensor's ``mount_height``;
+    2. tilt compensation from the returns of the road (robust vote, see
+       :func:`~tunnelsense.street.estimate_tilt`); the road becomes height 0;
+    3. region of interest ``min_height < height < max_height``, no-return beams
+       (NaN, +inf, ``>= range_max``) dropped;
+    4. intra-scan single linkage cut at ``cut``;
+    5. inter-scan linking of clusters whose mean depths differ by less than
+       ``link_distance``; an object ends when the next scan has nothing to link;
+    6. three depth regions split at ``regions``: a small object-cluster (shorter than
+       ``min_length``) or one mostly overlapping in time with a larger one of the same
+       region is merged into it, when at most ``merge_gap`` metres apart;
+    7. beyond the paper: objects with two humps in their height profile are split
+       (``split_merged``); objects shorter than ``min_length`` or longer than
+       ``max_length`` metres are labelled ``"other"`` (not vehicles).
+
+    Objects are labelled by the region of their mean depth through ``region_labels``.
+
+    Parameters
+    ----------
+    cut : float, default=0.6
+        Intra-scan single-linkage cut (m).
+    link_distance : float, default=0.5
+        Inter-scan link: largest mean-depth difference (m), exclusive.
+    regions : tuple of two floats, default=(4.0, 6.6)
+        Depth (m) boundaries of regions I | II | III.
+    region_labels : tuple of three str, default=("passing", "parked", "roadside")
+        Label of the objects of region I, II and III (the paper's experiment: the
+        measurement vehicle in the right lane).  Labels outside
+        :data:`~tunnelsense.RUN_LABELS` are kept in :meth:`detect` with
+        ``all_objects=True`` only.
+    min_height, max_height : float, default=0.1, 2.0
+        Region of interest (m above the road).
+    tilt_compensation : bool, default=True
+        Estimate the tilt of every scan from the road; False uses the nominal geometry.
+    max_tilt : float, default=10.0
+        Largest tilt (degrees) the estimate considers.
+    split_merged : bool, default=True
+        Split objects whose height profile shows two vehicles nose to tail.
+    split_ratio : float, default=0.6
+        Largest valley-to-peak height ratio that splits (see :func:`split_profile`).
+    min_length : float, default=1.5
+        Shortest vehicle (m along the track); shorter objects are ``"other"``
+        (pedestrians, bins, bollards); also the shortest part a split leaves.
+    max_length : float, default=25.0
+        Longest vehicle (m); longer objects (hedges, walls) are ``"other"``.
+    merge_gap : float, default=1.0
+        Largest gap (m along the track) across which fragments are merged.
+    speed : float or None, default=None
+        Ego speed (m/s) turning scan counts into lengths.  None: the median of the
+        scans' payload ``"speed"`` when the scans carry one, else 40 km/h (the
+        paper's).
+
+    Attributes
+    ----------
+    region_edges_ : ndarray of shape (2,)
+        The validated region boundaries.
+    labels_ : tuple of str
+        The validated region labels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import LaserGeometry, ScanSequence
+    >>> from tunnelsense.street import ScanClusterer
+    >>> geom = LaserGeometry(np.deg2rad(-89.0), np.deg2rad(0.5), 0.05, 30.0, 2.0)
+    >>> angles = geom.angles(181)
+    >>> road = 2.0 / np.sin(-np.minimum(angles, -1e-3))
+    >>> scans = np.tile(np.where(angles < 0, road, np.inf), (60, 1))
+    >>> side = (angles > np.arctan(-1.8 / 5.0)) & (angles < np.arctan(-0.5 / 5.0))
+    >>> scans[10:40, side] = 5.0 / np.cos(angles[side])   # a car side 5 m away
+    >>> X = ScanSequence.from_arrays(scans, np.arange(60) / 75, geom, run="r")
+    >>> ScanClusterer().fit(X).detect(X)[["id", "first_scan", "last_scan", "label"]]
+       id  first_scan  last_scan   label
+    0   1          10         39  parked
+    """
+
+    _parameter_constraints: dict = {
+        "cut": [Interval(numbers.Real, 0, None, closed="neither")],
+        "link_distance": [Interval(numbers.Real, 0, None, closed="neither")],
+        "regions": ["array-like"],
+        "region_labels": ["array-like"],
+        "min_height": [Interval(numbers.Real, None, None, closed="neither")],
+        "max_height": [Interval(numbers.Real, None, None, closed="neither")],
+        "tilt_compensation": ["boolean"],
+        "max_tilt": [Interval(numbers.Real, 0, 45, closed="right")],
+        "split_merged": ["boolean"],
+        "split_ratio": [Interval(numbers.Real, 0, 1, closed="both")],
+        "min_length": [Interval(numbers.Real, 0, None, closed="left")],
+        "max_length": [Interval(numbers.Real, 0, None, closed="neither")],
+        "merge_gap": [Interval(numbers.Real, 0, None, closed="left")],
+        "speed": [Interval(numbers.Real, 0, None, closed="neither"), None],
+    }
+
+    def __init__(
+        self,
+        cut=0.6,
+        link_distance=0.5,
+        regions=(4.0, 6.6),
+        region_labels=("passing", "parked", "roadside"),
+        min_height=0.1,
+        max_height=2.0,
+        tilt_compensation=True,
+        max_tilt=10.0,
+        split_merged=True,
+        split_ratio=0.6,
+        min_length=1.5,
+        max_length=25.0,
+        merge_gap=1.0,
+        speed=None,
+    ):
+        self.cut = cut
+        self.link_distance = link_distance
+        self.regions = regions
+        self.region_labels = region_labels
+        self.min_height = min_height
+        self.max_height = max_height
+        self.tilt_compensation = tilt_compensation
+        self.max_tilt = max_tilt
+        self.split_merged = split_merged
+        self.split_ratio = split_ratio
+        self.min_length = min_length
+        self.max_length = max_length
+        self.merge_gap = merge_gap
+        self.speed = speed
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False
+        tags.requires_fit = True
+        return tags
+
+    # ------------------------------------------------------------------ fit
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Validate the parameters and the scans; nothing is learned.
+
+        Parameters
+        ----------
+        X : sequence of ScanRecord
+            Scans of one or several runs.
+        y : sequence of ndarray of shape (k_i, 2), default=None
+            Ignored (per-scan ``(object id, label code)``; see
+            :meth:`tunnelsense.Run.targets`).
+
+        Returns
+        -------
+        self : ScanClusterer
+        """
+        check_scans(X, y)
+        edges = np.asarray(self.regions, dtype=np.float64)
+        if edges.shape != (2,) or not np.all(np.isfinite(edges)) or edges[0] > edges[1]:
+            raise ValueError(
+                "regions must be two increasing depths (m) (I|II, II|III); "
+                f"got {self.regions!r}"
+            )
+        labels = tuple(self.region_labels)
+        if len(labels) != 3 or not all(isinstance(s, str) for s in labels):
+            raise ValueError(
+                "region_labels must be three strings (labels of regions I, II, III); "
+                f"got {self.region_labels!r}"
+            )
+        if not self.min_height < self.max_height:
+            raise ValueError(
+                f"min_height ({self.min_height}) must be below max_height "
+                f"({self.max_height})"
+            )
+        if not self.min_length < self.max_length:
+            raise ValueError(
+                f"min_length ({self.min_length}) must be below max_length "
+                f"({self.max_length})"
+            )
+        self.region_edges_ = edges
+        self.labels_ = labels
+        return self
+
+    # ------------------------------------------------------------ the method
+    def _run_all(self, X):
+        """Cluster all scans; returns a dict of arrays (see the code for keys)."""
+        check_is_fitted(self)
+        records, _ = check_scans(X)
+        n = len(records)
+        runs = np.array([r.run for r in records], dtype=object)
+        scans = np.array([r.scan for r in records], dtype=np.int64)
+        order = np.lexsort((scans, runs.astype(str))) if n else np.empty(0, np.int64)
+        srec = [records[i] for i in order]
+        sruns, sscans = runs[order], scans[order]
+        dup = (sruns[1:] == sruns[:-1]) & (sscans[1:] == sscans[:-1])
+        if dup.any():
+            i = int(np.flatnonzero(dup)[0])
+            raise ValueError(
+                f"X holds scan {sscans[i]} of run {sruns[i]!r} twice: "
+                "expected each (run, scan) once"
+            )
+        new_run = np.r_[True, sruns[1:] != sruns[:-1]] if n else np.empty(0, bool)
+        follows = ~new_run & np.r_[False, sscans[1:] == sscans[:-1] + 1]
+        run_starts = np.flatnonzero(new_run)
+        run_ends = np.r_[run_starts[1:], n]
+        xs, ys, ps = [], [], []
+        tilt = np.zeros(n)
+        step = np.zeros(n)  # metres travelled per scan, per scan
+        for a, b in zip(run_starts, run_ends, strict=True):
+            block = srec[a:b]
+            ranges, geom = self._validate_run(block)
+            stamps = np.array([r.stamp for r in block])
+            if np.any(np.diff(stamps) < 0):
+                i = int(np.flatnonzero(np.diff(stamps) < 0)[0])
+                raise ValueError(
+                    f"stamps of run {block[0].run!r} are not sorted: scan "
+                    f"{block[i + 1].scan} ({stamps[i + 1]}) comes after scan "
+                    f"{block[i].scan} ({stamps[i]}); expected non-decreasing stamps"
+                )
+            step[a:b] = self._speed(block) * _scan_period(stamps)
+            r = np.where(no_return(ranges, geom.range_min, geom.range_max), np.nan, ranges)
+            angles = geom.angles(r.shape[1])
+            if self.tilt_compensation:
+                t, off = estimate_tilt(
+                    r, angles, geom.mount_height, max_tilt=self.max_tilt,
+                    tolerance=self.min_height,
+                )
+                depth, height, t = compensate_tilt(r, angles, geom.mount_height, t, off)
+            else:
+                t = np.zeros(len(r))
+                depth, height = restore_points(r, angles, geom.mount_height)
+            tilt[a:b] = t
+            m = roi_mask(depth, height, min_height=self.min_height,
+                         max_height=self.max_height)
+            rows, cols = np.nonzero(m)
+            xs.append(depth[rows, cols])
+            ys.append(height[rows, cols])
+            ps.append(rows + a)
+        x = np.concatenate(xs) if xs else np.empty(0)
+        y = np.concatenate(ys) if ys else np.empty(0)
+        pos = np.concatenate(ps).astype(np.int64) if ps else np.empty(0, np.int64)
+        # 4. intra-scan clusters
+        local = _single_linkage_groups(x, y, pos, float(self.cut))
+        n_cl = np.zeros(n, dtype=np.int64)
+        if len(pos):
+            np.maximum.at(n_cl, pos, local + 1)
+        cl_start = np.cumsum(n_cl) - n_cl
+        cid = cl_start[pos] + local
+        k = int(n_cl.sum())
+        cpos = np.repeat(np.arange(n), n_cl)
+        npts = np.bincount(cid, minlength=k)
+        cdepth = np.bincount(cid, weights=x, minlength=k) / np.maximum(npts, 1)
+        ctop = np.full(k, -np.inf)
+        np.maximum.at(ctop, cid, y)
+        # 5. inter-scan linking
+        cobj = link_scans(cpos, cdepth, follows, float(self.link_distance))
+        # 6-7. objects
+        objects, cobj = self._objects(cpos, cdepth, ctop, npts, cobj, step, sruns,
+                                      sscans, follows)
+        return {
+            "order": order, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
+            "local": local, "cid": cid, "cpos": cpos, "cobj": cobj, "tilt": tilt,
+            "objects": objects, "n_cl": n_cl, "cl_start": cl_start,
+        }
+
+    @staticmethod
+    def _validate_run(block):
+        geom = block[0].geometry
+        nb = len(block[0].ranges)
+        for r in block:
+            if len(r.ranges) != nb:
+                raise ValueError(
+                    f"scan {r.scan} of run {r.run!r} has {len(r.ranges)} ranges but "
+                    f"scan {block[0].scan} has {nb}: expected the same number of "
+                    "beams (angles) in every scan of a run"
+                )
+            if r.geometry != geom:
+                raise ValueError(
+                    f"scan {r.scan} of run {r.run!r} has another LaserGeometry than "
+                    f"scan {block[0].scan}: expected one geometry per run"
+                )
+        if nb == 0:
+            raise ValueError(f"run {block[0].run!r}: scans have no beams")
+        if not (np.isfinite(geom.mount_height) and np.isfinite(geom.angle_increment)):
+            raise ValueError(f"run {block[0].run!r}: geometry is not finite: {geom}")
+        ranges = np.stack([np.asarray(r.ranges, dtype=np.float64) for r in block])
+        return ranges, geom
+
+    def _speed(self, block):
+        if self.speed is not None:
+            return float(self.speed)
+        v = [r.payload["speed"] for r in block if "speed" in r.payload]
+        v = np.asarray(v, dtype=np.float64)
+        v = v[np.isfinite(v) & (v > 0)]
+        return float(np.median(v)) if len(v) else DEFAULT_SPEED
+
+    def _region(self, depth):
+        return np.searchsorted(self.region_edges_, depth, side="right")
+
+    def _objects(self, cpos, cdepth, ctop, npts, cobj, step, runs, scans, follows):
+        """Merge, split and label object-clusters; return the object table."""
+        n_obj = int(cobj.max()) + 1 if len(cobj) else 0
+        # per (object, scan): points, depth sum, top
+        w = npts.astype(np.float64)
+        o_first = np.full(n_obj, np.iinfo(np.int64).max)
+        o_last = np.full(n_obj, -1)
+        np.minimum.at(o_first, cobj, cpos)
+        np.maximum.at(o_last, cobj, cpos)
+        o_pts = np.bincount(cobj, weights=w, minlength=n_obj)
+        o_depth = np.bincount(cobj, weights=cdepth * w, minlength=n_obj) / np.maximum(
+            o_pts, 1
+        )
+        parent = np.arange(n_obj)
+        if n_obj:
+            parent = self._merge(o_first, o_last, o_depth, o_pts, step, runs, follows)
+        cobj = parent[cobj]
+        # renumber and recompute after the merge
+        _, cobj = np.unique(cobj, return_inverse=True)
+        cobj = cobj.ravel()
+        n_obj = int(cobj.max()) + 1 if len(cobj) else 0
+        # split objects with two humps
+        if self.split_merged and n_obj:
+            cobj = self._split(cpos, ctop, cobj, n_obj, step)
+            n_obj = int(cobj.max()) + 1
+        o_first = np.full(n_obj, np.iinfo(np.int64).max)
+        o_last = np.full(n_obj, -1)
+        np.minimum.at(o_first, cobj, cpos)
+        np.maximum.at(o_last, cobj, cpos)
+        o_pts = np.bincount(cobj, weights=w, minlength=n_obj)
+        o_depth = np.bincount(cobj, weights=cdepth * w, minlength=n_obj) / np.maximum(
+            o_pts, 1
+        )
+        o_top = np.full(n_obj, -np.inf)
+        np.maximum.at(o_top, cobj, ctop)
+        # order objects by (first scan, depth); ids from 1
+        order = np.lexsort((o_depth, o_first))
+        rank = np.empty(n_obj, dtype=np.int64)
+        rank[order] = np.arange(n_obj)
+        cobj = rank[cobj]
+        o_first, o_last, o_pts = o_first[order], o_last[order], o_pts[order]
+        o_depth, o_top = o_depth[order], o_top[order]
+        length = np.array(
+            [step[a:b + 1].sum() for a, b in zip(o_first, o_last, strict=True)]
+        )
+        region = self._region(o_depth)
+        label = np.asarray(self.labels_, dtype=object)[region] if n_obj else np.empty(
+            0, dtype=object
+        )
+        vehicle_like = (length >= self.min_length) & (length <= self.max_length)
+        label = np.where(vehicle_like, label, "other")
+        table = pd.DataFrame({
+            "run": runs[o_first] if n_obj else np.empty(0, dtype=object),
+            "id": np.arange(1, n_obj + 1, dtype=np.int64),
+            "first_scan": scans[o_first] if n_obj else np.empty(0, np.int64),
+            "last_scan": scans[o_last] if n_obj else np.empty(0, np.int64),
+            "label": label.astype(object),
+            "mean_depth": o_depth,
+            "region": (region + 1).astype(np.int64),
+            "length": length,
+            "top_height": o_top,
+            "n_points": o_pts.astype(np.int64),
+        }, columns=list(OBJECT_COLUMNS))
+        table.attrs["first_pos"] = o_first
+        table.attrs["last_pos"] = o_last
+        return table, cobj
+
+    def _merge(self, first, last, depth, pts, step, runs, follows):
+        """Three-region merging: union-find parent of every object-cluster."""
+        n_obj = len(first)
+        region = self._region(depth)
+        seg = np.cumsum(~follows) - 1  # contiguous stretch of scans
+        cum = np.r_[0.0, np.cumsum(step)]
+        length = cum[last + 1] - cum[first]
+        parent = np.arange(n_obj)
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        # candidates: same stretch, same region, sorted by first scan
+        order = np.lexsort((first, region, seg[first]))
+        for j in range(1, n_obj):
+            b = order[j]
+            # look back at earlier objects of the same stretch and region
+            for jj in range(j - 1, -1, -1):
+                a = order[jj]
+                if seg[first[a]] != seg[first[b]] or region[a] != region[b]:
+                    break
+                if cum[first[b]] - cum[first[a]] > self.max_length + self.merge_gap:
+                    break
+                gap = cum[first[b]] - cum[last[a] + 1]
+                if gap > self.merge_gap:
+                    continue
+                big, small = (a, b) if pts[a] >= pts[b] else (b, a)
+                overlap = min(last[a], last[b]) - max(first[a], first[b]) + 1
+                n_small = last[small] - first[small] + 1
+                if length[small] < self.min_length or overlap >= 0.5 * n_small:
+                    ra, rb = find(a), find(b)
+                    if ra != rb:
+                        parent[rb] = ra
+        return np.array([find(i) for i in range(n_obj)])
+
+    def _split(self, cpos, ctop, cobj, n_obj, step):
+        """Split objects with a two-hump height profile; returns new object ids."""
+        order = np.lexsort((cpos, cobj))
+        so, sp, st = cobj[order], cpos[order], ctop[order]
+        bounds = np.flatnonzero(np.r_[True, so[1:] != so[:-1], True])
+        new = cobj.copy()
+        next_id = n_obj
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            p, t = sp[a:b], st[a:b]
+            first, last = p[0], p[-1]
+            span = last - first + 1
+            ds = float(np.median(step[first:last + 1]))
+            if span * ds < 2 * self.min_length:
+                continue
+            top = np.full(span, np.nan)
+            np.fmax.at(top, p - first, t)
+            cuts = split_profile(top, ds, min_length=self.min_length,
+                                 ratio=self.split_ratio)
+            if not cuts:
+                continue
+            part = np.searchsorted(np.asarray(cuts), p - first, side="right")
+            ids = np.where(part == 0, so[a], next_id + part - 1)
+            new[order[a:b]] = ids
+            next_id += len(cuts)
+        return new
+
+    # ------------------------------------------------------------- outputs
+    def transform(self, X):
+        """Per scan, the record with its clusters and objects in the payload.
+
+        Parameters
+        ----------
+        X : sequence of ScanRecord
+
+        Returns
+        -------
+        records : list of ScanRecord
+            In the order of ``X``; payload ``"points"`` (n, 2) ROI ``(depth, height)``,
+            ``"clusters"`` (n,) intra-cluster number of every point, ``"objects"``
+            (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
+            ``"tilt"`` the tilt (rad) used.
+        """
+        res = self._run_all(X)
+        records, _ = check_scans(X)
+        pts = np.column_stack([res["x"], res["y"]])
+        p_bounds = np.searchsorted(res["pos"], np.arange(len(records) + 1))
+        out = [None] * len(records)
+        for i, orig in enumerate(res["order"]):
+            a, b = p_bounds[i], p_bounds[i + 1]
+            c0, nc = res["cl_start"][i], res["n_cl"][i]
+            out[orig] = records[orig].evolve(
+                points=pts[a:b], clusters=res["local"][a:b],
+                objects=res["cobj"][c0:c0 + nc] + 1, tilt=float(res["tilt"][i]),
+            )
+        return out
+
+    def detect(self, X, *, all_objects=False):
+        """The object table: one row per detected object.
+
+        Parameters
+        ----------
+        X : sequence of ScanRecord
+        all_objects : bool, default=False
+            Keep objects of every label (``"roadside"``, ``"other"``); by default only
+            those labelled with a key of :data:`~tunnelsense.RUN_LABELS`.
+
+        Returns
+        -------
+        objects : DataFrame
+            Columns :data:`OBJECT_COLUMNS`: ``run, id, first_scan, last_scan, label,
+            mean_depth`` (m), ``region`` (1-3), ``length`` (m along the track),
+            ``top_height`` (m), ``n_points``.
+        """
+        table = self._run_all(X)["objects"]
+        if not all_objects:
+            table = table[table["label"].isin(list(RUN_LABELS))].reset_index(drop=True)
+        return table
+
+    def predict(self, X):
+        """Per scan, the ``(k, 2)`` array ``(object id, label code)`` of objects in view.
+
+        The same layout as the targets ``y`` (:meth:`tunnelsense.Run.targets`), so that
+        :mod:`tunnelsense.metrics` compares the two; only labels of
+        :data:`~tunnelsense.RUN_LABELS` are reported.
+
+        Parameters
+        ----------
+        X : sequence of ScanRecord
+
+        Returns
+        -------
+        y_pred : list of ndarray of shape (k_i, 2), int64
+        """
+        res = self._run_all(X)
+        table = res["objects"]
+        n = len(res["order"])
+        codes = table["label"].map(RUN_LABELS)
+        keep = codes.notna().to_numpy()
+        ids = table["id"].to_numpy()[keep]
+        codes = codes.to_numpy()[keep].astype(np.int64)
+        fp = table.attrs["first_pos"][keep]
+        lp = table.attrs["last_pos"][keep]
+        counts = lp - fp + 1
+        per_pos = [[] for _ in range(n)]
+        total = int(counts.sum())
+        if total:
+            owner = np.repeat(np.arange(len(ids)), counts)
+            p = np.repeat(fp, counts) + (np.arange(total) - np.repeat(
+                np.cumsum(counts) - counts, counts))
+            srt = np.argsort(p, kind="stable")
+            p, owner = p[srt], owner[srt]
+            bounds = np.searchsorted(p, np.arange(n + 1))
+            pairs = np.column_stack([ids[owner], codes[owner]])
+            per_pos = [pairs[bounds[i]:bounds[i + 1]] for i in range(n)]
+        else:
+            per_pos = [np.empty((0, 2), np.int64) for _ in range(n)]
+        out = [None] * n
+        for i, orig in enumerate(res["order"]):
+            out[orig] = np.asarray(per_pos[i], dtype=np.int64).reshape(-1, 2)
+        return out
+
+
+def _scan_period(stamps):
+    d = np.diff(np.asarray(stamps, dtype=np.float64))
+    d = d[np.isfinite(d) & (d > 0)]
+    return float(np.median(d)) if len(d) else DEFAULT_SCAN_PERIOD
+
+
+def make_parking_pipeline(**params):
+    """The street-parked vehicle detector as a one-step :class:`~sklearn.pipeline.Pipeline`.
+
+    Parameters
+    ----------
+    **params
+        Parameters of :class:`ScanClusterer` (``cut=0.6``, ``link_distance=0.5``, ...).
+
+    Returns
+    -------
+    pipeline : Pipeline
+        ``Pipeline([("cluster", ScanClusterer(**params))])``; grid-search its
+        parameters as ``cluster__cut`` etc.
+
+    Examples
+    --------
+    >>> from tunnelsense.street import make_parking_pipeline
+    >>> make_parking_pipeline(cut=0.5).named_steps["cluster"].cut
+    0.5
+    """
+    return Pipeline([("cluster", ScanClusterer(**params))])
