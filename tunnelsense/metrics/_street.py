@@ -1,0 +1,333 @@
+"""Object-level scores of the street-parked vehicle detector.
+
+A detected object and a ground-truth object are intervals of scans of one run.  They
+are matched one to one (Hungarian assignment) when their scan-interval IoU is at least
+``min_iou`` (0.5); among such pairs, equal labels are preferred.  Per label:
+
+* true positive: a ground-truth object of the label matched to a detection of the label;
+* false negative (miss): a ground-truth object of the label not so matched;
+* false positive: a detection of the label not so matched.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+
+from tunnelsense._records import RUN_LABELS, check_scans
+
+__all__ = [
+    "interval_iou",
+    "make_street_scorer",
+    "match_objects",
+    "objects_from_targets",
+    "street_confusion_matrix",
+    "street_scores",
+]
+
+_LABELS = tuple(RUN_LABELS)
+
+
+def interval_iou(a, b):
+    """IoU of inclusive scan intervals, every ``a`` against every ``b``.
+
+    Parameters
+    ----------
+    a, b : array-like of shape (n, 2) and (m, 2)
+        ``(first_scan, last_scan)``, inclusive.
+
+    Returns
+    -------
+    iou : ndarray of shape (n, m)
+
+    Examples
+    --------
+    >>> from tunnelsense.metrics import interval_iou
+    >>> interval_iou([[0, 9]], [[5, 14], [0, 9], [20, 30]]).round(3).tolist()
+    [[0.333, 1.0, 0.0]]
+    """
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 2)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 2)
+    inter = np.minimum(a[:, None, 1], b[None, :, 1]) - np.maximum(
+        a[:, None, 0], b[None, :, 0]
+    ) + 1
+    inter = np.maximum(inter, 0)
+    la = a[:, 1] - a[:, 0] + 1
+    lb = b[:, 1] - b[:, 0] + 1
+    union = la[:, None] + lb[None, :] - inter
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(union > 0, inter / union, 0.0)
+
+
+def _as_table(objects, name):
+    if not isinstance(objects, pd.DataFrame):
+        raise TypeError(f"{name} must be a DataFrame; got {type(objects).__name__}")
+    missing = [c for c in ("first_scan", "last_scan", "label") if c not in objects]
+    if missing:
+        raise ValueError(
+            f"{name} lacks column(s) {', '.join(missing)}: expected "
+            "id,first_scan,last_scan,label (and optionally run)"
+        )
+    t = objects.reset_index(drop=True)
+    run = t["run"].astype(str) if "run" in t else pd.Series([""] * len(t), dtype=object)
+    first = pd.to_numeric(t["first_scan"], errors="coerce")
+    last = pd.to_numeric(t["last_scan"], errors="coerce")
+    if first.isna().any() or last.isna().any() or (last < first).any():
+        raise ValueError(
+            f"{name}: first_scan and last_scan must be integers with "
+            "first_scan <= last_scan"
+        )
+    return pd.DataFrame({
+        "run": run.to_numpy(dtype=object),
+        "first_scan": first.to_numpy(dtype=np.int64),
+        "last_scan": last.to_numpy(dtype=np.int64),
+        "label": t["label"].astype(str).to_numpy(dtype=object),
+    })
+
+
+def match_objects(gt, detected, *, min_iou=0.5):
+    """Match detected objects one to one to ground-truth objects.
+
+    Parameters
+    ----------
+    gt, detected : DataFrame
+        Columns ``first_scan, last_scan, label`` and optionally ``run`` (objects
+        match only within a run; without the column all are one run).
+    min_iou : float, default=0.5
+        Smallest scan-interval IoU of a match.
+
+    Returns
+    -------
+    matches : DataFrame
+        Columns ``gt`` and ``detected`` (row positions in the two tables) and ``iou``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.metrics import match_objects
+    >>> gt = pd.DataFrame({"first_scan": [0, 20], "last_scan": [9, 29],
+    ...                    "label": ["parked", "parked"]})
+    >>> det = pd.DataFrame({"first_scan": [1, 40], "last_scan": [10, 45],
+    ...                     "label": ["parked", "parked"]})
+    >>> match_objects(gt, det).to_dict("list")
+    {'gt': [0], 'detected': [0], 'iou': [0.8181818181818182]}
+    """
+    g = _as_table(gt, "gt")
+    d = _as_table(detected, "detected")
+    gi, di, ious = [], [], []
+    for run, gg in g.groupby("run", sort=False):
+        dd = d[d["run"] == run]
+        if not len(dd):
+            continue
+        iou = interval_iou(gg[["first_scan", "last_scan"]], dd[["first_scan", "last_scan"]])
+        ok = iou >= min_iou
+        if not ok.any():
+            continue
+        same = gg["label"].to_numpy()[:, None] == dd["label"].to_numpy()[None, :]
+        weight = np.where(ok, iou + same, 0.0)
+        r, c = linear_sum_assignment(weight, maximize=True)
+        keep = ok[r, c]
+        gi.append(gg.index.to_numpy()[r[keep]])
+        di.append(dd.index.to_numpy()[c[keep]])
+        ious.append(iou[r[keep], c[keep]])
+    def cat(parts, dt):
+        return np.concatenate(parts).astype(dt) if parts else np.empty(0, dt)
+
+    return pd.DataFrame({
+        "gt": cat(gi, np.int64), "detected": cat(di, np.int64),
+        "iou": cat(ious, np.float64),
+    })
+
+
+def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.0):
+    """Per label true positives, false positives, misses, recall and precision.
+
+    Parameters
+    ----------
+    gt, detected : DataFrame
+        Object tables (see :func:`match_objects`); detections of other labels
+        (``"roadside"``, ``"other"``) are ignored.
+    min_iou : float, default=0.5
+        Smallest scan-interval IoU of a match.
+    labels : sequence of str, default=("parked", "passing")
+    zero_division : float, default=0.0
+        Recall (precision) when there is no ground truth (no detection) of a label.
+
+    Returns
+    -------
+    scores : dict
+        ``{label: {"tp", "fp", "fn", "recall", "precision"}}``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.metrics import street_scores
+    >>> gt = pd.DataFrame({"first_scan": [0, 20], "last_scan": [9, 29],
+    ...                    "label": ["parked", "parked"]})
+    >>> det = pd.DataFrame({"first_scan": [1], "last_scan": [10], "label": ["parked"]})
+    >>> street_scores(gt, det)["parked"]
+    {'tp': 1, 'fp': 0, 'fn': 1, 'recall': 0.5, 'precision': 1.0}
+    """
+    g = _as_table(gt, "gt")
+    d = _as_table(detected, "detected")
+    m = match_objects(g, d, min_iou=min_iou)
+    gl = g["label"].to_numpy()[m["gt"].to_numpy()]
+    dl = d["label"].to_numpy()[m["detected"].to_numpy()]
+    out = {}
+    for label in labels:
+        tp = int(np.sum((gl == label) & (dl == label)))
+        n_gt = int(np.sum(g["label"] == label))
+        n_det = int(np.sum(d["label"] == label))
+        out[label] = {
+            "tp": tp,
+            "fp": n_det - tp,
+            "fn": n_gt - tp,
+            "recall": tp / n_gt if n_gt else float(zero_division),
+            "precision": tp / n_det if n_det else float(zero_division),
+        }
+    return out
+
+
+def street_confusion_matrix(gt, detected, *, label="parked", min_iou=0.5):
+    """The paper's confusion matrix (TABLE 1) of one label.
+
+    Rows are the truth, columns the prediction, both ``negative, positive``; the true
+    negatives are not defined for object detection (NaN, the paper's "N/A").
+
+    Returns
+    -------
+    matrix : DataFrame
+        ``[[N/A, fp], [fn, tp]]``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.metrics import street_confusion_matrix
+    >>> gt = pd.DataFrame({"first_scan": [0, 20], "last_scan": [9, 29],
+    ...                    "label": ["parked", "parked"]})
+    >>> det = pd.DataFrame({"first_scan": [1], "last_scan": [10], "label": ["parked"]})
+    >>> m = street_confusion_matrix(gt, det)
+    >>> m.index.tolist(), m.columns.tolist()
+    (['negative', 'positive'], ['negative', 'positive'])
+    >>> m.to_numpy().tolist()
+    [[nan, 0.0], [1.0, 1.0]]
+    """
+    s = street_scores(gt, detected, min_iou=min_iou, labels=(label,))[label]
+    m = pd.DataFrame(
+        [[np.nan, s["fp"]], [s["fn"], s["tp"]]],
+        index=pd.Index(["negative", "positive"], name="actual"),
+        columns=pd.Index(["negative", "positive"], name="predicted"),
+        dtype=np.float64,
+    )
+    return m
+
+
+def objects_from_targets(X, y):
+    """Object table from per-scan targets (or predictions) ``(object id, label code)``.
+
+    Parameters
+    ----------
+    X : sequence of ScanRecord
+        The scans (their runs and numbers).
+    y : sequence of array-like of shape (k_i, 2)
+        Per scan, ``(object id, label code)`` (:meth:`tunnelsense.Run.targets`, or
+        ``ScanClusterer.predict``).
+
+    Returns
+    -------
+    objects : DataFrame
+        Columns ``run, id, first_scan, last_scan, label``; an object spans its first to
+        its last scan in ``X``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import LaserGeometry, ScanSequence
+    >>> from tunnelsense.metrics import objects_from_targets
+    >>> X = ScanSequence.from_arrays(np.ones((3, 2)), np.arange(3.0),
+    ...                              LaserGeometry(0, 0.1, 0, 9, 1), run="r")
+    >>> objects_from_targets(X, [[[7, 1]], [[7, 1]], []]).to_dict("list")
+    {'run': ['r'], 'id': [7], 'first_scan': [0], 'last_scan': [1], 'label': ['parked']}
+    """
+    records, y = check_scans(X, y)
+    if y is None:
+        raise ValueError("y is required: one (k, 2) array per scan")
+    names = {v: k for k, v in RUN_LABELS.items()}
+    counts = np.array([len(t) for t in y], dtype=np.int64)
+    cols = ["run", "id", "first_scan", "last_scan", "label"]
+    if counts.sum() == 0:
+        return pd.DataFrame({c: pd.Series(dtype=object if c in ("run", "label")
+                                          else np.int64) for c in cols})
+    t = np.concatenate(y)
+    runs = np.repeat(np.array([r.run for r in records], dtype=object), counts)
+    scans = np.repeat(np.array([r.scan for r in records], dtype=np.int64), counts)
+    df = pd.DataFrame({"run": runs, "id": t[:, 0], "scan": scans, "code": t[:, 1]})
+    unknown = ~df["code"].isin(list(names))
+    if unknown.any():
+        raise ValueError(
+            f"y holds label code {int(df.loc[unknown, 'code'].iloc[0])}: expected one "
+            f"of {sorted(names)} (RUN_LABELS)"
+        )
+    agg = df.groupby(["run", "id"], sort=True).agg(
+        first_scan=("scan", "min"), last_scan=("scan", "max"),
+        code=("code", lambda c: int(pd.Series(c).mode().iloc[0])),
+    ).reset_index()
+    agg["label"] = agg["code"].map(names).astype(object)
+    out = agg[cols].copy()
+    out["run"] = out["run"].astype(object)
+    return out.sort_values(["run", "first_scan", "id"]).reset_index(drop=True)
+
+
+class _StreetScorer:
+    """Callable ``scorer(estimator, X, y)`` for GridSearchCV (picklable)."""
+
+    def __init__(self, label, metric, min_iou):
+        self.label = label
+        self.metric = metric
+        self.min_iou = min_iou
+
+    def __call__(self, estimator, X, y):
+        gt = objects_from_targets(X, y)
+        det = objects_from_targets(X, estimator.predict(X))
+        s = street_scores(gt, det, min_iou=self.min_iou, labels=(self.label,))[self.label]
+        if self.metric == "f1":
+            p, r = s["precision"], s["recall"]
+            return 2 * p * r / (p + r) if p + r > 0 else 0.0
+        return float(s[self.metric])
+
+    def __repr__(self):
+        return (f"make_street_scorer(label={self.label!r}, metric={self.metric!r}, "
+                f"min_iou={self.min_iou})")
+
+
+def make_street_scorer(label="parked", metric="f1", *, min_iou=0.5):
+    """A scorer ``scorer(estimator, X, y)`` for :class:`~sklearn.model_selection.GridSearchCV`.
+
+    It predicts per-scan ``(object id, label code)`` with the estimator, rebuilds the
+    object tables of prediction and truth (:func:`objects_from_targets`) and scores
+    them (:func:`street_scores`).
+
+    Parameters
+    ----------
+    label : str, default="parked"
+    metric : {"f1", "recall", "precision"}, default="f1"
+    min_iou : float, default=0.5
+
+    Returns
+    -------
+    scorer : callable
+
+    Examples
+    --------
+    >>> from tunnelsense.metrics import make_street_scorer
+    >>> make_street_scorer("parked", "recall")
+    make_street_scorer(label='parked', metric='recall', min_iou=0.5)
+    """
+    if label not in RUN_LABELS:
+        raise ValueError(f"label must be one of {list(RUN_LABELS)}; got {label!r}")
+    if metric not in ("f1", "recall", "precision"):
+        raise ValueError(
+            f"metric must be 'f1', 'recall' or 'precision'; got {metric!r}"
+        )
+    return _StreetScorer(label, metric, float(min_iou))
