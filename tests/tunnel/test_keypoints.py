@@ -1,0 +1,139 @@
+import numpy as np
+import pytest
+
+from tunnelsense import FrameRecord, FrameSequence, ScanRecord
+from tunnelsense.tunnel import (
+    IntensityKeypointSampler,
+    indicator_band,
+    sample_keypoints,
+)
+from tunnelsense.utils import record_stage_checks, sklearn_api_checks
+
+
+def brute_force(image, low, high, rs=7, cs=6, ro=0, co=0):
+    out = []
+    for r in range(ro, image.shape[0], rs):
+        for c in range(co, image.shape[1], cs):
+            if low <= image[r, c] <= high:
+                out.append((r, c, int(image[r, c])))
+    return np.array(out, dtype=np.int32).reshape(-1, 3)
+
+
+@pytest.mark.parametrize("offsets", [(0, 0), (3, 2), (6, 5)])
+def test_matches_brute_force(global_random_seed, offsets):
+    rng = np.random.default_rng(global_random_seed)
+    image = rng.integers(140, 211, (61, 83)).astype(np.uint8)
+    ro, co = offsets
+    got = sample_keypoints(image, 160, 190, row_offset=ro, col_offset=co)
+    assert got.dtype == np.int32
+    assert np.array_equal(got, brute_force(image, 160, 190, ro=ro, co=co))
+    # raster order
+    assert np.all(np.diff(got[:, 0] * 10_000 + got[:, 1]) > 0)
+
+
+def test_band_is_inclusive_and_grid_strides():
+    image = np.zeros((30, 30), np.uint8)
+    image[0, 0], image[7, 6], image[14, 12], image[7, 7] = 160, 190, 191, 175
+    kp = sample_keypoints(image)
+    assert kp.tolist() == [[0, 0, 160], [7, 6, 190]]
+
+
+def test_band_outside_dtype_gives_no_keypoints():
+    image = np.full((20, 20), 255, np.uint8)
+    assert sample_keypoints(image, 300, 400).shape == (0, 3)
+    assert sample_keypoints(image, 190, 160).shape == (0, 3)
+
+
+def test_uint16_frames_use_the_band_in_raw_counts():
+    image = np.full((40, 40), 7000, np.uint16)
+    image[14:30, 12:20] = 8200
+    X = FrameSequence.from_array(image[None])
+    kp = IntensityKeypointSampler(8000, 8400).fit_transform(X)[0].payload["keypoints"]
+    assert kp.dtype == np.int32 and len(kp) > 0
+    assert np.all(kp[:, 2] == 8200)
+    assert IntensityKeypointSampler().fit_transform(X)[0].payload["keypoints"].shape == (0, 3)
+
+
+def labelled_frames(seed, n_frames=4, mean=175.0, sd=5.0, dtype=np.uint8):
+    rng = np.random.default_rng(seed)
+    images, boxes = [], []
+    for _ in range(n_frames):
+        image = rng.normal(100, 10, (120, 160))
+        top, left = rng.integers(5, 80), rng.integers(5, 120)
+        image[top : top + 30, left : left + 12] = rng.normal(mean, sd, (30, 12))
+        images.append(np.clip(np.rint(image), 0, np.iinfo(dtype).max).astype(dtype))
+        boxes.append(np.array([[left, top, 12, 30]], dtype=float))
+    return FrameSequence.from_array(np.stack(images), tour="lab"), boxes
+
+
+def test_learned_band_follows_the_three_sigma_rule(global_random_seed):
+    X, y = labelled_frames(global_random_seed, mean=175, sd=5)
+    est = IntensityKeypointSampler(band="learned").fit(X, y)
+    assert est.low_ == pytest.approx(160, abs=1.0)
+    assert est.high_ == pytest.approx(190, abs=1.0)
+    kp = est.transform(X)[0].payload["keypoints"]
+    assert np.all((kp[:, 2] >= est.low_) & (kp[:, 2] <= est.high_))
+    # the fixed band ignores y
+    fixed = IntensityKeypointSampler(150, 200).fit(X, y)
+    assert (fixed.low_, fixed.high_) == (150.0, 200.0)
+
+
+def test_learned_band_on_16_bit_frames(global_random_seed):
+    X, y = labelled_frames(global_random_seed, mean=8200, sd=40, dtype=np.uint16)
+    est = IntensityKeypointSampler(band="learned").fit(X, y)
+    assert est.low_ == pytest.approx(8080, abs=10)
+    assert est.high_ == pytest.approx(8320, abs=10)
+
+
+def test_indicator_band_matches_numpy():
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 256, (50, 50)).astype(np.uint8)
+    boxes = np.array([[3.5, 2, 10, 7], [40, 45, 20, 20]])
+    pixels = np.concatenate([image[2:9, 4:14].ravel(), image[45:50, 40:50].ravel()])
+    low, high = indicator_band([image], [boxes], n_sigma=2)
+    assert low == pytest.approx(pixels.mean() - 2 * pixels.std())
+    assert high == pytest.approx(pixels.mean() + 2 * pixels.std())
+
+
+def test_errors_are_clear():
+    X, y = labelled_frames(0)
+    with pytest.raises(ValueError, match="requires y"):
+        IntensityKeypointSampler(band="learned").fit(X)
+    with pytest.raises(ValueError, match="no indicator box"):
+        IntensityKeypointSampler(band="learned").fit(X, [np.empty((0, 4))] * len(X))
+    with pytest.raises(ValueError, match="low must not exceed high"):
+        IntensityKeypointSampler(200, 100).fit(X)
+    with pytest.raises(ValueError, match="band"):
+        IntensityKeypointSampler(band="learnt").fit(X)
+    bad = [FrameRecord("t", 1, np.zeros((8, 8), np.float32))]
+    with pytest.raises(ValueError, match="uint8 or uint16"):
+        IntensityKeypointSampler().fit(bad).transform(bad)
+    with pytest.raises(TypeError, match="FrameRecord"):
+        IntensityKeypointSampler().fit([ScanRecord("r", 0, np.ones(3), 0.0, None)])
+
+
+def test_records_keep_identity_and_other_payload():
+    X, _ = labelled_frames(1)
+    X = FrameSequence(r.evolve(note="kept") for r in X)
+    out = IntensityKeypointSampler().fit(X).transform(list(X)[::-1])
+    assert [r.key for r in out] == [r.key for r in list(X)[::-1]]
+    assert all(r.payload["note"] == "kept" for r in out)
+
+
+_X, _Y = labelled_frames(3, n_frames=3)
+
+
+@pytest.mark.parametrize(
+    "estimator", [IntensityKeypointSampler(), IntensityKeypointSampler(band="learned")]
+)
+def test_record_stage_checks(estimator):
+    for name, check in record_stage_checks(estimator, _X, _Y):
+        check()  # raises AssertionError naming the check
+        assert name.startswith("check_")
+
+
+@pytest.mark.parametrize(
+    "name, check", list(sklearn_api_checks(IntensityKeypointSampler()))
+)
+def test_sklearn_api_checks(name, check):
+    check()
