@@ -20,6 +20,18 @@ def _cmd_info(args) -> int:
     if args.json:
         print(json.dumps(facts, indent=2, sort_keys=True))
         return 0
+    if facts["kind"] == "model":
+        print(f"{facts['path']}: {facts['format']} model file, {facts['bytes']} bytes")
+        for key in ("model", "created"):
+            if key in facts:
+                print(f"  {key}: {facts[key]}")
+        for name, version in sorted(facts.get("versions", {}).items()):
+            print(f"  trained under {name} {version}")
+        for key, value in sorted(facts.get("summary", {}).items()):
+            print(f"  {key}: {value}")
+        if "note" in facts:
+            print(f"  {facts['note']}")
+        return 0
     if facts["kind"] == "tunnel":
         print(
             f"{facts['name']}: far-infrared tour, {facts['frames']} frames of "
@@ -91,7 +103,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("info", help="describe a tour folder, video or laser run")
+    p = sub.add_parser(
+        "info", help="describe a tour folder, video, laser run or model file"
+    )
     p.add_argument(
         "source",
         help="MOTChallenge folder, image folder, video file or "
@@ -151,7 +165,7 @@ def _register_methods(sub) -> None:
         v = sub.add_parser(verb, help=text)
         verbs[verb] = v.add_subparsers(dest="kind", metavar="KIND", required=True)
     for module in modules:
-        importlib.import_module(module).register(verbs)
+        module.register(verbs)
 
 
 def main(argv=None) -> int:

@@ -5,11 +5,20 @@
   detections as MOTChallenge results files.
 * Laser runs: ``scans.npz`` with ROS ``sensor_msgs/LaserScan`` field names, and
   ``gt.csv`` (``id,first_scan,last_scan,label``).
+* Fitted models: a safe ``.skops`` format (no code runs on load; versions, training
+  summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
 from tunnelsense.io._describe import describe, open_source
 from tunnelsense.io._images import iter_video, read_image
 from tunnelsense.io._laser import read_run, read_run_gt, write_run, write_run_gt
+from tunnelsense.io._model import (
+    ModelVersionWarning,
+    UntrustedModelError,
+    describe_model,
+    load_model,
+    save_model,
+)
 from tunnelsense.io._mot import (
     MOT_RESULT_COLUMNS,
     open_tour,
@@ -25,6 +34,11 @@ from tunnelsense.io._mot import (
 
 __all__ = [
     "MOT_RESULT_COLUMNS",
+    "ModelVersionWarning",
+    "UntrustedModelError",
+    "describe_model",
+    "load_model",
+    "save_model",
     "describe",
     "iter_video",
     "open_source",

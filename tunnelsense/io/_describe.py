@@ -8,9 +8,12 @@ import numpy as np
 
 from tunnelsense._records import OBJECT_CLASSES, Run, Tour
 from tunnelsense.io._laser import read_run
+from tunnelsense.io._model import describe_model
 from tunnelsense.io._mot import open_tour
 
 __all__ = ["describe", "open_source"]
+
+_MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 
 
 def open_source(source) -> Tour | Run:
@@ -24,10 +27,18 @@ def open_source(source) -> Tour | Run:
 def describe(source) -> dict:
     """Describe a tour or a laser run as a JSON-able dict.
 
+    A model file (``.skops``, ``.joblib``) is described by its model card instead
+    (:func:`~tunnelsense.io.describe_model`).
+
     Keys: ``kind`` (``"tunnel"`` or ``"street"``), ``name``, ``frames`` or ``scans``,
     ``objects`` (class or label name -> number of distinct object ids), and the image
     size and frame rate, or the beams, scan rate and geometry.
     """
+    if (
+        not isinstance(source, Tour | Run)
+        and Path(source).suffix.lower() in _MODEL_SUFFIXES
+    ):
+        return describe_model(source)
     data = source if isinstance(source, Tour | Run) else open_source(source)
     if isinstance(data, Tour):
         height, width = data.image_shape
