@@ -27,9 +27,20 @@ from tunnelsense._records import (
     to_xy,
 )
 from tunnelsense._version import __version__
+from tunnelsense.street import ScanClusterer, make_parking_pipeline
+from tunnelsense.tunnel import (
+    IntensityKeypointSampler,
+    KMeansHistogramVerifier,
+    MSTClusterer,
+)
 
 __all__ = [
     "FrameRecord",
+    "IntensityKeypointSampler",
+    "KMeansHistogramVerifier",
+    "MSTClusterer",
+    "ScanClusterer",
+    "make_parking_pipeline",
     "FrameSequence",
     "LaserGeometry",
     "MOT_GT_COLUMNS",
