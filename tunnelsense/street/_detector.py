@@ -134,7 +134,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
        region is merged into it, when at most ``merge_gap`` metres apart;
     7. beyond the paper: objects with two humps in their height profile are split
        (``split_merged``); objects shorter than ``min_length`` or longer than
-       ``max_length`` metres are labelled ``"other"`` (not vehicles).
+       ``max_length`` metres, or not seen over ``min_length`` metres without a
+       break, are labelled ``"other"`` (not vehicles).
 
     Objects are labelled by the region of their mean depth through ``region_labels``.
 
@@ -414,61 +415,54 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
 
     def _objects(self, cpos, cdepth, ctop, npts, cobj, step, runs, scans, follows):
         """Merge, split and label object-clusters; return the object table."""
-        n_obj = int(cobj.max()) + 1 if len(cobj) else 0
-        # per (object, scan): points, depth sum, top
         w = npts.astype(np.float64)
-        o_first = np.full(n_obj, np.iinfo(np.int64).max)
-        o_last = np.full(n_obj, -1)
-        np.minimum.at(o_first, cobj, cpos)
-        np.maximum.at(o_last, cobj, cpos)
-        o_pts = np.bincount(cobj, weights=w, minlength=n_obj)
-        o_depth = np.bincount(cobj, weights=cdepth * w, minlength=n_obj) / np.maximum(
-            o_pts, 1
-        )
-        parent = np.arange(n_obj)
-        if n_obj:
-            parent = self._merge(o_first, o_last, o_depth, o_pts, step, runs, follows)
-        cobj = parent[cobj]
-        # renumber and recompute after the merge
-        _, cobj = np.unique(cobj, return_inverse=True)
-        cobj = cobj.ravel()
-        n_obj = int(cobj.max()) + 1 if len(cobj) else 0
-        # split objects with two humps
-        if self.split_merged and n_obj:
-            cobj = self._split(cpos, ctop, cobj, n_obj, step)
-            n_obj = int(cobj.max()) + 1
-        o_first = np.full(n_obj, np.iinfo(np.int64).max)
-        o_last = np.full(n_obj, -1)
-        np.minimum.at(o_first, cobj, cpos)
-        np.maximum.at(o_last, cobj, cpos)
-        o_pts = np.bincount(cobj, weights=w, minlength=n_obj)
-        o_depth = np.bincount(cobj, weights=cdepth * w, minlength=n_obj) / np.maximum(
-            o_pts, 1
-        )
-        o_top = np.full(n_obj, -np.inf)
-        np.maximum.at(o_top, cobj, ctop)
+        n_pos = len(step)
+        # nearest cluster of every scan (to tell occlusion from an empty gap)
+        near = np.full(n_pos, np.inf)
+        if len(cpos):
+            np.minimum.at(near, cpos, cdepth)
+        prof = _Profiles(cobj, cpos, cdepth, ctop, w)
+        if prof.n:
+            parent = self._merge(prof, near, step, follows)
+            _, cobj = np.unique(parent[cobj], return_inverse=True)
+            cobj = cobj.ravel()
+            if self.split_merged:
+                cobj = self._split(_Profiles(cobj, cpos, cdepth, ctop, w), cobj, near,
+                                   step)
+        prof = _Profiles(cobj, cpos, cdepth, ctop, w)
+        n_obj = prof.n
         # order objects by (first scan, depth); ids from 1
-        order = np.lexsort((o_depth, o_first))
+        order = np.lexsort((prof.depth, prof.first))
         rank = np.empty(n_obj, dtype=np.int64)
         rank[order] = np.arange(n_obj)
-        cobj = rank[cobj]
-        o_first, o_last, o_pts = o_first[order], o_last[order], o_pts[order]
-        o_depth, o_top = o_depth[order], o_top[order]
-        length = np.array(
-            [step[a:b + 1].sum() for a, b in zip(o_first, o_last, strict=True)]
-        )
+        cobj = rank[cobj] if len(cobj) else cobj
+        o_first, o_last = prof.first[order], prof.last[order]
+        o_pts, o_depth, o_top = prof.pts[order], prof.depth[order], prof.top[order]
+        cum = np.r_[0.0, np.cumsum(step)]
+        length = cum[o_last + 1] - cum[o_first]
         region = self._region(o_depth)
-        label = np.asarray(self.labels_, dtype=object)[region] if n_obj else np.empty(
-            0, dtype=object
-        )
+        label = np.asarray(self.labels_, dtype=object)[region]
         vehicle_like = (length >= self.min_length) & (length <= self.max_length)
-        label = np.where(vehicle_like, label, "other")
+        # a vehicle is one continuous surface: its longest stretch of consecutive
+        # scans seen (or hidden by something nearer) must be vehicle-long too; rows
+        # of pedestrians, bins or bollards bridged by short gaps are not
+        for i in np.flatnonzero(vehicle_like):
+            o = order[i]
+            pos, _ = prof.scan_profile(o)
+            hidden = near < prof.depth[o] - self.link_distance
+            seen = hidden[pos[0]:pos[-1] + 1].copy()
+            seen[pos - pos[0]] = True
+            brk = np.flatnonzero(~seen)
+            edges = np.r_[-1, brk, len(seen)] + pos[0]
+            run_len = cum[edges[1:]] - cum[edges[:-1] + 1]
+            vehicle_like[i] = run_len.max() >= self.min_length
+        label = np.where(vehicle_like, label, "other").astype(object)
         table = pd.DataFrame({
-            "run": runs[o_first] if n_obj else np.empty(0, dtype=object),
+            "run": runs[o_first].astype(object),
             "id": np.arange(1, n_obj + 1, dtype=np.int64),
-            "first_scan": scans[o_first] if n_obj else np.empty(0, np.int64),
-            "last_scan": scans[o_last] if n_obj else np.empty(0, np.int64),
-            "label": label.astype(object),
+            "first_scan": scans[o_first].astype(np.int64),
+            "last_scan": scans[o_last].astype(np.int64),
+            "label": label,
             "mean_depth": o_depth,
             "region": (region + 1).astype(np.int64),
             "length": length,
@@ -479,13 +473,22 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         table.attrs["last_pos"] = o_last
         return table, cobj
 
-    def _merge(self, first, last, depth, pts, step, runs, follows):
-        """Three-region merging: union-find parent of every object-cluster."""
-        n_obj = len(first)
+    def _merge(self, prof, near, step, follows):
+        """Three-region merging: union-find parent of every object-cluster.
+
+        Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans
+        and the same region when they overlap in time over at least half of the
+        shorter one (the paper's rule), or when ``b`` starts after ``a`` ends and the
+        gap between them is bridged: ``a``'s last and ``b``'s first mean depths differ
+        by less than ``link_distance`` and the gap is at most ``merge_gap`` metres or
+        hidden by something nearer in every scan of the gap (occlusion by a passing
+        vehicle).
+        """
+        first, last, depth = prof.first, prof.last, prof.depth
+        n_obj = prof.n
         region = self._region(depth)
-        seg = np.cumsum(~follows) - 1  # contiguous stretch of scans
+        seg = np.cumsum(~follows) - 1  # contiguous stretches of scans
         cum = np.r_[0.0, np.cumsum(step)]
-        length = cum[last + 1] - cum[first]
         parent = np.arange(n_obj)
 
         def find(i):
@@ -494,52 +497,64 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                 i = parent[i]
             return i
 
-        # candidates: same stretch, same region, sorted by first scan
+        reach = self.max_length + self.merge_gap
         order = np.lexsort((first, region, seg[first]))
         for j in range(1, n_obj):
             b = order[j]
-            # look back at earlier objects of the same stretch and region
             for jj in range(j - 1, -1, -1):
                 a = order[jj]
                 if seg[first[a]] != seg[first[b]] or region[a] != region[b]:
                     break
-                if cum[first[b]] - cum[first[a]] > self.max_length + self.merge_gap:
+                if cum[first[b]] - cum[first[a]] > reach:
                     break
-                gap = cum[first[b]] - cum[last[a] + 1]
-                if gap > self.merge_gap:
-                    continue
-                big, small = (a, b) if pts[a] >= pts[b] else (b, a)
                 overlap = min(last[a], last[b]) - max(first[a], first[b]) + 1
-                n_small = last[small] - first[small] + 1
-                if length[small] < self.min_length or overlap >= 0.5 * n_small:
+                shorter = min(last[a] - first[a], last[b] - first[b]) + 1
+                if overlap > 0:
+                    join = overlap >= 0.5 * shorter
+                else:
+                    lo, hi = (a, b) if last[a] < first[b] else (b, a)
+                    join = abs(prof.end_depth[lo] - prof.start_depth[hi]) < (
+                        self.link_distance
+                    )
+                    if join:
+                        gap = cum[first[hi]] - cum[last[lo] + 1]
+                        ref = min(prof.end_depth[lo], prof.start_depth[hi])
+                        hidden = near[last[lo] + 1:first[hi]] < ref - self.link_distance
+                        join = gap <= self.merge_gap or bool(np.all(hidden))
+                if join:
                     ra, rb = find(a), find(b)
                     if ra != rb:
-                        parent[rb] = ra
-        return np.array([find(i) for i in range(n_obj)])
+                        parent[max(ra, rb)] = min(ra, rb)
+        return np.array([find(i) for i in range(n_obj)], dtype=np.int64)
 
-    def _split(self, cpos, ctop, cobj, n_obj, step):
-        """Split objects with a two-hump height profile; returns new object ids."""
-        order = np.lexsort((cpos, cobj))
-        so, sp, st = cobj[order], cpos[order], ctop[order]
-        bounds = np.flatnonzero(np.r_[True, so[1:] != so[:-1], True])
+    def _split(self, prof, cobj, near, step):
+        """Split objects with a two-hump height profile; returns new object ids.
+
+        Scans of the object's span where it has no cluster count as height 0 (a gap
+        between two vehicles), unless something nearer hid it (then unknown).
+        """
         new = cobj.copy()
-        next_id = n_obj
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            p, t = sp[a:b], st[a:b]
-            first, last = p[0], p[-1]
+        next_id = prof.n
+        cum = np.r_[0.0, np.cumsum(step)]
+        for o in range(prof.n):
+            first, last = prof.first[o], prof.last[o]
             span = last - first + 1
-            ds = float(np.median(step[first:last + 1]))
-            if span * ds < 2 * self.min_length:
+            if cum[last + 1] - cum[first] < 2 * self.min_length:
                 continue
-            top = np.full(span, np.nan)
-            np.fmax.at(top, p - first, t)
+            ds = (cum[last + 1] - cum[first]) / span
+            top = np.zeros(span)
+            seen_pos, seen_top = prof.scan_profile(o)
+            hidden = near[first:last + 1] < prof.depth[o] - self.link_distance
+            top[hidden] = np.nan
+            top[seen_pos - first] = seen_top
             cuts = split_profile(top, ds, min_length=self.min_length,
                                  ratio=self.split_ratio)
             if not cuts:
                 continue
-            part = np.searchsorted(np.asarray(cuts), p - first, side="right")
-            ids = np.where(part == 0, so[a], next_id + part - 1)
-            new[order[a:b]] = ids
+            mine = np.flatnonzero(cobj == o)
+            part = np.searchsorted(np.asarray(cuts), prof.cpos[mine] - first,
+                                   side="right")
+            new[mine] = np.where(part == 0, o, next_id + part - 1)
             next_id += len(cuts)
         return new
 
@@ -637,6 +652,46 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         for i, orig in enumerate(res["order"]):
             out[orig] = np.asarray(per_pos[i], dtype=np.int64).reshape(-1, 2)
         return out
+
+
+class _Profiles:
+    """Per object-cluster aggregates and per-(object, scan) profiles."""
+
+    def __init__(self, cobj, cpos, cdepth, ctop, w):
+        self.cpos = cpos
+        n = int(cobj.max()) + 1 if len(cobj) else 0
+        self.n = n
+        order = np.lexsort((cpos, cobj))
+        so, sp = cobj[order], cpos[order]
+        # one row per (object, scan)
+        key_new = np.r_[True, (so[1:] != so[:-1]) | (sp[1:] != sp[:-1])]
+        starts = np.flatnonzero(key_new)
+        sw = w[order]
+        pw = np.add.reduceat(sw, starts) if len(starts) else np.empty(0)
+        pdepth = (np.add.reduceat(sw * cdepth[order], starts) / np.maximum(pw, 1)
+                  if len(starts) else np.empty(0))
+        ptop = np.maximum.reduceat(ctop[order], starts) if len(starts) else np.empty(0)
+        pobj, ppos = so[starts], sp[starts]
+        self.p_obj, self.p_pos, self.p_top = pobj, ppos, ptop
+        obj_new = np.r_[True, pobj[1:] != pobj[:-1]] if len(pobj) else np.empty(0, bool)
+        ofirst_row = np.flatnonzero(obj_new)
+        olast_row = np.r_[ofirst_row[1:], len(pobj)] - 1
+        self.rows = np.r_[ofirst_row, len(pobj)]
+        self.first = ppos[ofirst_row]
+        self.last = ppos[olast_row]
+        self.start_depth = pdepth[ofirst_row]
+        self.end_depth = pdepth[olast_row]
+        self.pts = np.bincount(cobj, weights=w, minlength=n)
+        self.depth = np.bincount(cobj, weights=w * cdepth, minlength=n) / np.maximum(
+            self.pts, 1
+        )
+        self.top = ptop[ofirst_row] if n else np.empty(0)
+        if n:
+            self.top = np.maximum.reduceat(ptop, ofirst_row)
+
+    def scan_profile(self, o):
+        a, b = self.rows[o], self.rows[o + 1]
+        return self.p_pos[a:b], self.p_top[a:b]
 
 
 def _scan_period(stamps):
