@@ -378,6 +378,25 @@ def _paint(img, x0, x1, y0, y1, value, alpha=1.0, sigma=_SIG):
     win += a * (np.float32(value) - win)
 
 
+def _paint_poly(img, u, v, value):
+    """Fill the convex hull of the points ``(u, v)`` (anti-aliased) with ``value``."""
+    import cv2  # noqa: PLC0415
+
+    H, W = img.shape
+    j0, j1 = max(int(math.floor(u.min())) - 1, 0), min(int(math.ceil(u.max())) + 2, W)
+    i0, i1 = max(int(math.floor(v.min())) - 1, 0), min(int(math.ceil(v.max())) + 2, H)
+    if j1 <= j0 or i1 <= i0:
+        return
+    # 1/8 px precision; pixel centres at +0.5
+    pts = np.round((np.stack([u - j0 - 0.5, v - i0 - 0.5], axis=1)) * 8).astype(np.int32)
+    hull = cv2.convexHull(pts)
+    mask = np.zeros((i1 - i0, j1 - j0), np.uint8)
+    cv2.fillConvexPoly(mask, hull, 255, lineType=cv2.LINE_AA, shift=3)
+    a = mask.astype(np.float32) * np.float32(1 / 255)
+    win = img[i0:i1, j0:j1]
+    win += a * (np.float32(value) - win)
+
+
 def _glow(img, xc, yc, sigma, amp):
     """Add an isotropic blooming halo (Gaussian) around a hot source."""
     if amp < 0.5:
@@ -531,26 +550,38 @@ def _draw_indicator(img, cam, pose, ds, p, look):
     return box
 
 
-def _draw_lamp(img, cam, pose, ds, side, look):
-    """A luminaire on the upper wall: warm housing, hot glass on its underside."""
-    y_b = 4.9  # glass (bottom face) height
-    x_in = _lining_x(y_b, side)
-    if side < 0:
-        d = np.array([x_in + 0.1, x_in + 0.6])
-    else:
-        d = np.array([x_in - 0.6, x_in - 0.1])
-    length = 1.2
-    dd = np.repeat(d, 2)
-    ss = np.tile([ds, ds + length], 2)
-    x3, z3, y3 = cam.to_camera(ss, dd, np.full(4, y_b))
-    glass = _box_of(cam, pose, x3, z3, y3)
-    xh, zh, yh = cam.to_camera(np.full(4, ds), dd, np.array([y_b, y_b + 0.25] * 2))
-    housing = _box_of(cam, pose, xh, zh, yh)
-    if glass is None or housing is None:
-        return None
+_LAMP_GLASS_Y = 4.9  # height of the glass (bottom face of the luminaire)
+_LAMP_LENGTH = 1.2  # along the tunnel
+_LAMP_DEPTH = 0.25  # housing height above the glass
+
+
+def _lamp_boxes(cam, pose, ds, side):
+    """Projected boxes of the glass and housing of lamps at ``ds`` (n,) on ``side``.
+
+    A luminaire on the upper wall: a warm housing, a hot glass on its underside. Seen
+    from afar the glass is foreshortened to a sub-pixel sliver. Returns two (n, 5)
+    arrays ``(u0, v0, u1, v1, depth)``; depth < _Z_NEAR marks lamps not to draw.
+    """
+    x_in = _lining_x(_LAMP_GLASS_Y, side)
+    d = np.array([x_in + 0.1, x_in + 0.6]) if side < 0 else np.array([x_in - 0.6, x_in - 0.1])
+    ds = np.asarray(ds, dtype=np.float64)[:, None]
+    dd = np.repeat(d, 2)[None, :]
+    ss = ds + np.array([0.0, _LAMP_LENGTH, 0.0, _LAMP_LENGTH])[None, :]
+    x3, z3, y3 = cam.to_camera(ss, dd + 0 * ss, _LAMP_GLASS_Y)
+    u, v, zc = cam.project(x3, z3, y3, pose)
+    glass = np.stack([u.min(1), v.min(1), u.max(1), v.max(1), zc.min(1)], axis=1)
+    yy = np.array([_LAMP_GLASS_Y, _LAMP_GLASS_Y + _LAMP_DEPTH] * 2)[None, :]
+    x3, z3, y3 = cam.to_camera(ds + 0 * dd, dd + 0 * ds, yy)
+    u, v, zc = cam.project(x3, z3, y3, pose)
+    housing = np.stack([u.min(1), v.min(1), u.max(1), v.max(1), zc.min(1)], axis=1)
+    return glass, housing
+
+
+def _draw_lamp(img, glass, housing, look):
     housing_i, hot, bloom = look
-    _paint(img, housing[0], housing[2], housing[1], housing[3], housing_i)
     gu0, gv0, gu1, gv1, _ = glass
+    if housing[3] - housing[1] > 1.0:
+        _paint(img, housing[0], housing[2], housing[1], housing[3], housing_i)
     _paint(img, gu0, gu1, gv0, gv1, hot)
     area = (gu1 - gu0) * (gv1 - gv0)
     _glow(
@@ -583,9 +614,9 @@ def _draw_shadow(img, cam, pose, veh, f, ds):
     hgt = v1 - v0
     # warmest next to the vehicle, fading toward the camera
     shadow = veh["I"]["shadow"]
-    _paint(img, u0, u1, v0, v0 + 0.55 * hgt, shadow, 0.95)
-    _paint(img, u0 + 0.05 * (u1 - u0), u1 - 0.05 * (u1 - u0), v0 + 0.55 * hgt, v1,
-           shadow - 10, 0.6)
+    soft = math.hypot(_SIG, 0.08 * (u1 - u0))  # heat spreads: soft edges
+    _paint(img, u0, u1, v0, v0 + 0.5 * hgt, shadow, 0.9, soft)
+    _paint(img, u0, u1, v0 + 0.5 * hgt, v1, shadow - 12, 0.5, soft)
     return box
 
 
@@ -601,8 +632,8 @@ def _draw_vehicle(img, cam, pose, veh, f, ds):
         return None
     u, v, _ = cam.project(x3, z3, y3, pose)
     I = veh["I"]
-    # side faces seen obliquely: fill the whole outline, then the rear face on top
-    _paint(img, box[0], box[2], box[1], box[3], I["side"])
+    # side and roof seen obliquely: fill the silhouette, then the rear face on top
+    _paint_poly(img, u, v, I["side"])
     ru0, ru1 = u[:4].min(), u[:4].max()
     rv0, rv1 = v[:4].min(), v[:4].max()
     rw, rh = ru1 - ru0, rv1 - rv0
@@ -691,7 +722,12 @@ def make_tunnel_tour(
         image), class (1 indicator, 2 lamp, 3 vehicle, 4 shadow), persistent id,
         ``conf=1`` and ``visibility`` (fraction of the box inside the image and not
         hidden by a nearer vehicle). ``info`` holds the scenario, seed, camera
-        parameters, ``distance_m`` driven and ``n_indicators``.
+        parameters, ``distance_m`` driven, ``n_indicators`` (distinct indicator ids in
+        the ground truth) and ``n_indicators_passed`` (indicators whose sign left the
+        image during the tour: one per ``indicator_spacing_m`` driven, so it differs
+        from ``distance_m / indicator_spacing_m`` by less than one). The ground truth
+        also holds up to ``300 / indicator_spacing_m`` indicators still ahead at the
+        end of the tour.
 
     Examples
     --------
@@ -775,16 +811,18 @@ def make_tunnel_tour(
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
         drawn = []  # (depth, class, id, box, occluder?)
         todo = []
-        for k, s_k in enumerate(indicators):
-            ds = s_k - sc
-            if _Z_NEAR < ds < _Z_FAR:
-                todo.append((ds, INDICATOR, k))
+        lo, hi = np.searchsorted(indicators, [sc + _Z_NEAR, sc + _Z_FAR])
+        for k in range(lo, hi):
+            todo.append((indicators[k] - sc, INDICATOR, k))
         for row, side in enumerate((-1, 1)):
             offset = 0.5 * lamp_spacing * row  # the two rows are staggered
-            for k in range(len(lamp_s)):
-                ds = lamp_s[k] + offset - sc
-                if _Z_NEAR < ds < _Z_FAR:
-                    todo.append((ds, LAMP, (row, side, k)))
+            lo, hi = np.searchsorted(lamp_s + offset, [sc + _Z_NEAR, sc + _Z_FAR])
+            if hi > lo:
+                glass, housing = _lamp_boxes(cam, pose, lamp_s[lo:hi] + offset - sc, side)
+                for k in range(lo, hi):
+                    gl, ho = glass[k - lo], housing[k - lo]
+                    if min(gl[4], ho[4]) > _Z_NEAR:
+                        todo.append((lamp_s[k] + offset - sc, LAMP, (row, k, gl, ho)))
         for k, veh in enumerate(vehicles):
             ds = veh["gap"][f]
             if 2.0 < ds < _Z_FAR:
@@ -795,8 +833,8 @@ def make_tunnel_tour(
                 box = _draw_indicator(img, cam, pose, ds, p, ind_look[key])
                 oid = ind_ids[key]
             elif cls == LAMP:
-                row, side, k = key
-                box = _draw_lamp(img, cam, pose, ds, side, lamp_look[k])
+                row, k, gl, ho = key
+                box = _draw_lamp(img, gl, ho, lamp_look[k])
                 oid = lamp_ids[row, k]
             else:
                 veh = vehicles[key]
@@ -827,6 +865,8 @@ def make_tunnel_tour(
         }
     )
     n_ind = int(gt.loc[gt["class"] == INDICATOR, "id"].nunique())
+    # indicators driven past: their sign left the image within the tour
+    passed = (indicators - exit_depth >= 0.0) & (indicators - exit_depth <= s_ego[-1])
     info = {
         "scenario": scenario,
         "seed": seed,
@@ -842,6 +882,7 @@ def make_tunnel_tour(
         "indicator_spacing_m": float(p["indicator_spacing_m"]),
         "first_indicator_m": float(indicators[0]) if len(indicators) else -1.0,
         "n_indicators": n_ind,
+        "n_indicators_passed": int(passed.sum()),
         "lamp_spacing_m": round(float(lamp_spacing), 4),
         "traffic_per_km": float(p["traffic_per_km"]),
         "truck_fraction": float(p["truck_fraction"]),
