@@ -64,3 +64,51 @@ def test_info_on_missing_source_is_a_clear_error(tmp_path, capsys):
     assert main(["info", str(tmp_path / "nope")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("tunnelsense: error:") and "nope: not found" in err
+
+
+def test_simulate_then_info(tmp_path, capsys):
+    assert (
+        main(
+            ["simulate", "tunnel", str(tmp_path / "t"), "--frames", "12", "--seed", "3"]
+        )
+        == 0
+    )
+    out = capsys.readouterr()
+    assert out.out.startswith(
+        f"wrote {tmp_path / 't'}: 12 frames, scenario light, seed 3"
+    )
+    assert "writing frames: 12/12" in out.err
+    assert main(["info", str(tmp_path / "t"), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["kind"] == "tunnel" and facts["frames"] == 12
+    assert (facts["width"], facts["height"]) == (640, 480)
+    assert facts["info"]["scenario"] == "light" and facts["info"]["seed"] == "3"
+
+    assert (
+        main(
+            [
+                "simulate",
+                "street",
+                str(tmp_path / "s"),
+                "--scans",
+                "300",
+                "--scenario",
+                "dense",
+            ]
+        )
+        == 0
+    )
+    summary = capsys.readouterr().out
+    assert main(["info", str(tmp_path / "s"), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["kind"] == "street" and facts["scans"] == 300
+    assert facts["info"]["scenario"] == "dense"
+    parked = facts["objects"].get("parked", 0)
+    assert f"{parked} parked" in summary
+
+
+def test_simulate_rejects_unknown_scenario(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "street", str(tmp_path / "x"), "--scenario", "moon"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'moon'" in capsys.readouterr().err

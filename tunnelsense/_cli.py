@@ -179,6 +179,9 @@ def main(argv=None) -> int:
     except (FileNotFoundError, ValueError, OSError) as exc:
         print(f"tunnelsense: error: {exc}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # e.g. `tunnelsense info ... | head`
+        sys.stderr.close()
+        return 0
     except KeyboardInterrupt:
         print("tunnelsense: interrupted", file=sys.stderr)
         return 130
