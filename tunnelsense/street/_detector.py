@@ -167,7 +167,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         (pedestrians, bins, bollards); also the shortest part a split leaves.
     max_length : float, default=25.0
         Longest vehicle (m); longer objects (hedges, walls) are ``"other"``.
-    merge_gap : float, default=1.0
+    merge_gap : float, default=0.5
         Largest gap (m along the track) across which fragments are merged.
     speed : float or None, default=None
         Ego speed (m/s) turning scan counts into lengths.  None: the median of the
@@ -229,7 +229,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         split_ratio=0.6,
         min_length=1.5,
         max_length=25.0,
-        merge_gap=1.0,
+        merge_gap=0.5,
         speed=None,
     ):
         self.cut = cut
@@ -481,8 +481,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         shorter one (the paper's rule), or when ``b`` starts after ``a`` ends and the
         gap between them is bridged: ``a``'s last and ``b``'s first mean depths differ
         by less than ``link_distance`` and the gap is at most ``merge_gap`` metres or
-        hidden by something nearer in every scan of the gap (occlusion by a passing
-        vehicle).
+        hidden in every scan of the gap by something at least ``2 * link_distance``
+        nearer (occlusion by a passing vehicle).
         """
         first, last, depth = prof.first, prof.last, prof.depth
         n_obj = prof.n
@@ -519,7 +519,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                     if join:
                         gap = cum[first[hi]] - cum[last[lo] + 1]
                         ref = min(prof.end_depth[lo], prof.start_depth[hi])
-                        hidden = near[last[lo] + 1:first[hi]] < ref - self.link_distance
+                        hidden = near[last[lo] + 1:first[hi]] < ref - 2 * self.link_distance
                         join = gap <= self.merge_gap or bool(np.all(hidden))
                 if join:
                     ra, rb = find(a), find(b)
