@@ -69,7 +69,11 @@ def _cmd_simulate(args) -> int:
     start = time.perf_counter()
     if args.kind == "tunnel":
         tour = make_tunnel_tour(
-            args.frames, scenario=args.scenario, random_state=args.seed, name=out.name
+            args.frames,
+            scenario=args.scenario,
+            random_state=args.seed,
+            name=out.name,
+            progress=Progress(args.frames, "rendering frames"),
         )
         write_tour(tour, out, progress=Progress(len(tour), "writing frames"))
         n_ind = tour.gt.loc[tour.gt["class"] == 1, "id"].nunique()

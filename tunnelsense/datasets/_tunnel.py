@@ -123,7 +123,9 @@ def _resolve_params(scenario, overrides):
     if np.ndim(sp) == 0:
         sp = (sp, sp)
     if len(sp) != 2:
-        raise ValueError(f"speed_kmh must be a number or a (low, high) pair; got {sp!r}")
+        raise ValueError(
+            f"speed_kmh must be a number or a (low, high) pair; got {sp!r}"
+        )
     lo = _check_range("speed_kmh", sp[0], 0.0, 300.0, closed_lo=False)
     hi = _check_range("speed_kmh", sp[1], lo, 300.0)
     p["speed_kmh"] = (lo, hi)
@@ -142,9 +144,7 @@ def _resolve_params(scenario, overrides):
     p["focal_length_px"] = _check_range(
         "focal_length_px", p["focal_length_px"], 50.0, 10000.0
     )
-    p["mount_height_m"] = _check_range(
-        "mount_height_m", p["mount_height_m"], 0.3, 4.0
-    )
+    p["mount_height_m"] = _check_range("mount_height_m", p["mount_height_m"], 0.3, 4.0)
     p["noise_sigma"] = _check_range("noise_sigma", p["noise_sigma"], 0.0, 50.0)
     radius = float(p["curve_radius_m"])
     if math.isnan(radius) or abs(radius) < 200.0:
@@ -388,7 +388,9 @@ def _paint_poly(img, u, v, value):
     if j1 <= j0 or i1 <= i0:
         return
     # 1/8 px precision; pixel centres at +0.5
-    pts = np.round((np.stack([u - j0 - 0.5, v - i0 - 0.5], axis=1)) * 8).astype(np.int32)
+    pts = np.round((np.stack([u - j0 - 0.5, v - i0 - 0.5], axis=1)) * 8).astype(
+        np.int32
+    )
     hull = cv2.convexHull(pts)
     mask = np.zeros((i1 - i0, j1 - j0), np.uint8)
     cv2.fillConvexPoly(mask, hull, 255, lineType=cv2.LINE_AA, shift=3)
@@ -419,7 +421,9 @@ def _smooth_noise(rng, t, amplitude, periods):
     """A smooth random signal: sum of sinusoids with the given periods (s)."""
     out = np.zeros_like(t)
     for p in periods:
-        out += np.sin(2 * np.pi * t / (p * rng.uniform(0.8, 1.25)) + rng.uniform(0, 6.3))
+        out += np.sin(
+            2 * np.pi * t / (p * rng.uniform(0.8, 1.25)) + rng.uniform(0, 6.3)
+        )
     return amplitude * out / math.sqrt(len(periods) / 2)
 
 
@@ -431,9 +435,7 @@ def _ego_motion(rng, n, fps, p):
     speed = np.clip(speed, lo, hi) / 3.6  # m/s
     s = np.concatenate([[0.0], np.cumsum(speed[:-1] / fps)])
     e = _smooth_noise(rng, t, p["lateral_jitter_m"], (6.0, 11.0))
-    pitch = np.deg2rad(
-        _smooth_noise(rng, t, p["pitch_jitter_deg"], (0.7, 1.3, 2.1))
-    )
+    pitch = np.deg2rad(_smooth_noise(rng, t, p["pitch_jitter_deg"], (0.7, 1.3, 2.1)))
     bounce = _smooth_noise(rng, t, 0.01, (0.5, 0.9))
     h = p["mount_height_m"] + bounce
     return t, speed, s, e, h, pitch
@@ -482,7 +484,9 @@ def _make_vehicles(rng, t, s_ego, speed, p):
                 continue
             veh["x"] = start + (target - start) * frac
             if target == 0.0:
-                veh["gap"] = np.where(frac > 0, np.maximum(veh["gap"], 12.0), veh["gap"])
+                veh["gap"] = np.where(
+                    frac > 0, np.maximum(veh["gap"], 12.0), veh["gap"]
+                )
     for veh in vehicles:
         truck = rng.random() < p["truck_fraction"]
         veh["truck"] = truck
@@ -521,7 +525,13 @@ def _box_of(cam, pose, xs, zs, ys):
     u, v, zc = cam.project(xs, zs, ys, pose)
     if np.any(zc < _Z_NEAR):
         return None
-    return float(u.min()), float(v.min()), float(u.max()), float(v.max()), float(zc.min())
+    return (
+        float(u.min()),
+        float(v.min()),
+        float(u.max()),
+        float(v.max()),
+        float(zc.min()),
+    )
 
 
 def _draw_indicator(img, cam, pose, ds, p, look):
@@ -540,8 +550,12 @@ def _draw_indicator(img, cam, pose, ds, p, look):
     frame, face, text, grad = look
     # housing, lit face (warmer at the top, where the lamp is), pictograph and text
     _paint(img, u0, u1, v0, v1, frame)
-    _paint(img, u0 + 0.08 * bw, u1 - 0.08 * bw, v0 + 0.05 * bh, v0 + 0.5 * bh, face + grad)
-    _paint(img, u0 + 0.08 * bw, u1 - 0.08 * bw, v0 + 0.5 * bh, v1 - 0.05 * bh, face - grad)
+    _paint(
+        img, u0 + 0.08 * bw, u1 - 0.08 * bw, v0 + 0.05 * bh, v0 + 0.5 * bh, face + grad
+    )
+    _paint(
+        img, u0 + 0.08 * bw, u1 - 0.08 * bw, v0 + 0.5 * bh, v1 - 0.05 * bh, face - grad
+    )
     if bh > 8:
         _paint(img, u0 + 0.25 * bw, u1 - 0.25 * bw, v0 + 0.1 * bh, v0 + 0.3 * bh, text)
         for k in range(4):  # four characters written vertically
@@ -563,7 +577,11 @@ def _lamp_boxes(cam, pose, ds, side):
     arrays ``(u0, v0, u1, v1, depth)``; depth < _Z_NEAR marks lamps not to draw.
     """
     x_in = _lining_x(_LAMP_GLASS_Y, side)
-    d = np.array([x_in + 0.1, x_in + 0.6]) if side < 0 else np.array([x_in - 0.6, x_in - 0.1])
+    d = (
+        np.array([x_in + 0.1, x_in + 0.6])
+        if side < 0
+        else np.array([x_in - 0.6, x_in - 0.1])
+    )
     ds = np.asarray(ds, dtype=np.float64)[:, None]
     dd = np.repeat(d, 2)[None, :]
     ss = ds + np.array([0.0, _LAMP_LENGTH, 0.0, _LAMP_LENGTH])[None, :]
@@ -639,7 +657,9 @@ def _draw_vehicle(img, cam, pose, veh, f, ds):
     rw, rh = ru1 - ru0, rv1 - rv0
 
     def rect(fx0, fx1, fy0, fy1, value):  # fractions of the rear face (y from top)
-        _paint(img, ru0 + fx0 * rw, ru0 + fx1 * rw, rv0 + fy0 * rh, rv0 + fy1 * rh, value)
+        _paint(
+            img, ru0 + fx0 * rw, ru0 + fx1 * rw, rv0 + fy0 * rh, rv0 + fy1 * rh, value
+        )
 
     if veh["truck"]:
         rect(0.0, 1.0, 0.0, 0.7, I["body"])  # cargo box
@@ -663,7 +683,13 @@ def _draw_vehicle(img, cam, pose, veh, f, ds):
 # the generator
 # --------------------------------------------------------------------------------------
 def make_tunnel_tour(
-    n_frames=1500, *, scenario="light", random_state=None, name=None, **overrides
+    n_frames=1500,
+    *,
+    scenario="light",
+    random_state=None,
+    name=None,
+    progress=None,
+    **overrides,
 ):
     """Simulate a far-infrared camera driving through a motorway tunnel.
 
@@ -704,6 +730,9 @@ def make_tunnel_tour(
         Seed; the same seed gives byte-identical images and ground truth.
     name : str, default=None
         Tour name; default ``"tunnel-<scenario>-<seed>"``.
+    progress : callable or None, default=None
+        Called as ``progress(n_done, n_frames)`` after each rendered frame (the
+        command line shows a progress bar with it).
     **overrides
         Physical parameters replacing the scenario's: ``speed_kmh`` (low, high) or one
         number; ``indicator_spacing_m`` (200); ``first_indicator_m`` (None = random,
@@ -818,7 +847,9 @@ def make_tunnel_tour(
             offset = 0.5 * lamp_spacing * row  # the two rows are staggered
             lo, hi = np.searchsorted(lamp_s + offset, [sc + _Z_NEAR, sc + _Z_FAR])
             if hi > lo:
-                glass, housing = _lamp_boxes(cam, pose, lamp_s[lo:hi] + offset - sc, side)
+                glass, housing = _lamp_boxes(
+                    cam, pose, lamp_s[lo:hi] + offset - sc, side
+                )
                 for k in range(lo, hi):
                     gl, ho = glass[k - lo], housing[k - lo]
                     if min(gl[4], ho[4]) > _Z_NEAR:
@@ -852,6 +883,8 @@ def make_tunnel_tour(
         np.rint(img, out=img)
         images[f] = img
         rows.extend(_gt_rows(f + 1, drawn, W, H))
+        if progress is not None:
+            progress(f + 1, n_frames)
 
     gt = pd.DataFrame(rows, columns=list(MOT_GT_COLUMNS))
     gt = gt.astype(
