@@ -698,8 +698,11 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
     theta = angles[None, :] + roll[:, None]
     ranges = _measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)
 
-    # ground truth: vehicles the scanner sees, over the scans their body crosses the plane
-    valid = (hit >= 0) & np.isfinite(ranges) & (ranges < MAX_RANGE)
+    # ground truth: vehicles the scanner sees (in at least 3 scans, between 0.1 m and
+    # 2 m above the road), over the scans their body crosses the plane
+    with np.errstate(invalid="ignore"):
+        z = height[:, None] + ranges * np.sin(theta)
+        valid = (hit >= 0) & (ranges < MAX_RANGE) & (z > 0.1) & (z < 2.0)
     scan_idx = np.nonzero(valid)[0]
     seen = np.unique(hit[valid] * np.int64(n_scans) + scan_idx)
     scans_seen = np.bincount(seen // n_scans, minlength=len(objects))
@@ -725,9 +728,12 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
     for k, r in enumerate(rows, start=1):
         objects[r[3]]["id"] = k
 
+    any_hit = np.bincount(hit[hit >= 0], minlength=len(objects))
+    hidden = sum(1 for i, o in enumerate(objects)
+                 if o["label"] is not None and any_hit[i] > 0 and scans_seen[i] < 3)
     clutter = {}
     for i, o in enumerate(objects):
-        if o["label"] is None and scans_seen[i] > 0:
+        if o["label"] is None and any_hit[i] > 0:
             clutter[o["kind"]] = clutter.get(o["kind"], 0) + 1
     roll_deg = np.rad2deg(roll)
     info = {
@@ -749,6 +755,7 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         "roll_deg_max": round(float(roll_deg.max()), 4),
         "n_parked": int((gt["label"] == "parked").sum()),
         "n_passing": int((gt["label"] == "passing").sum()),
+        "n_vehicles_hidden": int(hidden),
         "clutter_seen": dict(sorted(clutter.items())),
         "vehicles": [
             {"id": objects[r[3]]["id"], "kind": objects[r[3]]["kind"], "label": r[2],
@@ -829,8 +836,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
     run : Run
         Scans with the nominal :class:`~tunnelsense.LaserGeometry` (the true roll is
         not in it), ground truth ``id,first_scan,last_scan,label`` with one row per
-        parked or passing vehicle (motorbikes included) that the scanner sees, over
-        the scans during which its body crosses the scan plane, and ``info``
+        parked or passing vehicle (motorbikes included) that the scanner sees
+        between 0.1 m and 2 m above the road in at least 3 scans, over the scans
+        during which its body crosses the scan plane, and ``info``
         (scenario, seed, speeds, true roll summary, per-vehicle facts, parameters).
 
     Examples
