@@ -5,11 +5,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.cluster.hierarchy import fcluster, single
+from scipy.spatial.distance import pdist
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tunnelsense import FrameRecord, FrameSequence
 from tunnelsense.tunnel import MSTClusterer, cluster_boxes, mst_partition
-from tunnelsense.tunnel._clustering import DENSE_MAX_POINTS
+from tunnelsense.tunnel._clustering import (
+    DENSE_MAX_POINTS,
+    _delaunay_partition,
+    _pair_bound,
+    _pair_partition,
+)
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
 
 
@@ -24,7 +30,9 @@ def canonical(labels):
 def scipy_partition(points, cut):
     if len(points) == 1:
         return np.zeros(1, dtype=np.intp)
-    return canonical(fcluster(single(points), cut, criterion="distance"))
+    # single(pdist(points)) is single(points) without SciPy's guess whether a square
+    # observation matrix is a distance matrix
+    return canonical(fcluster(single(pdist(points)), cut, criterion="distance"))
 
 
 @parametrize_with_checks([MSTClusterer(), MSTClusterer(cut=0.5)])
@@ -87,7 +95,7 @@ def test_duplicated_points_match_scipy(points, repeats, cut):
     n=st.integers(DENSE_MAX_POINTS + 1, 1500),
 )
 def test_large_sets_match_scipy(seed, kind, n):
-    """Above the dense threshold: Delaunay edges, or the KD-tree when degenerate."""
+    """Above the dense threshold: KD-tree pairs and Delaunay edges both exact."""
     rng = np.random.default_rng(seed)
     if kind == "uniform":
         P = rng.uniform(0, 40 * np.sqrt(n), (n, 2))
@@ -104,7 +112,19 @@ def test_large_sets_match_scipy(seed, kind, n):
         c = rng.uniform(0, 2000, (8, 2))
         P = c[rng.integers(0, 8, n)] + rng.normal(0, 25, (n, 2))
     for cut in (6.0, 40.0):
-        assert np.array_equal(mst_partition(P, cut), scipy_partition(P, cut))
+        expected = scipy_partition(P, cut)
+        assert np.array_equal(mst_partition(P, cut), expected)
+        assert np.array_equal(canonical(_delaunay_partition(P, cut)), expected)
+        assert np.array_equal(canonical(_pair_partition(P, cut)), expected)
+
+
+def test_dense_sets_take_the_delaunay_path(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    blob = np.round(rng.normal(0, 8, (2500, 2)))  # dense, many duplicates
+    P = np.concatenate([blob, rng.uniform(-1000, 1000, (500, 2))])
+    rng.shuffle(P)
+    assert _pair_bound(P, 10.0) > max(30 * len(P), 2e6)  # the Delaunay path
+    assert np.array_equal(mst_partition(P, 10.0), scipy_partition(P, 10.0))
 
 
 def test_three_dimensional_points_match_scipy(global_random_seed):

@@ -7,12 +7,15 @@ that graph without ever forming a full MST:
 
 * up to :data:`DENSE_MAX_POINTS` points (the per-frame case, about 100 keypoints): a dense
   distance matrix and min-label propagation with pointer jumping, all in NumPy;
-* more points in 2-D: the edges of the Delaunay triangulation of the distinct points
-  (the Euclidean MST lies inside it, and every pair at most ``cut`` apart is joined by a
-  path of Delaunay edges each at most ``cut`` long), then
-  :func:`scipy.sparse.csgraph.connected_components`;
-* degenerate 2-D input (all points collinear, fewer than 3 distinct points) and other
-  dimensions: a KD-tree's ``query_pairs``.
+* more points, when a grid count bounds the number of pairs at most ``cut`` apart by
+  ``max(30 n, 2e6)`` (sparse sets, such as keypoints): those pairs from a KD-tree's
+  ``query_pairs``, then :func:`scipy.sparse.csgraph.connected_components`;
+* dense 2-D sets: the edges of the Delaunay triangulation of the distinct points (the
+  Euclidean MST lies inside it, and every pair at most ``cut`` apart is joined by a
+  path of Delaunay edges each at most ``cut`` long: if a pair's edge is missing, some
+  point lies in the closed disc on that pair's diameter, and is strictly nearer to
+  both), then connected components; when Qhull cannot triangulate (all points
+  collinear), the KD-tree pairs.
 
 Points at identical positions always fall into one cluster.  Labels are numbered in
 order of first occurrence (the cluster of ``points[0]`` is 0, and so on).
@@ -52,22 +55,28 @@ def _canonical(labels: np.ndarray) -> np.ndarray:
 
 def _dense_partition(points: np.ndarray, cut: float) -> np.ndarray:
     n = len(points)
-    diff = points[:, None, :] - points[None, :, :]
-    adjacent = np.einsum("ijk,ijk->ij", diff, diff) <= cut * cut
+    adjacent = None
+    for k in range(points.shape[1]):
+        x = points[:, k]
+        d = x[:, None] - x
+        d *= d
+        adjacent = d if adjacent is None else adjacent + d
+    adjacent = adjacent <= cut * cut
     # Min-label propagation: every point takes the smallest index among its
-    # neighbours, then jumps to the label of that label.  Labels only decrease and stay
-    # within a component, so the fixed point labels each component by its smallest
-    # index, which is also its first occurrence.
-    labels = np.arange(n, dtype=np.intp)
-    fill = np.intp(n)
+    # neighbours (itself included), then jumps along its labels' labels.  Labels
+    # only decrease and stay within a component, so at the fixed point every
+    # component is labelled by its smallest index, which is its first occurrence.
+    labels = adjacent.argmax(axis=1)  # the first True: the smallest neighbour
+    labels = labels[labels]
     while True:
-        new = np.where(adjacent, labels, fill).min(axis=1)
-        new = new[new]
+        new = np.where(adjacent, labels, n).min(axis=1)
+        new = new[new[new]]
         if np.array_equal(new, labels):
             break
         labels = new
-    _, canonical = np.unique(labels, return_inverse=True)
-    return canonical.astype(np.intp, copy=False)
+    roots = labels == np.arange(n)
+    rank = np.cumsum(roots) - 1
+    return rank[labels].astype(np.intp, copy=False)
 
 
 def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
@@ -78,22 +87,56 @@ def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
 
 
 def _pair_partition(points: np.ndarray, cut: float) -> np.ndarray:
+    # query_pairs reports coincident points too (distance 0 <= cut), so duplicates
+    # are joined without special care.
     pairs = cKDTree(points).query_pairs(cut, output_type="ndarray")
     return _components(len(points), pairs[:, 0], pairs[:, 1])
 
 
+def _distinct(points: np.ndarray):
+    """Distinct rows of a 2-D array and the index of every row's distinct row."""
+    order = np.lexsort(points.T[::-1])
+    sorted_points = points[order]
+    new = np.empty(len(points), dtype=bool)
+    new[0] = True
+    np.any(sorted_points[1:] != sorted_points[:-1], axis=1, out=new[1:])
+    group = np.cumsum(new) - 1
+    inverse = np.empty(len(points), dtype=np.intp)
+    inverse[order] = group
+    return sorted_points[new], inverse
+
+
 def _delaunay_partition(points: np.ndarray, cut: float) -> np.ndarray:
+    unique, inverse = _distinct(points)
+    if len(unique) < 3:
+        return _pair_partition(points, cut)
     try:
-        simplices = Delaunay(points).simplices
-    except (QhullError, ValueError):
+        simplices = Delaunay(unique).simplices
+    except (QhullError, ValueError):  # all points collinear
         return _pair_partition(points, cut)
     edges = np.concatenate(
         [simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]]
     )
-    d = points[edges[:, 0]] - points[edges[:, 1]]
+    d = unique[edges[:, 0]] - unique[edges[:, 1]]
     keep = np.einsum("ij,ij->i", d, d) <= cut * cut
     edges = edges[keep]
-    return _components(len(points), edges[:, 0], edges[:, 1])
+    return _components(len(unique), edges[:, 0], edges[:, 1])[inverse]
+
+
+def _pair_bound(points: np.ndarray, cut: float) -> float:
+    """An upper bound on the number of pairs at most ``cut`` apart (grid count)."""
+    cells = np.floor(points / cut).astype(np.int64)
+    cells -= cells.min(axis=0)
+    span = cells.max(axis=0) + 1
+    if float(span[0]) * float(span[1]) < 2.0**62:
+        keys = cells[:, 0] * span[1] + cells[:, 1]
+        counts = np.unique(keys, return_counts=True)[1]
+    else:
+        counts = np.unique(cells, axis=0, return_counts=True)[1]
+    counts = counts.astype(np.float64)
+    # a pair within cut lies in the same or adjacent cells: sum over the 3 x 3
+    # neighbourhood of c_i * c_j <= 4.5 * sum(c_i ** 2)
+    return 4.5 * float(np.dot(counts, counts))
 
 
 def mst_partition(points, cut: float = 40.0) -> np.ndarray:
@@ -112,6 +155,13 @@ def mst_partition(points, cut: float = 40.0) -> np.ndarray:
     labels : ndarray of shape (n_points,), dtype intp
         Cluster of every point, numbered ``0, 1, ...`` in order of first occurrence.
 
+    Notes
+    -----
+    Up to :data:`DENSE_MAX_POINTS` points: dense distances.  More points: the pairs at
+    most ``cut`` apart from a KD-tree when a grid count bounds their number by
+    ``max(30 * n, 2e6)``; otherwise (dense 2-D sets) the Delaunay edges of the
+    distinct points.  Either way, connected components give the partition.
+
     Examples
     --------
     >>> import numpy as np
@@ -120,17 +170,20 @@ def mst_partition(points, cut: float = 40.0) -> np.ndarray:
     """
     points = np.asarray(points, dtype=np.float64)
     n = len(points)
+    cut = float(cut)
     if n == 0:
         return np.empty(0, dtype=np.intp)
     if n <= DENSE_MAX_POINTS:
-        return _dense_partition(points, float(cut))
-    unique, inverse = np.unique(points, axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    if unique.shape[1] == 2 and len(unique) >= 3:
-        labels = _delaunay_partition(unique, float(cut))
+        return _dense_partition(points, cut)
+    if (
+        points.shape[1] == 2
+        and cut > 0
+        and _pair_bound(points, cut) > max(30.0 * n, 2e6)
+    ):
+        labels = _delaunay_partition(points, cut)
     else:
-        labels = _pair_partition(unique, float(cut))
-    return _canonical(labels[inverse].astype(np.intp, copy=False))
+        labels = _pair_partition(points, cut)
+    return _canonical(labels.astype(np.intp, copy=False))
 
 
 def cluster_boxes(rows, cols, labels, n_clusters=None) -> np.ndarray:
@@ -152,16 +205,14 @@ def cluster_boxes(rows, cols, labels, n_clusters=None) -> np.ndarray:
     labels = np.asarray(labels, dtype=np.intp)
     if n_clusters is None:
         n_clusters = int(labels.max()) + 1 if len(labels) else 0
-    m = int(n_clusters)
-    lo_r = np.full(m, np.inf)
-    lo_c = np.full(m, np.inf)
-    hi_r = np.full(m, -np.inf)
-    hi_c = np.full(m, -np.inf)
-    np.minimum.at(lo_r, labels, rows)
-    np.minimum.at(lo_c, labels, cols)
-    np.maximum.at(hi_r, labels, rows)
-    np.maximum.at(hi_c, labels, cols)
-    return np.column_stack([lo_c, lo_r, hi_c - lo_c + 1, hi_r - lo_r + 1])
+    if n_clusters == 0:
+        return np.empty((0, 4), dtype=np.float64)
+    order = np.argsort(labels, kind="stable")
+    starts = np.searchsorted(labels[order], np.arange(int(n_clusters)))
+    r, c = rows[order], cols[order]
+    top, left = np.minimum.reduceat(r, starts), np.minimum.reduceat(c, starts)
+    bottom, right = np.maximum.reduceat(r, starts), np.maximum.reduceat(c, starts)
+    return np.column_stack([left, top, right - left + 1, bottom - top + 1])
 
 
 class MSTClusterer(TransformerMixin, BaseEstimator):
@@ -332,10 +383,6 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
             rows = kp[:, 0]
             cols = kp[:, 1]
             labels = mst_partition(np.column_stack([rows, cols]), cut)
-            boxes = (
-                cluster_boxes(rows, cols, labels)
-                if len(labels)
-                else np.empty((0, 4), dtype=np.float64)
-            )
+            boxes = cluster_boxes(rows, cols, labels)
             out.append(r.evolve(cluster_labels=labels, cluster_boxes=boxes))
         return FrameSequence(out)

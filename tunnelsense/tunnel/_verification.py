@@ -18,6 +18,7 @@ from sklearn.cluster import KMeans, MiniBatchKMeans
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
+from threadpoolctl import threadpool_limits
 
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense.tunnel._common import is_record_input, keypoints_of, points_in_boxes
@@ -112,12 +113,21 @@ def fit_kmeans(
       ``3 * n_clusters`` rows) seeding k-means++.  Memory beyond ``X`` stays at a
       few batches.
 
+    k-means runs on one OpenMP thread: the batches are small, and on a loaded
+    machine scikit-learn's OpenMP threads spin-wait (a 512-row ``partial_fit`` took
+    165 ms with two threads beside other jobs, 1 ms with one).
+
     Returns
     -------
     centers : ndarray of shape (n_centers, n_features), float64
         ``n_centers = min(n_clusters, number of distinct rows)``.
     """
-    rng = check_random_state(random_state)
+    with threadpool_limits(limits=1, user_api="openmp"):
+        return _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
+                           check_random_state(random_state))
+
+
+def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng):
     n = len(X)
     if n <= max(n_clusters, 1) * 4:
         distinct = np.unique(X, axis=0)
