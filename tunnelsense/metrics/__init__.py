@@ -8,8 +8,24 @@ from tunnelsense.metrics._street import (
     street_confusion_matrix,
     street_scores,
 )
+from tunnelsense.metrics._tunnel import (
+    HYPOTHESIS_COLUMNS,
+    TUNNEL_SCORER_METRICS,
+    gt_from_boxes,
+    hypotheses_from_records,
+    indicator_scores,
+    make_tunnel_scorer,
+    tunnel_scores,
+)
 
 __all__ = [
+    "HYPOTHESIS_COLUMNS",
+    "TUNNEL_SCORER_METRICS",
+    "gt_from_boxes",
+    "hypotheses_from_records",
+    "indicator_scores",
+    "make_tunnel_scorer",
+    "tunnel_scores",
     "interval_iou",
     "make_street_scorer",
     "match_objects",

@@ -92,8 +92,8 @@ def match_objects(gt, detected, *, min_iou=0.5):
     Parameters
     ----------
     gt, detected : DataFrame
-        Columns ``first_scan, last_scan, label`` and optionally ``run`` (objects
-        match only within a run; without the column all are one run).
+        Columns ``first_scan, last_scan, label`` and optionally ``run`` (when both
+        tables have it, objects match only within a run; otherwise all are one run).
     min_iou : float, default=0.5
         Smallest scan-interval IoU of a match.
 
@@ -115,6 +115,9 @@ def match_objects(gt, detected, *, min_iou=0.5):
     """
     g = _as_table(gt, "gt")
     d = _as_table(detected, "detected")
+    if "run" not in gt or "run" not in detected:
+        g["run"] = ""
+        d["run"] = ""
     gi, di, ious = [], [], []
     for run, gg in g.groupby("run", sort=False):
         dd = d[d["run"] == run]
@@ -171,6 +174,9 @@ def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.
     """
     g = _as_table(gt, "gt")
     d = _as_table(detected, "detected")
+    if "run" not in gt or "run" not in detected:
+        g["run"] = ""
+        d["run"] = ""
     m = match_objects(g, d, min_iou=min_iou)
     gl = g["label"].to_numpy()[m["gt"].to_numpy()]
     dl = d["label"].to_numpy()[m["detected"].to_numpy()]

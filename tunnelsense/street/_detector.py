@@ -18,7 +18,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import RUN_LABELS, check_scans
+from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense.street._clustering import _single_linkage_groups, link_scans
 from tunnelsense.street._restoration import (
     compensate_tilt,
@@ -134,8 +134,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
        region is merged into it, when at most ``merge_gap`` metres apart;
     7. beyond the paper: objects with two humps in their height profile are split
        (``split_merged``); objects shorter than ``min_length`` or longer than
-       ``max_length`` metres, or not seen over ``min_length`` metres without a
-       break, are labelled ``"other"`` (not vehicles).
+       ``max_length`` metres, or not seen over ``min_length`` metres (in all, and
+       without a break) are labelled ``"other"`` (not vehicles).
 
     Objects are labelled by the region of their mean depth through ``region_labels``.
 
@@ -371,12 +371,12 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         # 5. inter-scan linking
         cobj = link_scans(cpos, cdepth, follows, float(self.link_distance))
         # 6-7. objects
-        objects, cobj = self._objects(cpos, cdepth, ctop, npts, cobj, step, sruns,
-                                      sscans, follows)
+        objects, cobj, spans = self._objects(cpos, cdepth, ctop, npts, cobj, step,
+                                             sruns, sscans, follows)
         return {
             "order": order, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
             "local": local, "cid": cid, "cpos": cpos, "cobj": cobj, "tilt": tilt,
-            "objects": objects, "n_cl": n_cl, "cl_start": cl_start,
+            "objects": objects, "spans": spans, "n_cl": n_cl, "cl_start": cl_start,
         }
 
     @staticmethod
@@ -444,8 +444,9 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         label = np.asarray(self.labels_, dtype=object)[region]
         vehicle_like = (length >= self.min_length) & (length <= self.max_length)
         # a vehicle is one continuous surface: its longest stretch of consecutive
-        # scans seen (or hidden by something nearer) must be vehicle-long too; rows
-        # of pedestrians, bins or bollards bridged by short gaps are not
+        # scans seen (or hidden by something nearer) must be vehicle-long too, and so
+        # must the scans where it is actually seen; rows of pedestrians, bins or
+        # bollards bridged by short gaps are not
         for i in np.flatnonzero(vehicle_like):
             o = order[i]
             pos, _ = prof.scan_profile(o)
@@ -455,7 +456,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             brk = np.flatnonzero(~seen)
             edges = np.r_[-1, brk, len(seen)] + pos[0]
             run_len = cum[edges[1:]] - cum[edges[:-1] + 1]
-            vehicle_like[i] = run_len.max() >= self.min_length
+            seen_len = (cum[pos + 1] - cum[pos]).sum()
+            vehicle_like[i] = min(run_len.max(), seen_len) >= self.min_length
         label = np.where(vehicle_like, label, "other").astype(object)
         table = pd.DataFrame({
             "run": runs[o_first].astype(object),
@@ -469,9 +471,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             "top_height": o_top,
             "n_points": o_pts.astype(np.int64),
         }, columns=list(OBJECT_COLUMNS))
-        table.attrs["first_pos"] = o_first
-        table.attrs["last_pos"] = o_last
-        return table, cobj
+        return table, cobj, (o_first, o_last)
 
     def _merge(self, prof, near, step, follows):
         """Three-region merging: union-find parent of every object-cluster.
@@ -568,7 +568,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        records : list of ScanRecord
+        records : ScanSequence
             In the order of ``X``; payload ``"points"`` (n, 2) ROI ``(depth, height)``,
             ``"clusters"`` (n,) intra-cluster number of every point, ``"objects"``
             (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
@@ -586,7 +586,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                 points=pts[a:b], clusters=res["local"][a:b],
                 objects=res["cobj"][c0:c0 + nc] + 1, tilt=float(res["tilt"][i]),
             )
-        return out
+        return ScanSequence(out)
 
     def detect(self, X, *, all_objects=False):
         """The object table: one row per detected object.
@@ -632,8 +632,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         keep = codes.notna().to_numpy()
         ids = table["id"].to_numpy()[keep]
         codes = codes.to_numpy()[keep].astype(np.int64)
-        fp = table.attrs["first_pos"][keep]
-        lp = table.attrs["last_pos"][keep]
+        fp = res["spans"][0][keep]
+        lp = res["spans"][1][keep]
         counts = lp - fp + 1
         per_pos = [[] for _ in range(n)]
         total = int(counts.sum())
@@ -661,6 +661,13 @@ class _Profiles:
         self.cpos = cpos
         n = int(cobj.max()) + 1 if len(cobj) else 0
         self.n = n
+        if n == 0:
+            e = np.empty(0, dtype=np.int64)
+            self.p_obj = self.p_pos = self.first = self.last = e
+            self.rows = np.zeros(1, dtype=np.int64)
+            self.p_top = self.start_depth = self.end_depth = np.empty(0)
+            self.pts = self.depth = self.top = np.empty(0)
+            return
         order = np.lexsort((cpos, cobj))
         so, sp = cobj[order], cpos[order]
         # one row per (object, scan)

@@ -128,7 +128,7 @@ def estimate_tilt(
     Parameters
     ----------
     ranges : ndarray of shape (n_beams,) or (n_scans, n_beams)
-        Ranges (m); no-return beams NaN.
+        Ranges (m); no-return beams NaN (or +inf).
     angles : ndarray of shape (n_beams,)
         Nominal beam angles (rad) from the horizontal, positive up.
     mount_height : float
@@ -165,6 +165,7 @@ def estimate_tilt(
     r = np.asarray(ranges, dtype=np.float64)
     one = r.ndim == 1
     r = np.atleast_2d(r)
+    r = np.where(np.isfinite(r), r, np.nan)
     theta = np.asarray(angles, dtype=np.float64)[None, :]
     n_scans = r.shape[0]
     h = float(mount_height)

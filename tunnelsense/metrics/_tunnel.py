@@ -1,0 +1,379 @@
+"""Scores of the FIR indicator detector: the paper's Table 1 and trajectory figures.
+
+**Which ground truth counts.**  An indicator box counts when it is at least
+``min_height`` px tall (default 14, two rows of the keypoint grid: a shorter indicator
+may hold no keypoint at all).  Boxes of smaller indicators are *don't care*: a
+cluster on one is neither a hit nor a false alarm.
+
+**Matching rule.**  A keypoint cluster lies on an indicator when the centre of its
+rectangle lies inside the indicator's box (:func:`tunnelsense.tunnel.centres_in_boxes`).
+A cluster's rectangle spans only its grid keypoints, so it is smaller than the
+indicator; overlap ratios would punish the grid's coarseness, not the detector.
+
+**Cluster level (Table 1).**  Every keypoint cluster is a detection hypothesis with
+the detector's per-cluster decision (``payload["indicator"]``):
+
+* ``total``: clusters on counted indicators;
+* ``correct``: those labelled indicator; ``misses = total - correct``;
+* ``false_alarms``: clusters on no indicator labelled indicator;
+* ``detection_rate = correct / total``;
+* ``false_alarm_rate = false_alarms / negatives``, where ``negatives`` is the number of
+  clusters on no indicator.  The paper's 22 false alarms at 0.7 % imply about 3,100
+  negative clusters (22 / 472 would be 4.7 %), so its rate is over the negatives.
+
+**Trajectory level.**  A positive trajectory (``payload["trajectory_positive"]``)
+belongs to the indicator on which most of its clusters lie (any indicator box, counted
+or not); when fewer than half of its clusters lie on an indicator it is a false-alarm
+trajectory.  ``indicators`` is the number of indicators with at least one counted box,
+``detected`` the number of them to which a positive trajectory belongs,
+``detection_rate = detected / indicators``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "HYPOTHESIS_COLUMNS",
+    "TUNNEL_SCORER_METRICS",
+    "gt_from_boxes",
+    "hypotheses_from_records",
+    "indicator_scores",
+    "make_tunnel_scorer",
+    "tunnel_scores",
+]
+
+#: Columns of the hypotheses table (:func:`hypotheses_from_records`).
+HYPOTHESIS_COLUMNS = (
+    "tour",
+    "frame",
+    "track_id",
+    "bb_left",
+    "bb_top",
+    "bb_width",
+    "bb_height",
+    "indicator",
+    "trajectory_positive",
+)
+
+_GT_COLUMNS = ("tour", "frame", "id", "bb_left", "bb_top", "bb_width", "bb_height")
+
+
+def hypotheses_from_records(records) -> pd.DataFrame:
+    """Every keypoint cluster of the detector's output records, as a table.
+
+    Parameters
+    ----------
+    records : sequence of FrameRecord
+        The output of the indicator pipeline's ``predict`` (or of
+        :class:`~tunnelsense.tunnel.PCCVerifier`).
+
+    Returns
+    -------
+    hypotheses : DataFrame with :data:`HYPOTHESIS_COLUMNS`
+    """
+    parts = []
+    for i, r in enumerate(records):
+        p = r.payload
+        missing = [k for k in ("cluster_boxes", "track_ids", "indicator", "trajectory_positive") if k not in p]
+        if missing:
+            raise ValueError(
+                f"records[{i}] ({r.tour!r}, frame {r.frame}) lacks payload {missing}: "
+                "score the output of the indicator pipeline's predict"
+            )
+        b = np.asarray(p["cluster_boxes"], dtype=np.float64).reshape(-1, 4)
+        if len(b) == 0:
+            continue
+        parts.append(
+            pd.DataFrame(
+                {
+                    "tour": r.tour,
+                    "frame": np.int64(r.frame),
+                    "track_id": np.asarray(p["track_ids"], dtype=np.int64),
+                    "bb_left": b[:, 0],
+                    "bb_top": b[:, 1],
+                    "bb_width": b[:, 2],
+                    "bb_height": b[:, 3],
+                    "indicator": np.asarray(p["indicator"], dtype=bool),
+                    "trajectory_positive": np.asarray(p["trajectory_positive"], dtype=bool),
+                }
+            )
+        )
+    if not parts:
+        return pd.DataFrame({c: pd.Series(dtype=_dtype(c)) for c in HYPOTHESIS_COLUMNS})
+    return pd.concat(parts, ignore_index=True)
+
+
+def _dtype(column):
+    if column == "tour":
+        return object
+    if column in ("frame", "track_id"):
+        return np.int64
+    if column in ("indicator", "trajectory_positive"):
+        return bool
+    return np.float64
+
+
+def gt_from_boxes(records, y) -> pd.DataFrame:
+    """Indicator ground truth with identities, from per-frame boxes only.
+
+    ``y`` (as :func:`tunnelsense.to_xy` gives it) holds boxes without identities; an
+    identity is recovered by linking each box to an overlapping box of the tour's
+    previous frame (indicators stand 200 m apart, so boxes of two indicators do not
+    overlap in consecutive frames).
+
+    Parameters
+    ----------
+    records : sequence of FrameRecord
+    y : sequence of array-like of shape (k_i, 4)
+
+    Returns
+    -------
+    gt : DataFrame with columns tour, frame, id, bb_left, bb_top, bb_width, bb_height
+    """
+    from tunnelsense.tunnel._tracking import tour_order
+
+    records = list(records)
+    y = [np.asarray(b, dtype=np.float64).reshape(-1, 4) for b in y]
+    if len(y) != len(records):
+        raise ValueError(f"y has {len(y)} entries for {len(records)} frames")
+    rows = []
+    for group in tour_order(records):
+        next_id = 1
+        prev_frame, prev_boxes, prev_ids = None, np.empty((0, 4)), []
+        for i in group.tolist():
+            r, b = records[i], y[i]
+            ids = []
+            used = set()
+            for box in b:
+                link = None
+                if prev_frame is not None and r.frame - prev_frame == 1:
+                    for pb, pid in zip(prev_boxes, prev_ids, strict=True):
+                        if pid in used:
+                            continue
+                        ix = min(box[0] + box[2], pb[0] + pb[2]) - max(box[0], pb[0])
+                        iy = min(box[1] + box[3], pb[1] + pb[3]) - max(box[1], pb[1])
+                        if ix > 0 and iy > 0:
+                            link = pid
+                            break
+                if link is None:
+                    link = next_id
+                    next_id += 1
+                used.add(link)
+                ids.append(link)
+                rows.append((r.tour, r.frame, link, *box.tolist()))
+            prev_frame, prev_boxes, prev_ids = r.frame, b, ids
+    return pd.DataFrame(rows, columns=list(_GT_COLUMNS)).astype(
+        {"frame": np.int64, "id": np.int64}
+    )
+
+
+def _match(hyp: pd.DataFrame, gt: pd.DataFrame, min_height: float):
+    """Per hypothesis: matched gt id (or -1) and whether that box counts."""
+    n = len(hyp)
+    gt_id = np.full(n, -1, dtype=np.int64)
+    counted = np.zeros(n, dtype=bool)
+    if n == 0 or len(gt) == 0:
+        return gt_id, counted
+    cx = (hyp["bb_left"] + hyp["bb_width"] / 2).to_numpy()
+    cy = (hyp["bb_top"] + hyp["bb_height"] / 2).to_numpy()
+    g = gt.groupby(["tour", "frame"], sort=False).indices
+    keys = list(zip(hyp["tour"].to_numpy(), hyp["frame"].to_numpy(), strict=True))
+    gl, gtp = gt["bb_left"].to_numpy(), gt["bb_top"].to_numpy()
+    gw, gh = gt["bb_width"].to_numpy(), gt["bb_height"].to_numpy()
+    gid = gt["id"].to_numpy()
+    for j, key in enumerate(keys):
+        idx = g.get(key)
+        if idx is None:
+            continue
+        inside = (gl[idx] <= cx[j]) & (cx[j] < gl[idx] + gw[idx]) & (gtp[idx] <= cy[j]) & (
+            cy[j] < gtp[idx] + gh[idx]
+        )
+        if inside.any():
+            hits = idx[inside]
+            big = hits[gh[hits] >= min_height]
+            k = big[0] if len(big) else hits[0]
+            gt_id[j] = gid[k]
+            counted[j] = gh[k] >= min_height
+    return gt_id, counted
+
+
+def tunnel_scores(hypotheses, gt, *, min_height=14.0, complete=True) -> dict:
+    """The cluster-level table and trajectory-level figures of the FIR detector.
+
+    Parameters
+    ----------
+    hypotheses : DataFrame
+        One row per keypoint cluster (:data:`HYPOTHESIS_COLUMNS`;
+        :func:`hypotheses_from_records`).
+    gt : DataFrame
+        Indicator boxes with identities: columns tour, frame, id, bb_left, bb_top,
+        bb_width, bb_height (and optionally ``class``: only class 1 is used).
+    min_height : float, default=14.0
+        Indicator boxes at least this tall count; smaller ones are don't-care.
+    complete : bool, default=True
+        Whether ``hypotheses`` holds every cluster (negatives too).  When it holds
+        only the detections (a MOTChallenge results file), the number of negatives is
+        unknown and ``false_alarm_rate`` is ``None``.
+
+    Returns
+    -------
+    scores : dict
+        ``{"cluster": {"total", "correct", "misses", "false_alarms",
+        "detection_rate", "false_alarm_rate"}, "trajectory": {"indicators",
+        "detected", "false_alarms", "detection_rate"}}`` (rates in [0, 1]; a rate
+        with a zero denominator is 1.0 for detection and 0.0 for false alarms).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> gt = pd.DataFrame({"tour": ["t", "t"], "frame": [1, 2], "id": [1, 1],
+    ...     "bb_left": [10., 12], "bb_top": [10., 10], "bb_width": [10., 10],
+    ...     "bb_height": [20., 20]})
+    >>> hyp = pd.DataFrame({"tour": ["t"] * 3, "frame": [1, 2, 2], "track_id": [1, 1, 2],
+    ...     "bb_left": [12., 14, 100], "bb_top": [12., 12, 100], "bb_width": [4., 4, 4],
+    ...     "bb_height": [14., 14, 4], "indicator": [True, False, False],
+    ...     "trajectory_positive": [True, True, False]})
+    >>> s = tunnel_scores(hyp, gt)
+    >>> s["cluster"]["total"], s["cluster"]["correct"], s["cluster"]["detection_rate"]
+    (2, 1, 0.5)
+    >>> s["trajectory"]
+    {'indicators': 1, 'detected': 1, 'false_alarms': 0, 'detection_rate': 1.0}
+    """
+    hyp = hypotheses.reset_index(drop=True)
+    gt = gt
+    if "class" in gt.columns:
+        gt = gt[gt["class"] == 1]
+    if "tour" not in gt.columns:
+        raise ValueError("gt needs a 'tour' column naming the tour of every box")
+    gt = gt.reset_index(drop=True)
+    gt_id, counted = _match(hyp, gt, float(min_height))
+    labelled = hyp["indicator"].to_numpy(dtype=bool)
+    on_indicator = gt_id >= 0
+    total = int(counted.sum())
+    correct = int((counted & labelled).sum())
+    negatives = ~on_indicator
+    false_alarms = int((negatives & labelled).sum())
+    n_neg = int(negatives.sum())
+    cluster = {
+        "total": total,
+        "correct": correct,
+        "misses": total - correct,
+        "false_alarms": false_alarms,
+        "detection_rate": correct / total if total else 1.0,
+        "false_alarm_rate": (false_alarms / n_neg if n_neg else 0.0) if complete else None,
+    }
+    # trajectory level
+    big = gt[gt["bb_height"] >= min_height]
+    indicators = set(zip(big["tour"], big["id"], strict=True))
+    pos = hyp["trajectory_positive"].to_numpy(dtype=bool)
+    detected, fa = set(), 0
+    if pos.any():
+        sub = pd.DataFrame(
+            {
+                "tour": hyp["tour"].to_numpy()[pos],
+                "track": hyp["track_id"].to_numpy()[pos],
+                "gid": gt_id[pos],
+            }
+        )
+        for (tour, _), g in sub.groupby(["tour", "track"], sort=False):
+            ids = g["gid"].to_numpy()
+            on = ids[ids >= 0]
+            if 2 * len(on) < len(ids):
+                fa += 1
+                continue
+            values, counts = np.unique(on, return_counts=True)
+            detected.add((tour, int(values[np.argmax(counts)])))
+    n_ind = len(indicators)
+    hit = len(detected & indicators)
+    trajectory = {
+        "indicators": n_ind,
+        "detected": hit,
+        "false_alarms": fa,
+        "detection_rate": hit / n_ind if n_ind else 1.0,
+    }
+    return {"cluster": cluster, "trajectory": trajectory}
+
+
+def indicator_scores(records, y, *, min_height=14.0) -> dict:
+    """:func:`tunnel_scores` of the detector's output records against per-frame boxes.
+
+    Parameters
+    ----------
+    records : sequence of FrameRecord
+        The output of the indicator pipeline's ``predict``.
+    y : sequence of array-like of shape (k_i, 4)
+        Per frame, the indicator boxes (:func:`tunnelsense.to_xy`).
+    min_height : float, default=14.0
+
+    Returns
+    -------
+    scores : dict (see :func:`tunnel_scores`)
+    """
+    records = list(records)
+    return tunnel_scores(
+        hypotheses_from_records(records), gt_from_boxes(records, y), min_height=min_height
+    )
+
+
+#: Metrics :func:`make_tunnel_scorer` knows (greater is better for every one).
+TUNNEL_SCORER_METRICS = (
+    "youden",
+    "cluster_detection_rate",
+    "cluster_false_alarm_rate",
+    "trajectory_detection_rate",
+    "trajectory_false_alarms",
+)
+
+
+class _TunnelScorer:
+    """A picklable ``scorer(estimator, X, y)`` for GridSearchCV."""
+
+    def __init__(self, metric, min_height):
+        self.metric = metric
+        self.min_height = min_height
+
+    def __repr__(self):
+        return f"make_tunnel_scorer({self.metric!r}, min_height={self.min_height})"
+
+    def __call__(self, estimator, X, y):
+        s = indicator_scores(estimator.predict(X), y, min_height=self.min_height)
+        c, t = s["cluster"], s["trajectory"]
+        if self.metric == "youden":
+            return c["detection_rate"] - c["false_alarm_rate"]
+        if self.metric == "cluster_detection_rate":
+            return c["detection_rate"]
+        if self.metric == "cluster_false_alarm_rate":
+            return -c["false_alarm_rate"]
+        if self.metric == "trajectory_detection_rate":
+            return t["detection_rate"]
+        return -float(t["false_alarms"])
+
+
+def make_tunnel_scorer(metric="youden", *, min_height=14.0):
+    """A scorer for :class:`~sklearn.model_selection.GridSearchCV` over the detector.
+
+    Parameters
+    ----------
+    metric : str, default="youden"
+        ``"youden"``: cluster detection rate minus cluster false-alarm rate;
+        ``"cluster_detection_rate"``; ``"cluster_false_alarm_rate"`` (negated);
+        ``"trajectory_detection_rate"``; ``"trajectory_false_alarms"`` (negated
+        count).  Greater is better for all.
+    min_height : float, default=14.0
+        Indicator boxes at least this tall count.
+
+    Returns
+    -------
+    scorer : callable ``scorer(estimator, X, y) -> float``
+
+    Examples
+    --------
+    >>> from tunnelsense.metrics import make_tunnel_scorer
+    >>> make_tunnel_scorer("cluster_detection_rate")
+    make_tunnel_scorer('cluster_detection_rate', min_height=14.0)
+    """
+    if metric not in TUNNEL_SCORER_METRICS:
+        raise ValueError(f"metric must be one of {list(TUNNEL_SCORER_METRICS)}; got {metric!r}")
+    return _TunnelScorer(metric, float(min_height))
