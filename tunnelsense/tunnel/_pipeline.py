@@ -1,0 +1,88 @@
+"""The FIR indicator detector as one scikit-learn Pipeline of its six stages."""
+
+from __future__ import annotations
+
+from sklearn.pipeline import Pipeline
+
+from tunnelsense.tunnel._appearance import WeightedAdaBoost
+from tunnelsense.tunnel._clustering import MSTClusterer
+from tunnelsense.tunnel._keypoints import IntensityKeypointSampler
+from tunnelsense.tunnel._motion import PCCVerifier
+from tunnelsense.tunnel._tracking import TrajectoryLinker
+from tunnelsense.tunnel._verification import KMeansHistogramVerifier
+
+__all__ = ["INDICATOR_STEPS", "make_indicator_pipeline"]
+
+#: Step names of :func:`make_indicator_pipeline`, in order.
+INDICATOR_STEPS = ("keypoints", "verifier", "clusters", "appearance", "tracks", "motion")
+
+
+def make_indicator_pipeline(*, verifier=True, **params):
+    """The six FIR stages (sections 3.1-3.7) as a :class:`~sklearn.pipeline.Pipeline`.
+
+    Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
+    (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),
+    ``appearance`` (:class:`WeightedAdaBoost`), ``tracks`` (:class:`TrajectoryLinker`),
+    ``motion`` (:class:`PCCVerifier`).  ``fit(X, y)`` takes frame records and, per
+    frame, the ``(k, 4)`` indicator boxes (:func:`tunnelsense.to_xy`); ``predict(X)``
+    returns the frames with ``payload["detections"]`` (see :class:`PCCVerifier`).
+
+    Parameters
+    ----------
+    verifier : bool, default=True
+        ``False`` replaces the keypoint verifier by ``"passthrough"`` (every sampled
+        keypoint is clustered), for ablation.
+    **params
+        Parameters of the steps, either as ``step__name`` (``motion__min_r=0.9``) or,
+        when a name belongs to exactly one step, plainly (``min_r=0.9``, ``cut=30``,
+        ``max_distance=0.2``, ``positive_weight=1``).  ``random_state`` goes to every
+        step that has one.
+
+    Returns
+    -------
+    pipeline : Pipeline
+
+    Examples
+    --------
+    >>> from tunnelsense.tunnel import make_indicator_pipeline
+    >>> pipe = make_indicator_pipeline(min_r=0.9, cut=30, random_state=0)
+    >>> [name for name, _ in pipe.steps]
+    ['keypoints', 'verifier', 'clusters', 'appearance', 'tracks', 'motion']
+    >>> pipe.get_params()["motion__min_r"], pipe.get_params()["clusters__cut"]
+    (0.9, 30)
+    """
+    steps = [
+        ("keypoints", IntensityKeypointSampler()),
+        ("verifier", KMeansHistogramVerifier() if verifier else "passthrough"),
+        ("clusters", MSTClusterer()),
+        ("appearance", WeightedAdaBoost()),
+        ("tracks", TrajectoryLinker()),
+        ("motion", PCCVerifier()),
+    ]
+    pipe = Pipeline(steps)
+    owners: dict = {}
+    for name, step in steps:
+        if step == "passthrough":
+            continue
+        for p in step.get_params(deep=False):
+            owners.setdefault(p, []).append(name)
+    resolved = {}
+    for key, value in params.items():
+        if "__" in key:
+            resolved[key] = value
+        elif key == "random_state":
+            for name in owners.get("random_state", []):
+                resolved[f"{name}__random_state"] = value
+        elif key in owners:
+            if len(owners[key]) > 1:
+                raise TypeError(
+                    f"parameter {key!r} belongs to several steps ({owners[key]}); "
+                    f"write it as step__{key}"
+                )
+            resolved[f"{owners[key][0]}__{key}"] = value
+        else:
+            raise TypeError(
+                f"make_indicator_pipeline got an unknown parameter {key!r}; the steps' "
+                f"parameters are {sorted(owners)}"
+            )
+    return pipe.set_params(**resolved)

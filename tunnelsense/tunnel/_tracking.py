@@ -1,0 +1,388 @@
+"""Keypoint cluster tracking (section 3.5): online linking into trajectories.
+
+A pool of trajectories is kept per tour; the keypoint clusters of each new frame are
+the detection responses.  The link likelihood ``P_link(n | T)`` combines the distance
+of the response from the position the trajectory's straight-line model predicts, the
+scale change (at most ``max_scale_change``, 4 in the paper), the appearance difference
+and the time gap; each trajectory links at most one response and each response at most
+one trajectory.  The paper solves this assignment greedily (best pair first, until no
+pair is left); the Hungarian algorithm is an option.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
+
+from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense.tunnel._appearance import boxes_of
+
+__all__ = ["TrajectoryLinker", "link_log_likelihood", "tour_order"]
+
+
+def tour_order(records):
+    """Indices of ``records`` grouped by tour (first appearance) and sorted by frame.
+
+    Returns
+    -------
+    groups : list of ndarray of int
+        One array of record indices per tour, in frame order.
+
+    Raises
+    ------
+    ValueError
+        When a ``(tour, frame)`` appears twice.
+    """
+    by_tour: dict = {}
+    for i, r in enumerate(records):
+        by_tour.setdefault(r.tour, []).append(i)
+    groups = []
+    for tour, idx in by_tour.items():
+        idx = np.asarray(idx, dtype=np.intp)
+        frames = np.fromiter((records[i].frame for i in idx), np.int64, len(idx))
+        order = np.argsort(frames, kind="stable")
+        idx, frames = idx[order], frames[order]
+        dup = np.flatnonzero(np.diff(frames) == 0)
+        if len(dup):
+            raise ValueError(
+                f"X holds frame {int(frames[dup[0]])} of tour {tour!r} twice; every "
+                "(tour, frame) must appear once"
+            )
+        groups.append(idx)
+    return groups
+
+
+def link_log_likelihood(
+    predicted, last_size, last_hist, centre, size, hist, gap, *,
+    max_scale_change=4.0, gate=1.0, min_gate=12.0, position_sigma=0.35,
+    scale_sigma=0.35, appearance_sigma=0.3, gap_penalty=1.0,
+):
+    """``ln P_link`` of a response given a trajectory, or ``-inf`` outside the gates.
+
+    Parameters
+    ----------
+    predicted : (float, float)
+        Position ``(x, y)`` the trajectory's straight-line model predicts for the
+        response's frame.
+    last_size, size : float
+        Scale (square root of the rectangle's area) of the trajectory's last response
+        and of the new one.
+    last_hist, hist : ndarray of shape (bins,) or None
+        Normalized histograms (appearance); ``None`` leaves appearance out.
+    centre : (float, float)
+        Centre of the response's rectangle.
+    gap : int
+        Frames between the trajectory's last response and this one (>= 1).
+
+    Returns
+    -------
+    float
+        ``-0.5 (d / (position_sigma s))^2 - 0.5 (ln(size ratio) / scale_sigma)^2
+        - 0.5 (a / appearance_sigma)^2 - gap_penalty (gap - 1)``, where ``d`` is the
+        distance to the prediction, ``s`` the larger size (at least ``min_gate /
+        gate``) and ``a`` half the L1 distance of the histograms (in [0, 1]).
+        ``-inf`` when the scale changes by more than ``max_scale_change`` or ``d``
+        exceeds ``max(min_gate, gate * s)``.
+    """
+    ratio = size / last_size if last_size > 0 and size > 0 else math.inf
+    if not (1.0 / max_scale_change <= ratio <= max_scale_change):
+        return -math.inf
+    s = max(size, last_size)
+    dx = centre[0] - predicted[0]
+    dy = centre[1] - predicted[1]
+    d = math.hypot(dx, dy)
+    if d > max(min_gate, gate * s):
+        return -math.inf
+    sigma = position_sigma * max(s, min_gate / gate)
+    ll = -0.5 * (d / sigma) ** 2 - 0.5 * (math.log(ratio) / scale_sigma) ** 2
+    if last_hist is not None and hist is not None:
+        a = 0.5 * float(np.abs(last_hist - hist).sum())
+        ll -= 0.5 * (a / appearance_sigma) ** 2
+    return ll - gap_penalty * (gap - 1)
+
+
+class _Track:
+    __slots__ = ("id", "frames", "xs", "ys", "size", "hist", "last")
+
+    def __init__(self, track_id, frame, x, y, size, hist):
+        self.id = track_id
+        self.frames = [frame]
+        self.xs = [x]
+        self.ys = [y]
+        self.size = size
+        self.hist = hist
+        self.last = frame
+
+    def add(self, frame, x, y, size, hist):
+        self.frames.append(frame)
+        self.xs.append(x)
+        self.ys.append(y)
+        self.size = size
+        self.hist = hist
+        self.last = frame
+
+    def predict(self, frame, history):
+        """Position at ``frame`` by a straight-line fit of the last positions in time."""
+        n = len(self.frames)
+        if n == 1:
+            return self.xs[0], self.ys[0]
+        k = min(n, history)
+        t = self.frames[-k:]
+        xs = self.xs[-k:]
+        ys = self.ys[-k:]
+        tm = sum(t) / k
+        xm = sum(xs) / k
+        ym = sum(ys) / k
+        stt = sum((ti - tm) ** 2 for ti in t)
+        vx = sum((ti - tm) * (xi - xm) for ti, xi in zip(t, xs, strict=True)) / stt
+        vy = sum((ti - tm) * (yi - ym) for ti, yi in zip(t, ys, strict=True)) / stt
+        return xm + vx * (frame - tm), ym + vy * (frame - tm)
+
+
+class TrajectoryLinker(TransformerMixin, BaseEstimator):
+    """Link keypoint clusters of consecutive frames into trajectories (section 3.5).
+
+    Stage 5 of the FIR indicator detector, a frame stage with nothing to learn.  The
+    records are processed tour by tour in frame order (whatever order they come in);
+    trajectories never cross a tour boundary, and a trajectory that has missed more
+    than ``max_gap`` frames (in the tour's frame numbers, so a gap in the records
+    counts) ends.  ``transform`` returns the frames in their input order, each evolved
+    with
+
+    * ``payload["track_ids"]``: ndarray of shape (m,), int64 -- the trajectory of
+      every keypoint cluster of ``payload["cluster_boxes"]``, numbered 1, 2, ... per
+      tour in order of birth.
+
+    Each trajectory's per-frame appearance decisions stay with its clusters
+    (``payload["appearance"]``), where :class:`PCCVerifier` reads them.
+
+    The log-likelihood of linking a response to a trajectory is
+    :func:`link_log_likelihood`: position (distance from the position predicted by a
+    straight-line fit, in time, of the trajectory's last ``history`` positions), scale
+    (at most ``max_scale_change``), appearance (the clusters' histograms,
+    ``payload["cluster_histograms"]`` from :class:`WeightedAdaBoost`, when present) and
+    time gap.  Distances are measured relative to the cluster's size, as everything in
+    the image grows as it approaches.
+
+    Parameters
+    ----------
+    max_gap : int, default=3
+        Largest number of consecutive frames a trajectory may miss and still link.
+    max_scale_change : float, default=4.0
+        Largest ratio of the sizes of linked responses (the paper's 4).
+    gate : float, default=1.0
+        A response farther than ``gate`` times its size (at least ``min_gate`` px)
+        from the predicted position cannot link.
+    min_gate : float, default=12.0
+        Smallest position gate (px): about two keypoint grid steps.
+    position_sigma : float, default=0.35
+        Standard deviation of the position error, relative to the size.
+    scale_sigma : float, default=0.35
+        Standard deviation of the log scale change.
+    appearance_sigma : float, default=0.3
+        Standard deviation of the appearance difference (half the L1 distance of
+        the histograms).
+    gap_penalty : float, default=1.0
+        Log-likelihood lost per missed frame.
+    history : int, default=5
+        Number of last positions of the straight-line prediction.
+    assignment : {"greedy", "hungarian"}, default="greedy"
+        ``"greedy"``: the paper's best pair first; ``"hungarian"``: the assignment
+        maximizing the sum of log-likelihoods (:func:`scipy.optimize.linear_sum_assignment`).
+
+    Attributes
+    ----------
+    n_frames_fit_ : int
+        Number of frames seen by ``fit``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import FrameRecord
+    >>> from tunnelsense.tunnel import TrajectoryLinker
+    >>> img = np.zeros((48, 64), np.uint8)
+    >>> X = [FrameRecord("t", f, img, {"cluster_boxes": np.array([[10. + 2 * f, 20, 4, 8]])})
+    ...      for f in range(1, 5)]
+    >>> [r.payload["track_ids"].tolist() for r in TrajectoryLinker().fit_transform(X)]
+    [[1], [1], [1], [1]]
+    """
+
+    _parameter_constraints: dict = {
+        "max_gap": [Interval(numbers.Integral, 0, None, closed="left")],
+        "max_scale_change": [Interval(numbers.Real, 1, None, closed="left")],
+        "gate": [Interval(numbers.Real, 0, None, closed="neither")],
+        "min_gate": [Interval(numbers.Real, 0, None, closed="left")],
+        "position_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "scale_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "appearance_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "gap_penalty": [Interval(numbers.Real, 0, None, closed="left")],
+        "history": [Interval(numbers.Integral, 2, None, closed="left")],
+        "assignment": [StrOptions({"greedy", "hungarian"})],
+    }
+
+    def __init__(
+        self,
+        *,
+        max_gap=3,
+        max_scale_change=4.0,
+        gate=1.0,
+        min_gate=12.0,
+        position_sigma=0.35,
+        scale_sigma=0.35,
+        appearance_sigma=0.3,
+        gap_penalty=1.0,
+        history=5,
+        assignment="greedy",
+    ):
+        self.max_gap = max_gap
+        self.max_scale_change = max_scale_change
+        self.gate = gate
+        self.min_gate = min_gate
+        self.position_sigma = position_sigma
+        self.scale_sigma = scale_sigma
+        self.appearance_sigma = appearance_sigma
+        self.gap_penalty = gap_penalty
+        self.history = history
+        self.assignment = assignment
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False
+        tags.transformer_tags.preserves_dtype = []
+        return tags
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Validate the frames (nothing is learned).
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord
+            Frames with ``payload["cluster_boxes"]``.
+        y : ignored (per-frame boxes are validated if given)
+
+        Returns
+        -------
+        self : TrajectoryLinker
+        """
+        records, _ = check_frames(X, y)
+        for i, r in enumerate(records):
+            boxes_of(r, i, "TrajectoryLinker")
+        tour_order(records)
+        self.n_frames_fit_ = len(records)
+        return self
+
+    def transform(self, X):
+        """Link the clusters of every tour into trajectories.
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord
+            Frames with ``payload["cluster_boxes"]`` (and, optionally,
+            ``payload["cluster_histograms"]``).
+
+        Returns
+        -------
+        X_new : FrameSequence
+            The frames in input order, with ``payload["track_ids"]``.
+        """
+        check_is_fitted(self)
+        records, _ = check_frames(X)
+        boxes = [boxes_of(r, i, "TrajectoryLinker") for i, r in enumerate(records)]
+        ids = [None] * len(records)
+        for group in tour_order(records):
+            self._link_tour(records, boxes, group, ids)
+        return FrameSequence(
+            r.evolve(track_ids=t) for r, t in zip(records, ids, strict=True)
+        )
+
+    def _link_tour(self, records, boxes, group, ids):
+        kw = dict(
+            max_scale_change=float(self.max_scale_change),
+            gate=float(self.gate),
+            min_gate=float(self.min_gate),
+            position_sigma=float(self.position_sigma),
+            scale_sigma=float(self.scale_sigma),
+            appearance_sigma=float(self.appearance_sigma),
+            gap_penalty=float(self.gap_penalty),
+        )
+        reach = int(self.max_gap) + 1
+        history = int(self.history)
+        hungarian = self.assignment == "hungarian"
+        alive: list[_Track] = []
+        next_id = 1
+        for i in group.tolist():
+            r = records[i]
+            frame = r.frame
+            b = boxes[i]
+            m = len(b)
+            alive = [t for t in alive if frame - t.last <= reach]
+            out = np.zeros(m, dtype=np.int64)
+            if m == 0:
+                ids[i] = out
+                continue
+            hists = r.payload.get("cluster_histograms")
+            if hists is not None and len(hists) != m:
+                hists = None
+            bl = b.tolist()
+            cx = [L + w / 2 for L, _, w, _ in bl]
+            cy = [T + h / 2 for _, T, _, h in bl]
+            size = [math.sqrt(w * h) for _, _, w, h in bl]
+            pairs = []
+            if alive:
+                for ti, t in enumerate(alive):
+                    px, py = t.predict(frame, history)
+                    gap = frame - t.last
+                    for j in range(m):
+                        ll = link_log_likelihood(
+                            (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
+                            None if hists is None else hists[j], gap, **kw,
+                        )
+                        if ll > -math.inf:
+                            pairs.append((ll, ti, j))
+            linked = self._assign(pairs, len(alive), m, hungarian)
+            taken = set()
+            for ti, j in linked:
+                t = alive[ti]
+                t.add(frame, cx[j], cy[j], size[j], None if hists is None else hists[j])
+                out[j] = t.id
+                taken.add(j)
+            for j in range(m):
+                if j not in taken:
+                    alive.append(
+                        _Track(
+                            next_id, frame, cx[j], cy[j], size[j],
+                            None if hists is None else hists[j],
+                        )
+                    )
+                    out[j] = next_id
+                    next_id += 1
+            ids[i] = out
+
+    @staticmethod
+    def _assign(pairs, n_tracks, m, hungarian):
+        if not pairs:
+            return []
+        if hungarian:
+            cost = np.full((n_tracks, m), np.inf)
+            for ll, ti, j in pairs:
+                cost[ti, j] = -ll
+            finite = np.isfinite(cost)
+            big = (np.abs(cost[finite]).max() + 1.0) * (n_tracks + m + 1)
+            rows, cols = linear_sum_assignment(np.where(finite, cost, big))
+            return [(a, b) for a, b in zip(rows.tolist(), cols.tolist(), strict=True) if finite[a, b]]
+        pairs.sort(key=lambda p: (-p[0], p[1], p[2]))
+        used_t, used_c, linked = set(), set(), []
+        for _, ti, j in pairs:
+            if ti in used_t or j in used_c:
+                continue
+            used_t.add(ti)
+            used_c.add(j)
+            linked.append((ti, j))
+        return linked
