@@ -11,6 +11,7 @@ from tunnelsense.street._detector import (
     make_parking_pipeline,
     split_profile,
 )
+from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
 from tunnelsense.street._restoration import (
     compensate_tilt,
     estimate_tilt,
@@ -28,6 +29,9 @@ __all__ = [
     "estimate_tilt",
     "link_scans",
     "no_return",
+    "plot_clusters",
+    "plot_dendrogram",
+    "plot_objects",
     "restore_points",
     "roi_mask",
     "single_linkage",

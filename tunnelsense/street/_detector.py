@@ -319,7 +319,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         follows = ~new_run & np.r_[False, sscans[1:] == sscans[:-1] + 1]
         run_starts = np.flatnonzero(new_run)
         run_ends = np.r_[run_starts[1:], n]
-        xs, ys, ps = [], [], []
+        xs, ys, ps, bs = [], [], [], []
         tilt = np.zeros(n)
         step = np.zeros(n)  # metres travelled per scan, per scan
         for a, b in zip(run_starts, run_ends, strict=True):
@@ -352,9 +352,11 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             xs.append(depth[rows, cols])
             ys.append(height[rows, cols])
             ps.append(rows + a)
+            bs.append(cols)
         x = np.concatenate(xs) if xs else np.empty(0)
         y = np.concatenate(ys) if ys else np.empty(0)
         pos = np.concatenate(ps).astype(np.int64) if ps else np.empty(0, np.int64)
+        beams = np.concatenate(bs).astype(np.int64) if bs else np.empty(0, np.int64)
         # 4. intra-scan clusters
         local = _single_linkage_groups(x, y, pos, float(self.cut))
         n_cl = np.zeros(n, dtype=np.int64)
@@ -374,7 +376,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         objects, cobj, spans = self._objects(cpos, cdepth, ctop, npts, cobj, step,
                                              sruns, sscans, follows)
         return {
-            "order": order, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
+            "order": order, "beams": beams, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
             "local": local, "cid": cid, "cpos": cpos, "cobj": cobj, "tilt": tilt,
             "objects": objects, "spans": spans, "n_cl": n_cl, "cl_start": cl_start,
         }
@@ -570,7 +572,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         -------
         records : ScanSequence
             In the order of ``X``; payload ``"points"`` (n, 2) ROI ``(depth, height)``,
-            ``"clusters"`` (n,) intra-cluster number of every point, ``"objects"``
+            ``"beams"`` (n,) their beam numbers, ``"clusters"`` (n,) intra-cluster
+            number of every point, ``"objects"``
             (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
             ``"tilt"`` the tilt (rad) used.
         """
@@ -583,7 +586,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             a, b = p_bounds[i], p_bounds[i + 1]
             c0, nc = res["cl_start"][i], res["n_cl"][i]
             out[orig] = records[orig].evolve(
-                points=pts[a:b], clusters=res["local"][a:b],
+                points=pts[a:b], beams=res["beams"][a:b], clusters=res["local"][a:b],
                 objects=res["cobj"][c0:c0 + nc] + 1, tilt=float(res["tilt"][i]),
             )
         return ScanSequence(out)

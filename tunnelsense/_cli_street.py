@@ -1,0 +1,197 @@
+"""``tunnelsense train|detect|evaluate street``: the street-parked vehicle detector.
+
+* ``tunnelsense train street RUNDIR... --model PATH [--search]`` fits the detector
+  (a :func:`~tunnelsense.street.make_parking_pipeline`) on labelled runs and saves it
+  with joblib; ``--search`` grid-searches its thresholds with ``GroupKFold`` by run.
+* ``tunnelsense detect street --model PATH RUNDIR --out OBJECTS.csv [--draw DIR]``
+  writes the object table (``id,first_scan,last_scan,label,mean_depth,...``).
+* ``tunnelsense evaluate street RUNDIR OBJECTS.csv [--json]`` scores it against the
+  run's ``gt.csv``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["register"]
+
+_SEARCH_GRID = {
+    "cluster__cut": [0.4, 0.6, 0.8],
+    "cluster__link_distance": [0.3, 0.5, 0.7],
+}
+
+
+def _read_runs(paths):
+    from tunnelsense.io import read_run
+
+    return [read_run(p) for p in paths]
+
+
+def _speed_of(run):
+    """Ego speed (m/s) from the run information, when it has one."""
+    info = run.info or {}
+    for key, scale in (("speed", 1.0), ("speed_mps", 1.0), ("speed_kmh_mean", 1 / 3.6),
+                       ("speed_kmh", 1 / 3.6)):
+        try:
+            v = float(info[key]) * scale
+        except (KeyError, TypeError, ValueError):
+            continue
+        if v > 0:
+            return v
+    return None
+
+
+def _with_speed(run):
+    """The run's scans, each carrying the run's ego speed in its payload if known."""
+    v = _speed_of(run)
+    if v is None:
+        return list(run.scans)
+    return [r.evolve(speed=v) for r in run.scans]
+
+
+def _cmd_train(args) -> int:
+    import joblib
+    from sklearn.model_selection import GridSearchCV, GroupKFold
+
+    from tunnelsense._records import to_xy
+    from tunnelsense.metrics import make_street_scorer
+    from tunnelsense.street import make_parking_pipeline
+
+    runs = _read_runs(args.rundirs)
+    X, y, groups = to_xy(runs)
+    X = [r for run in runs for r in _with_speed(run)]
+    pipe = make_parking_pipeline()
+    if args.search:
+        n_groups = len(set(groups))
+        if n_groups < 2:
+            print("error: --search needs at least two runs (folds are runs)",
+                  file=sys.stderr)
+            return 2
+        search = GridSearchCV(pipe, _SEARCH_GRID, cv=GroupKFold(min(n_groups, 5)),
+                              scoring=make_street_scorer("parked", "f1"),
+                              error_score="raise")
+        search.fit(X, y, groups=groups)
+        pipe = search.best_estimator_
+        print(f"best parameters: {search.best_params_} "
+              f"(parked F1 {search.best_score_:.3f} over {n_groups} runs)")
+    else:
+        pipe.fit(X, y)
+    Path(args.model).parent.mkdir(parents=True, exist_ok=True)
+    joblib.dump(pipe, args.model)
+    print(f"saved {args.model}")
+    return 0
+
+
+def _load_model(path):
+    import joblib
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: model file not found")
+    return joblib.load(path)
+
+
+def _cmd_detect(args) -> int:
+    model = _load_model(args.model)
+    run = _read_runs([args.rundir])[0]
+    X = _with_speed(run)
+    step = model.steps[-1][1] if hasattr(model, "steps") else model
+    head = model[:-1] if hasattr(model, "steps") and len(model.steps) > 1 else None
+    Xt = head.transform(X) if head is not None else X
+    objects = step.detect(Xt, all_objects=args.all_objects)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    objects.drop(columns=["run"]).to_csv(out, index=False, float_format="%.4f")
+    counts = objects["label"].value_counts().to_dict()
+    print(f"{run.name}: {len(objects)} objects "
+          + (", ".join(f"{n} {k}" for k, n in sorted(counts.items())) or "")
+          + f" -> {out}")
+    if args.draw:
+        from tunnelsense.street._plotting import draw_run
+
+        written = draw_run(run, step, args.draw, X=Xt)
+        print(f"drew {len(written)} pictures in {args.draw}")
+    return 0
+
+
+def _cmd_evaluate(args) -> int:
+    import pandas as pd
+
+    from tunnelsense.io import read_run_gt
+    from tunnelsense.metrics import street_confusion_matrix, street_scores
+
+    rundir = Path(args.rundir)
+    gt_path = rundir / "gt.csv" if rundir.is_dir() else rundir
+    gt = read_run_gt(gt_path)
+    path = Path(args.objects)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: objects file not found")
+    try:
+        det = pd.read_csv(path)
+    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as exc:
+        raise ValueError(f"{path}: not a CSV object table ({exc})") from None
+    missing = [c for c in ("first_scan", "last_scan", "label") if c not in det]
+    if missing:
+        raise ValueError(f"{path}: lacks column(s) {', '.join(missing)}: expected "
+                         "id,first_scan,last_scan,label,mean_depth")
+    scores = street_scores(gt, det, min_iou=args.min_iou)
+    if args.json:
+        print(json.dumps(scores, indent=2))
+        return 0
+    for label, s in scores.items():
+        print(f"{label:8s} tp {s['tp']:4d}  fp {s['fp']:4d}  fn {s['fn']:4d}  "
+              f"recall {s['recall']:.3f}  precision {s['precision']:.3f}")
+    print("\nparked vehicles, the paper's confusion matrix (rows: truth):")
+    print(street_confusion_matrix(gt, det, min_iou=args.min_iou).fillna("N/A")
+          .to_string())
+    return 0
+
+
+def _guard(func):
+    def run(args):
+        try:
+            return func(args)
+        except (FileNotFoundError, ValueError, TypeError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+
+    return run
+
+
+def register(verbs) -> None:
+    """Add the ``street`` commands to the ``train``, ``detect`` and ``evaluate`` verbs.
+
+    Parameters
+    ----------
+    verbs : dict
+        ``{"train": sub, "detect": sub, "evaluate": sub}`` of argparse sub-parser
+        actions.
+    """
+    p = verbs["train"].add_parser("street", help="fit the parked-vehicle detector")
+    p.add_argument("rundirs", nargs="+", metavar="RUNDIR",
+                   help="laser run folders (scans.npz + gt.csv)")
+    p.add_argument("--model", required=True, help="where to save the model (joblib)")
+    p.add_argument("--search", action="store_true",
+                   help="grid-search cut and link distance, GroupKFold by run")
+    p.set_defaults(func=_guard(_cmd_train))
+
+    p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
+    p.add_argument("rundir", metavar="RUNDIR", help="a laser run folder")
+    p.add_argument("--model", required=True, help="a model saved by train street")
+    p.add_argument("--out", required=True, metavar="OBJECTS.csv",
+                   help="object table to write")
+    p.add_argument("--all-objects", action="store_true",
+                   help="also write roadside objects and non-vehicles ('other')")
+    p.add_argument("--draw", metavar="DIR",
+                   help="draw the range image, a scan and its dendrogram into DIR")
+    p.set_defaults(func=_guard(_cmd_detect))
+
+    p = verbs["evaluate"].add_parser("street", help="score an object table")
+    p.add_argument("rundir", metavar="RUNDIR", help="the run folder (its gt.csv)")
+    p.add_argument("objects", metavar="OBJECTS.csv", help="written by detect street")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--min-iou", type=float, default=0.5,
+                   help="scan-interval IoU of a match (default 0.5)")
+    p.set_defaults(func=_guard(_cmd_evaluate))
