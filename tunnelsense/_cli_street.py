@@ -144,8 +144,8 @@ def _cmd_evaluate(args) -> int:
         print(f"{label:8s} tp {s['tp']:4d}  fp {s['fp']:4d}  fn {s['fn']:4d}  "
               f"recall {s['recall']:.3f}  precision {s['precision']:.3f}")
     print("\nparked vehicles, the paper's confusion matrix (rows: truth):")
-    print(street_confusion_matrix(gt, det, min_iou=args.min_iou).fillna("N/A")
-          .to_string())
+    m = street_confusion_matrix(gt, det, min_iou=args.min_iou).astype(object)
+    print(m.where(m.notna(), "N/A").to_string())
     return 0
 
 
