@@ -363,7 +363,7 @@ class WeightedAdaBoost(ClassifierMixin, TransformerMixin, BaseEstimator):
       - ``payload["appearance"]``: ndarray of shape (m,), bool -- the appearance label
         of every cluster;
       - ``payload["appearance_score"]``: ndarray of shape (m,), float64 -- the
-        decision function in [-1, 1] (> 0: positive);
+        SAMME decision function in [-2, 2] (> 0: positive), as scikit-learn scales it;
       - ``payload["cluster_histograms"]``: ndarray of shape (m, bins), float64 -- the
         histograms, used by :class:`TrajectoryLinker` as appearance.
 
@@ -563,7 +563,7 @@ class WeightedAdaBoost(ClassifierMixin, TransformerMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ API
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y, sample_weight=None):
+    def fit(self, X, y=None, sample_weight=None):
         """Train the machine on histograms, or on the clusters of labelled frames.
 
         Parameters

@@ -1,0 +1,188 @@
+import numpy as np
+import pytest
+from sklearn.ensemble import AdaBoostClassifier
+from sklearn.tree import DecisionTreeClassifier
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from tunnelsense import FrameRecord, FrameSequence
+from tunnelsense.tunnel import WeightedAdaBoost, box_histograms, centres_in_boxes
+from tunnelsense.tunnel._appearance import stump_decision
+from tunnelsense.utils import record_stage_checks
+
+
+@parametrize_with_checks(
+    [WeightedAdaBoost(n_estimators=10), WeightedAdaBoost(positive_weight=1.0)]
+)
+def test_sklearn_compatible(estimator, check):
+    check(estimator)
+
+
+def _histograms(rng, n, bins=32):
+    X = rng.dirichlet(np.ones(bins), n)
+    y = ((X[:, 3] + X[:, 7] + rng.normal(0, 0.02, n)) > 0.07).astype(int)
+    return X, y
+
+
+@pytest.mark.parametrize("positive_weight", [1.0, 7.0])
+def test_same_stumps_and_decisions_as_sklearn(global_random_seed, positive_weight):
+    rng = np.random.default_rng(global_random_seed)
+    X, y = _histograms(rng, 1500)
+    weights = np.where(y == 1, positive_weight, 1.0)
+    sk = AdaBoostClassifier(
+        DecisionTreeClassifier(max_depth=1), n_estimators=30, random_state=0
+    ).fit(X, y, sample_weight=weights)
+    ours = WeightedAdaBoost(n_estimators=30, positive_weight=positive_weight).fit(X, y)
+    assert np.array_equal(
+        ours.stump_features_, [e.tree_.feature[0] for e in sk.estimators_]
+    )
+    np.testing.assert_allclose(
+        ours.stump_thresholds_, [e.tree_.threshold[0] for e in sk.estimators_]
+    )
+    X_test, _ = _histograms(rng, 4000)
+    # values exactly on the thresholds, in float32, probe the comparison
+    X_test[:30, ours.stump_features_[:30]] = ours.stump_thresholds_[:30].astype(np.float32)
+    assert np.array_equal(ours.predict(X_test), sk.predict(X_test))
+    np.testing.assert_allclose(
+        ours.decision_function(X_test), sk.decision_function(X_test), atol=1e-12
+    )
+
+
+def test_array_decision_equals_stump_by_stump_reference(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    X, y = _histograms(rng, 600)
+    y = y + (X[:, 0] > 0.06)  # three classes
+    clf = WeightedAdaBoost(n_estimators=15).fit(X, y)
+    K = len(clf.classes_)
+    X_test, _ = _histograms(rng, 500)
+    ref = sum(
+        np.where(
+            (np.where(X_test.astype(np.float32)[:, f] <= t, lft, rgt)[:, None] == np.arange(K)),
+            w,
+            -w / (K - 1),
+        )
+        for f, t, (lft, rgt), w in zip(
+            clf.stump_features_, clf.stump_thresholds_, clf.stump_classes_, clf.stump_weights_,
+            strict=True,
+        )
+    ) / clf.stump_weights_.sum()
+    np.testing.assert_array_equal(clf.decision_function(X_test), ref)
+    assert np.array_equal(clf.predict(X_test), clf.classes_[ref.argmax(1)])
+
+
+def test_positive_weight_raises_recall_on_positives(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    n_pos, n_neg = 150, 1500
+    pos = rng.dirichlet(np.r_[np.ones(16), 1.2 * np.ones(16)] * 5, n_pos)
+    neg = rng.dirichlet(np.r_[1.2 * np.ones(16), np.ones(16)] * 5, n_neg)
+    X, y = np.vstack([pos, neg]), np.r_[np.ones(n_pos), np.zeros(n_neg)]
+    even = WeightedAdaBoost(positive_weight=1.0).fit(X, y).predict(X)
+    biased = WeightedAdaBoost(positive_weight=7.0).fit(X, y).predict(X)
+    recall_even, recall_biased = even[y == 1].mean(), biased[y == 1].mean()
+    assert recall_biased > recall_even
+    assert biased[y == 0].mean() >= even[y == 0].mean()  # paid with false positives
+
+
+def test_stump_decision_is_fast_path_of_predict():
+    X = np.array([[0.1, 0.9], [0.6, 0.4]])
+    d = stump_decision(
+        X, np.array([0]), np.array([0.5]), np.array([1]), np.array([0]),
+        np.array([2.0]), 2, 2.0,
+    )
+    np.testing.assert_array_equal(d, [2.0, -2.0])  # scikit-learn's binary SAMME range
+
+
+# ------------------------------------------------------------------ frame mode
+def _frame(frame, boxes, kinds, tour="t", rng=None):
+    """A frame with indicator-like (bright, dark rim) and lamp-like (saturated) blobs."""
+    rng = np.random.default_rng(frame) if rng is None else rng
+    img = rng.normal(100, 3, (120, 160)).clip(0, 255).astype(np.uint8)
+    for (left, top, w, h), kind in zip(boxes, kinds, strict=True):
+        l0, t0 = int(left), int(top)
+        if kind == "indicator":
+            img[t0 : t0 + int(h), l0 : l0 + int(w)] = 175
+        else:  # lamp: hot core with a halo in the band
+            img[t0 - 3 : t0 + int(h) + 3, l0 - 3 : l0 + int(w) + 3] = 170
+            img[t0 + 2 : t0 + int(h) - 2, l0 + 1 : l0 + int(w) - 1] = 255
+    rec = FrameRecord(tour, frame, img, {"cluster_boxes": np.asarray(boxes, float).reshape(-1, 4)})
+    gt = np.array([b for b, k in zip(boxes, kinds, strict=True) if k == "indicator"], float)
+    return rec, gt.reshape(-1, 4)
+
+
+def _frames(n=12, seed=0):
+    rng = np.random.default_rng(seed)
+    X, y = [], []
+    for f in range(1, n + 1):
+        boxes = [(20 + rng.integers(0, 20), 30, 8, 18), (100 + rng.integers(0, 20), 40, 10, 14)]
+        rec, gt = _frame(f, boxes, ["indicator", "lamp"], rng=rng)
+        X.append(rec)
+        y.append(gt)
+    return FrameSequence(X), y
+
+
+def test_frame_mode_labels_clusters():
+    X, y = _frames()
+    ada = WeightedAdaBoost(n_estimators=10).fit(X, y)
+    assert ada.n_clusters_fit_ == 24 and ada.n_positive_fit_ == 12
+    out = ada.transform(X)
+    assert len(out) == len(X)
+    for r in out:
+        assert r.payload["appearance"].dtype == bool
+        assert r.payload["appearance"].tolist() == [True, False]
+        assert r.payload["appearance_score"].shape == (2,)
+        assert r.payload["cluster_histograms"].shape == (2, 32)
+        np.testing.assert_allclose(r.payload["cluster_histograms"].sum(1), 1.0)
+
+
+def test_frame_mode_errors():
+    X, y = _frames(4)
+    with pytest.raises(ValueError, match="requires y"):
+        WeightedAdaBoost().fit(X)
+    with pytest.raises(ValueError, match="positive and negative"):
+        WeightedAdaBoost().fit(X, [np.empty((0, 4))] * 4)
+    bare = [FrameRecord("t", 1, np.zeros((8, 8), np.uint8))]
+    with pytest.raises(ValueError, match="MSTClusterer"):
+        WeightedAdaBoost().fit(bare, [np.empty((0, 4))])
+    tab = WeightedAdaBoost(n_estimators=3).fit(np.eye(4), [0, 1, 2, 3])
+    with pytest.raises(ValueError, match="fitted on 2-D arrays"):
+        tab.transform(X)
+    fitted = WeightedAdaBoost(n_estimators=3).fit(X, y)
+    with pytest.raises(TypeError, match="transform"):
+        fitted.predict(X)
+
+
+def test_empty_frames_pass_through():
+    X, y = _frames(4)
+    ada = WeightedAdaBoost(n_estimators=5).fit(X, y)
+    empty = X[0].evolve(cluster_boxes=np.empty((0, 4)))
+    out = ada.transform([empty])[0]
+    assert out.payload["appearance"].shape == (0,)
+    assert out.payload["cluster_histograms"].shape == (0, 32)
+
+
+def test_box_histograms_and_margin():
+    img = np.zeros((40, 40), np.uint8)
+    img[10:30, 10:20] = 200
+    tight = box_histograms(img, np.array([[10, 10, 10, 20.0]]), bins=4)
+    np.testing.assert_allclose(tight, [[0, 0, 0, 1]])
+    grown = box_histograms(img, np.array([[10, 10, 10, 20.0]]), bins=4, margin=0.25)
+    assert 0 < grown[0, 0] < 1  # the rim of dark wall is in
+    # clipped to the image
+    edge = box_histograms(img, np.array([[-5, -5, 3, 3.0]]), bins=4)
+    np.testing.assert_allclose(edge.sum(), 1.0)
+
+
+def test_centres_in_boxes():
+    gt = np.array([[0, 0, 10, 10.0]])
+    boxes = np.array([[8, 8, 4, 4], [8, 8, 6, 6], [0, 0, 1, 1]], float)
+    assert centres_in_boxes(boxes, gt).tolist() == [False, False, True]
+    assert centres_in_boxes(boxes, np.empty((0, 4))).tolist() == [False] * 3
+
+
+_X, _Y = _frames(6)
+
+
+@pytest.mark.parametrize(
+    "name, check", list(record_stage_checks(WeightedAdaBoost(n_estimators=5), _X, _Y))
+)
+def test_record_stage_checks(name, check):
+    check()
