@@ -112,3 +112,12 @@ def test_simulate_rejects_unknown_scenario(tmp_path, capsys):
         main(["simulate", "street", str(tmp_path / "x"), "--scenario", "moon"])
     assert exc.value.code == 2
     assert "invalid choice: 'moon'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("verb", ["train", "detect", "evaluate"])
+@pytest.mark.parametrize("kind", ["tunnel", "street"])
+def test_method_commands_are_registered(verb, kind, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([verb, kind, "--help"])
+    assert exc.value.code == 0
+    assert f"tunnelsense {verb} {kind}" in capsys.readouterr().out

@@ -154,10 +154,13 @@ def _register_methods(sub) -> None:
     import importlib.util
 
     modules = [
-        m
+        importlib.import_module(m)
         for m in ("tunnelsense._cli_tunnel", "tunnelsense._cli_street")
         if importlib.util.find_spec(m) is not None
     ]
+    for module in modules:
+        if hasattr(module, "register_top"):
+            module.register_top(sub)
     if not modules:
         return
     verbs = {}
