@@ -1,0 +1,148 @@
+import numpy as np
+import pytest
+
+from tunnelsense import FrameRecord
+from tunnelsense.tunnel import TrajectoryLinker
+from tunnelsense.tunnel._tracking import link_log_likelihood
+from tunnelsense.utils import record_stage_checks, sklearn_api_checks
+
+IMG = np.zeros((120, 160), np.uint8)
+
+
+def rec(frame, boxes, tour="t"):
+    return FrameRecord(tour, frame, IMG, {"cluster_boxes": np.asarray(boxes, float).reshape(-1, 4)})
+
+
+def moving(n, start=(10.0, 20.0), step=(3.0, -1.0), size=(4.0, 8.0), first=1, tour="t"):
+    return [
+        (first + k, [start[0] + step[0] * k, start[1] + step[1] * k, *size])
+        for k in range(n)
+    ]
+
+
+def frames_of(*objects, tour="t"):
+    per = {}
+    for obj in objects:
+        for f, box in obj:
+            per.setdefault(f, []).append(box)
+    return [rec(f, per[f], tour) for f in sorted(per)]
+
+
+def ids(out):
+    return [r.payload["track_ids"].tolist() for r in out]
+
+
+def test_two_objects_keep_their_trajectories(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    a = moving(20, start=(10, 20), step=(3, 1))
+    b = moving(20, start=(140, 100), step=(-2, -1.5))
+    X = frames_of(a, b)
+    # cluster order within a frame must not matter
+    X = [r.evolve(cluster_boxes=r.payload["cluster_boxes"][rng.permutation(2)]) for r in X]
+    out = TrajectoryLinker().fit_transform(X)
+    for r_in, r_out in zip(X, out, strict=True):
+        left = r_in.payload["cluster_boxes"][:, 0]
+        t = r_out.payload["track_ids"]
+        assert t.dtype == np.int64
+        assert t[np.argmin(left)] != t[np.argmax(left)]
+    first = {tuple(np.sort(r.payload["track_ids"])) for r in out}
+    assert first == {(1, 2)}
+
+
+def test_input_order_does_not_matter(global_random_seed):
+    X = frames_of(moving(15), moving(15, start=(100, 90), step=(-1, -2)))
+    perm = np.random.default_rng(global_random_seed).permutation(len(X))
+    shuffled = [X[i] for i in perm]
+    a = TrajectoryLinker().fit_transform(X)
+    b = TrajectoryLinker().fit_transform(shuffled)
+    assert [r.key for r in b] == [X[i].key for i in perm]
+    for i, r in zip(perm, b, strict=True):
+        assert np.array_equal(r.payload["track_ids"], a[i].payload["track_ids"])
+
+
+def test_tours_never_share_a_trajectory():
+    X = frames_of(moving(5), tour="a") + frames_of(moving(5, first=6), tour="b")
+    out = TrajectoryLinker().fit_transform(X)
+    assert ids(out) == [[1]] * 10  # numbered per tour, but two separate tracks
+    X2 = frames_of(moving(10))
+    assert ids(TrajectoryLinker().fit_transform(X2)) == [[1]] * 10
+
+
+@pytest.mark.parametrize("missing, linked", [(2, True), (3, True), (4, False)])
+def test_max_gap(missing, linked):
+    obj = moving(12, step=(1, 0))
+    kept = [o for o in obj if not (5 <= o[0] < 5 + missing)]
+    out = TrajectoryLinker(max_gap=3).fit_transform(frames_of(kept))
+    assert (len(set(sum(ids(out), []))) == 1) is linked
+
+
+def test_frame_gap_in_records_breaks_trajectories():
+    obj = moving(10, step=(0.5, 0))
+    X = frames_of(obj[:5]) + frames_of([(f + 10, b) for f, b in obj[5:]])
+    out = TrajectoryLinker(max_gap=3).fit_transform(X)
+    assert sum(ids(out), []) == [1] * 5 + [2] * 5
+
+
+def test_scale_change_limit():
+    grow = [(1, [50, 50, 4, 8]), (2, [48, 46, 18, 36])]  # x4.5 in size
+    assert ids(TrajectoryLinker().fit_transform(frames_of(grow))) == [[1], [2]]
+    assert ids(TrajectoryLinker(max_scale_change=5, gate=3).fit_transform(frames_of(grow))) == [
+        [1],
+        [1],
+    ]
+
+
+def test_straight_line_prediction_follows_fast_motion():
+    # steps grow to 22 px per frame, beyond the 12 px gate around the last position
+    # of a 4x8 box; the straight-line prediction keeps the trajectory whole
+    x = 10 + np.cumsum([0, 8, 10, 12, 14, 16, 18, 20, 22])
+    fast = [(k + 1, [float(v), 50.0, 4.0, 8.0]) for k, v in enumerate(x)]
+    assert ids(TrajectoryLinker().fit_transform(frames_of(fast))) == [[1]] * len(x)
+    assert (np.diff(x)[3:] > 12).all()
+
+
+def test_link_log_likelihood_gates():
+    h = np.full(4, 0.25)
+    ll = link_log_likelihood((0, 0), 10.0, h, (1, 1), 11.0, h, 1)
+    assert -1 < ll < 0
+    assert link_log_likelihood((0, 0), 10.0, h, (0, 0), 41.0, h, 1) == -np.inf
+    assert link_log_likelihood((0, 0), 10.0, h, (30, 0), 10.0, h, 1) == -np.inf
+    other = np.array([1.0, 0, 0, 0])
+    assert link_log_likelihood((0, 0), 10.0, other, (1, 1), 11.0, h, 1) < ll
+    assert link_log_likelihood((0, 0), 10.0, h, (1, 1), 11.0, h, 3) == pytest.approx(ll - 2)
+
+
+def test_greedy_and_hungarian_assignment():
+    # A-1 is the best pair; greedy takes it and leaves B unlinked, Hungarian links both.
+    pairs = [(-0.1, 0, 0), (-1.0, 0, 1), (-1.0, 1, 0)]
+    assert TrajectoryLinker._assign(list(pairs), 2, 2, hungarian=False) == [(0, 0)]
+    assert sorted(TrajectoryLinker._assign(list(pairs), 2, 2, hungarian=True)) == [
+        (0, 1),
+        (1, 0),
+    ]
+
+
+def test_duplicate_frames_rejected():
+    X = [rec(1, [[0, 0, 4, 8]]), rec(1, [[0, 0, 4, 8]])]
+    with pytest.raises(ValueError, match="twice"):
+        TrajectoryLinker().fit(X)
+
+
+def test_missing_clusters_is_a_clear_error():
+    with pytest.raises(ValueError, match="MSTClusterer"):
+        TrajectoryLinker().fit([FrameRecord("t", 1, IMG)])
+
+
+_X = frames_of(moving(6), moving(6, start=(100, 90), step=(-1, -2)))
+_Y = [np.empty((0, 4))] * len(_X)
+
+
+@pytest.mark.parametrize("assignment", ["greedy", "hungarian"])
+def test_record_stage_checks(assignment):
+    for _, check in record_stage_checks(TrajectoryLinker(assignment=assignment), _X, _Y):
+        check()
+
+
+@pytest.mark.parametrize("name, check", list(sklearn_api_checks(TrajectoryLinker())))
+def test_sklearn_api_checks(name, check):
+    check()
