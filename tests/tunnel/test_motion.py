@@ -1,0 +1,132 @@
+import numpy as np
+import pytest
+
+from tunnelsense import FrameRecord
+from tunnelsense.tunnel import PCCVerifier, pearson_r
+from tunnelsense.tunnel._motion import trajectory_r
+from tunnelsense.utils import record_stage_checks, sklearn_api_checks
+
+IMG = np.zeros((120, 160), np.uint8)
+
+
+def track_frames(tracks, tour="t"):
+    """tracks: {track_id: [(frame, box, appearance), ...]} -> records."""
+    per = {}
+    for tid, items in tracks.items():
+        for f, box, app in items:
+            per.setdefault(f, []).append((box, app, tid))
+    out = []
+    for f in sorted(per):
+        boxes, app, tids = zip(*per[f], strict=True)
+        out.append(
+            FrameRecord(
+                tour, f, IMG,
+                {
+                    "cluster_boxes": np.array(boxes, float),
+                    "appearance": np.array(app, bool),
+                    "track_ids": np.array(tids, np.int64),
+                },
+            )
+        )
+    return out
+
+
+def line(n, app=True, first=1, start=(100, 80), step=(-4, -1.5)):
+    apps = app if isinstance(app, list) else [app] * n
+    return [
+        (first + k, [start[0] + step[0] * k, start[1] + step[1] * k, 4, 8], apps[k])
+        for k in range(n)
+    ]
+
+
+def still(n, rng, first=1):
+    return [(first + k, [60 + rng.normal(0, 1.5), 90 + rng.normal(0, 1.5), 20, 10], True) for k in range(n)]
+
+
+def test_pearson_r_matches_numpy(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    x, y = rng.normal(size=30), rng.normal(size=30)
+    assert pearson_r(x, y) == pytest.approx(np.corrcoef(x, y)[0, 1])
+    assert pearson_r([1, 2, 3], [7, 7, 7]) == 0.0
+
+
+def test_trajectory_r_equals_segment_by_segment(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    lengths = rng.integers(1, 12, 20)
+    x, y = rng.normal(size=lengths.sum()), rng.normal(size=lengths.sum())
+    starts = np.r_[0, np.cumsum(lengths)[:-1]]
+    expected = [pearson_r(x[s : s + n], y[s : s + n]) for s, n in zip(starts, lengths, strict=True)]
+    np.testing.assert_allclose(trajectory_r(x, y, starts), expected, atol=1e-12)
+
+
+def test_straight_track_detected_still_track_not(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    X = track_frames({1: line(20), 2: still(20, rng)})
+    out = PCCVerifier().fit(X).predict(X)
+    for r in out:
+        p = r.payload
+        assert p["indicator"].tolist() == [True, False]
+        assert p["trajectory_positive"].tolist() == [True, False]
+        assert abs(p["motion_r"][0]) > 0.99 and abs(p["motion_r"][1]) < 0.95
+        det = p["detections"]
+        assert det.shape == (1, 6)
+        np.testing.assert_array_equal(det[0, :4], p["cluster_boxes"][0])
+        assert det[0, 4] == 1 and det[0, 5] == 1.0
+
+
+def test_min_length():
+    X = track_frames({1: line(6)})
+    assert not PCCVerifier(min_length=10).fit(X).predict(X)[0].payload["indicator"].any()
+    assert PCCVerifier(min_length=6).fit(X).predict(X)[0].payload["indicator"].all()
+
+
+@pytest.mark.parametrize("n_negative, positive", [(3, True), (5, False)])
+def test_vote_more_than_80_percent(n_negative, positive):
+    # 20 clusters: 3 negative -> 85 % positive; 5 negative -> 75 %
+    app = [True] * (20 - n_negative) + [False] * n_negative
+    X = track_frames({7: line(20, app=app)})
+    out = PCCVerifier(vote=0.8).fit(X).predict(X)
+    assert all(r.payload["trajectory_positive"][0] == positive for r in out)
+    # the indicator decisions follow appearance; detections cover the whole trajectory
+    assert [bool(r.payload["indicator"][0]) for r in out] == app
+    assert sum(len(r.payload["detections"]) for r in out) == (20 if positive else 0)
+
+
+def test_tracks_are_per_tour():
+    # the same track id in two tours: two trajectories, neither straight alone? each is.
+    a = track_frames({1: line(12)}, tour="a")
+    b = track_frames({1: line(12, start=(20, 20), step=(3, 3))}, tour="b")
+    out = PCCVerifier().fit(a + b).predict(a + b)
+    assert all(r.payload["trajectory_length"][0] == 12 for r in out)
+
+
+def test_missing_payload_is_a_clear_error():
+    X = track_frames({1: line(3)})
+    bad = [X[0].evolve(track_ids=np.array([1, 2]))]
+    with pytest.raises(ValueError, match="track_ids"):
+        PCCVerifier().fit(bad)
+    no_app = [FrameRecord("t", 1, IMG, {"cluster_boxes": np.zeros((1, 4)), "track_ids": np.ones(1)})]
+    with pytest.raises(ValueError, match="WeightedAdaBoost"):
+        PCCVerifier().fit(no_app)
+
+
+def test_no_clusters_at_all():
+    X = [FrameRecord("t", 1, IMG, {"cluster_boxes": np.empty((0, 4)), "appearance": np.empty(0, bool), "track_ids": np.empty(0, np.int64)})]
+    out = PCCVerifier().fit(X).predict(X)
+    assert out[0].payload["detections"].shape == (0, 6)
+
+
+_X = track_frames({1: line(12), 2: line(12, start=(20, 100), step=(0.2, 0.1))})
+_Y = [np.empty((0, 4))] * len(_X)
+
+
+@pytest.mark.parametrize(
+    "name, check", list(record_stage_checks(PCCVerifier(), _X, _Y, method="predict"))
+)
+def test_record_stage_checks(name, check):
+    check()
+
+
+@pytest.mark.parametrize("name, check", list(sklearn_api_checks(PCCVerifier())))
+def test_sklearn_api_checks(name, check):
+    check()
