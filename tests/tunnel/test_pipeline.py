@@ -1,0 +1,103 @@
+import joblib
+import numpy as np
+import pytest
+from sklearn.model_selection import GridSearchCV, GroupKFold
+
+from tunnelsense import to_xy
+from tunnelsense.datasets import make_tunnel_tour
+from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
+from tunnelsense.tunnel import (
+    KMeansHistogramVerifier,
+    PCCVerifier,
+    TrajectoryLinker,
+    WeightedAdaBoost,
+    make_indicator_pipeline,
+)
+from tunnelsense.tunnel._pipeline import INDICATOR_STEPS, draw_detections
+
+SMALL = dict(
+    verifier__n_positive_clusters=8,
+    verifier__n_negative_clusters=30,
+    appearance__n_estimators=20,
+    random_state=0,
+)
+
+
+@pytest.fixture(scope="module")
+def tours():
+    # short tours that start 60 m before an indicator
+    return [
+        make_tunnel_tour(150, scenario=sc, random_state=s, first_indicator_m=60.0)
+        for s, sc in ((0, "light"), (1, "heavy"), (2, "light"))
+    ]
+
+
+def test_steps_and_parameters():
+    pipe = make_indicator_pipeline(min_r=0.8, cut=30, positive_weight=3, random_state=1)
+    assert tuple(n for n, _ in pipe.steps) == INDICATOR_STEPS
+    p = pipe.get_params()
+    assert (p["motion__min_r"], p["clusters__cut"], p["appearance__positive_weight"]) == (0.8, 30, 3)
+    assert p["verifier__random_state"] == 1
+    assert isinstance(pipe.named_steps["appearance"], WeightedAdaBoost)
+    assert isinstance(pipe.named_steps["tracks"], TrajectoryLinker)
+    assert isinstance(pipe.named_steps["motion"], PCCVerifier)
+    assert make_indicator_pipeline(verifier=False).named_steps["verifier"] == "passthrough"
+    with pytest.raises(TypeError, match="unknown parameter"):
+        make_indicator_pipeline(nonsense=1)
+    with pytest.raises(TypeError, match="several steps"):
+        make_indicator_pipeline(bins=16)  # verifier and appearance both have bins
+
+
+def test_fit_predict_score_and_persist(tours, tmp_path):
+    X, y, _ = to_xy(tours[:2])
+    pipe = make_indicator_pipeline(**SMALL).fit(X, y)
+    Xt, yt, _ = to_xy(tours[2:])
+    out = pipe.predict(Xt)
+    assert [r.key for r in out] == [r.key for r in Xt]
+    s = indicator_scores(out, yt)
+    # thresholds on a short tour (the full figures are in docs/tunnel-detector.md)
+    assert s["trajectory"]["indicators"] == 1
+    assert s["trajectory"]["detected"] == 1
+    assert s["trajectory"]["false_alarms"] == 0
+    # cluster-level rate on this short tour: see the docs for where it stands
+    assert s["cluster"]["detection_rate"] >= 0.6
+    assert s["cluster"]["false_alarm_rate"] <= 0.05
+    for r in out:
+        det = r.payload["detections"]
+        assert det.shape[1] == 6 and (det[:, 5] > 0.8).all()
+    path = tmp_path / "model.joblib"
+    joblib.dump(pipe, path)
+    again = joblib.load(path).predict(Xt)
+    for a, b in zip(out, again, strict=True):
+        assert np.array_equal(a.payload["detections"], b.payload["detections"])
+    pictures = list(draw_detections(out[:3]))
+    assert pictures[0][1].shape == (*Xt[0].image.shape, 3)
+
+
+def test_grid_search_by_tour(tours):
+    X, y, groups = to_xy(tours)
+    search = GridSearchCV(
+        make_indicator_pipeline(**SMALL),
+        {"motion__min_r": [0.5, 0.95], "appearance__positive_weight": [1.0, 7.0]},
+        cv=GroupKFold(n_splits=3),
+        scoring={
+            "youden": make_tunnel_scorer(),
+            "trajectory_false_alarms": make_tunnel_scorer("trajectory_false_alarms"),
+        },
+        refit="youden",
+        error_score="raise",
+        n_jobs=2,
+    )
+    search.fit(X, y, groups=groups)
+    res = search.cv_results_
+    assert len(res["params"]) == 4
+    assert np.isfinite(res["mean_test_youden"]).all()
+    assert (res["mean_test_trajectory_false_alarms"] <= 0).all()
+    assert search.best_params_ in res["params"]
+    assert len(search.predict(X[:10])) == 10
+
+
+def test_verifier_settings_reach_the_step():
+    pipe = make_indicator_pipeline(max_distance=0.2)
+    assert isinstance(pipe.named_steps["verifier"], KMeansHistogramVerifier)
+    assert pipe.named_steps["verifier"].max_distance == 0.2
