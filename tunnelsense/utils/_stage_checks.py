@@ -127,6 +127,14 @@ def _wrong_record(record_type):
     return FrameRecord("wrong-kind", 1, np.zeros((48, 64), np.uint8))
 
 
+def _seeded(estimator):
+    """A clone with ``random_state=0`` when it has a ``random_state`` left at None."""
+    est = clone(estimator)
+    if est.get_params().get("random_state", 0) is None:
+        est.set_params(random_state=0)
+    return est
+
+
 def _run(estimator, X, y, method):
     fitted = estimator.fit(X, y)
     return fitted, getattr(fitted, method)(X)
@@ -173,15 +181,20 @@ def check_input_not_mutated(estimator, X, y=None, method="transform"):
 def check_accepts_plain_list(estimator, X, y=None, method="transform"):
     """A plain list of records (as CV folds give) gives the same output as the sequence."""
     records, seq_type, _ = _kind(X)
-    _, a = _run(clone(estimator), seq_type(records), y, method)
-    _, b = _run(clone(estimator), list(records), None if y is None else list(y), method)
+    est = _seeded(estimator)
+    _, a = _run(clone(est), seq_type(records), y, method)
+    _, b = _run(clone(est), list(records), None if y is None else list(y), method)
     assert_records_equal(a, b)
 
 
 def check_clone_and_pickle(estimator, X, y=None, method="transform"):
-    """A clone fitted alike, and a pickled fitted stage, give identical outputs."""
-    fitted, a = _run(clone(estimator), X, y, method)
-    _, b = _run(clone(clone(estimator)), X, y, method)
+    """A clone fitted alike, and a pickled fitted stage, give identical outputs.
+
+    A ``random_state`` left at None is set to 0 first.
+    """
+    est = _seeded(estimator)
+    fitted, a = _run(est, X, y, method)
+    _, b = _run(clone(est), X, y, method)
     assert_records_equal(a, b)
     restored = pickle.loads(pickle.dumps(fitted))
     assert_records_equal(a, getattr(restored, method)(X))

@@ -1,0 +1,209 @@
+import numpy as np
+import pytest
+from scipy.spatial.distance import cdist
+from sklearn.cluster import KMeans
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from tunnelsense import FrameSequence
+from tunnelsense.tunnel import (
+    IntensityKeypointSampler,
+    KMeansHistogramVerifier,
+    fit_kmeans,
+    patch_histograms,
+    rank_positive_centers,
+)
+from tunnelsense.tunnel._common import points_in_boxes
+from tunnelsense.utils import record_stage_checks, sklearn_api_checks
+
+
+@parametrize_with_checks(
+    [
+        KMeansHistogramVerifier(),
+        KMeansHistogramVerifier(n_positive_clusters=3, n_negative_clusters=5, n_centers=2),
+        KMeansHistogramVerifier(max_full_samples=5, batch_size=8, n_steps=5),
+    ]
+)
+def test_sklearn_compatible(estimator, check):
+    check(estimator)
+
+
+def test_patch_histograms_match_numpy(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    image = rng.integers(0, 256, (40, 50)).astype(np.uint8)
+    rows = np.array([0, 5, 20, 39, 39])
+    cols = np.array([0, 49, 25, 3, 49])
+    H = patch_histograms(image, rows, cols, patch_size=5, bins=32)
+    padded = np.pad(image, 2, mode="edge")
+    for h, r, c in zip(H, rows, cols, strict=True):
+        patch = padded[r : r + 5, c : c + 5]
+        expected = np.histogram(patch, bins=32, range=(0, 256))[0] / 25
+        np.testing.assert_allclose(h, expected, rtol=1e-6)
+    assert H.dtype == np.float32
+    np.testing.assert_allclose(H.sum(1), 1, rtol=1e-6)
+
+
+def test_patch_histograms_16_bit_range():
+    image = np.full((10, 10), 8000, np.uint16)
+    image[:, 5:] = 9000
+    H = patch_histograms(
+        image, np.array([5]), np.array([5]), patch_size=2, bins=4,
+        intensity_range=(7000, 11000),
+    )
+    assert H.tolist() == [[0.0, 0.5, 0.5, 0.0]]
+
+
+def test_fit_kmeans_small_sets_return_distinct_rows():
+    X = np.array([[0.0, 1], [0, 1], [1, 0]])
+    C = fit_kmeans(X, 40, random_state=0)
+    assert C.tolist() == [[0.0, 1.0], [1.0, 0.0]]
+
+
+def test_fit_kmeans_mini_batch_inertia_close_to_lloyd(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    X = rng.dirichlet(np.ones(8) * 0.5, 6000)
+    mini = fit_kmeans(
+        X, 20, batch_size=512, n_steps=150, max_full_samples=1000,
+        random_state=global_random_seed,
+    )
+    full = KMeans(20, n_init=1, random_state=global_random_seed).fit(X)
+    inertia = (cdist(X, mini, "sqeuclidean").min(1)).sum()
+    assert inertia <= 1.05 * full.inertia_
+
+
+def test_rank_positive_centers_is_mean_distance():
+    rng = np.random.default_rng(0)
+    P, N = rng.random((5, 4)), rng.random((9, 4))
+    np.testing.assert_allclose(rank_positive_centers(P, N), cdist(P, N).mean(1))
+
+
+def test_keeps_the_centres_farthest_from_the_negatives():
+    # three positive groups; the one at [0, 0, 1] lies farthest from the negatives
+    pos = np.repeat([[0.0, 0, 1], [0.5, 0.5, 0], [0.4, 0.6, 0]], 10, axis=0)
+    neg = np.repeat([[0.5, 0.5, 0], [0.6, 0.4, 0]], 10, axis=0)
+    X, y = np.vstack([pos, neg]), np.r_[np.ones(30), np.zeros(20)]
+    v = KMeansHistogramVerifier(n_centers=1, random_state=0).fit(X, y)
+    assert v.centers_.tolist() == [[0.0, 0.0, 1.0]]
+    assert v.predict([[0, 0.05, 0.95], [0.5, 0.5, 0]]).tolist() == [1, 0]
+    assert v.n_positive_ == 30 and v.n_negative_ == 20
+
+
+def test_linear_binning_shares_each_pixel_between_two_bins():
+    image = np.array([[4, 176, 180, 255]], np.uint8)
+    H = patch_histograms(
+        image, np.array([0]), np.array([2]), patch_size=(1, 4), binning="linear"
+    )
+    # bin k spans [8k, 8k + 8); value v sits at bin coordinate (v + 0.5) / 8 - 0.5
+    np.testing.assert_allclose(H.sum(), 1, rtol=1e-6)
+    expected = np.zeros(32)
+    expected[[0, 1]] = [0.9375 / 4, 0.0625 / 4]  # v = 4: x = 0.0625
+    expected[[21, 22]] += [0.4375 / 4, 0.5625 / 4]  # v = 176: x = 21.5625
+    expected[[22, 23]] += [0.9375 / 4, 0.0625 / 4]  # v = 180: x = 22.0625
+    expected[31] += 0.25  # v = 255: past the last centre, clipped
+    np.testing.assert_allclose(H[0], expected, atol=1e-7)
+
+
+def test_bad_patch_size_is_a_clear_error():
+    with pytest.raises(ValueError, match="patch_size"):
+        KMeansHistogramVerifier(patch_size=(7, 0)).fit(np.eye(3), [1, 0, 0])
+
+
+def test_one_class_is_a_clear_error():
+    with pytest.raises(ValueError, match="1 class"):
+        KMeansHistogramVerifier().fit(np.eye(3), [1, 1, 1])
+    with pytest.raises(ValueError, match="intensity_range"):
+        KMeansHistogramVerifier(intensity_range=(5, 5)).fit(np.eye(3), [1, 0, 0])
+
+
+# ------------------------------------------------------------------ frame mode
+def scene(seed, n_frames=6, size=(240, 320)):
+    """Tunnel-like frames: a warm wall, indicators (uniform plates) and lamps.
+
+    An indicator is a plate of nearly uniform intensity in the keypoint band, with a
+    sharp edge to the darker wall.  A lamp is a saturated core whose glow falls off
+    smoothly, so a ring of its halo also lies in the band.
+    """
+    rng = np.random.default_rng(seed)
+    h, w = size
+    yy, xx = np.mgrid[:h, :w]
+    images, boxes = [], []
+    for _ in range(n_frames):
+        image = 95 + 0.08 * yy + rng.normal(0, 4, size)
+        frame_boxes = []
+        for _ in range(2):
+            bh = int(rng.integers(16, 48))
+            bw = max(bh // 3, 6)
+            top, left = int(rng.integers(0, h - bh)), int(rng.integers(0, w - bw))
+            image[top : top + bh, left : left + bw] = rng.normal(176, 3, (bh, bw))
+            frame_boxes.append([left, top, bw, bh])
+        for _ in range(2):
+            cy, cx, r = rng.uniform(20, h - 20), rng.uniform(20, w - 20), rng.uniform(3, 8)
+            d = np.hypot(yy - cy, xx - cx)
+            glow = 160 * np.exp(-np.maximum(d - r, 0) / (1.5 * r))
+            image = np.maximum(image, np.where(d < r, 255, 95 + glow))
+        images.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
+        boxes.append(np.array(frame_boxes, dtype=float))
+    return FrameSequence.from_array(np.stack(images), tour=f"scene-{seed}"), boxes
+
+
+def _fit_stages(seed):
+    X, y = scene(seed)
+    sampler = IntensityKeypointSampler().fit(X, y)
+    Xk = sampler.transform(X)
+    verifier = KMeansHistogramVerifier(random_state=seed).fit(Xk, y)
+    return sampler, verifier
+
+
+def test_frame_mode_keeps_indicators_and_drops_lamp_halos(global_random_seed):
+    sampler, verifier = _fit_stages(global_random_seed)
+    X, y = scene(global_random_seed + 1000)
+    out = verifier.transform(sampler.transform(X))
+    hit = n_boxes = kept_neg = all_neg = 0
+    for r, b in zip(out, y, strict=True):
+        s, k = r.payload["sampled_keypoints"], r.payload["keypoints"]
+        assert k.dtype == np.int32 and k.shape[1] == 3
+        # kept keypoints are a subset of the sampled ones, in raster order
+        assert {tuple(p) for p in k} <= {tuple(p) for p in s}
+        assert np.all(np.diff(k[:, 0].astype(np.int64) * 10_000 + k[:, 1]) > 0)
+        for box in b:
+            n_boxes += 1
+            hit += points_in_boxes(k[:, 0], k[:, 1], box[None]).any()
+        all_neg += (~points_in_boxes(s[:, 0], s[:, 1], b)).sum()
+        kept_neg += (~points_in_boxes(k[:, 0], k[:, 1], b)).sum()
+    assert all_neg > 30  # the lamp halos do cross the keypoint band
+    assert hit >= 0.8 * n_boxes  # indicators keep a verified keypoint
+    assert kept_neg <= 0.1 * all_neg  # halo keypoints are removed
+
+
+def test_frame_mode_fit_also_verifies_histograms():
+    sampler, verifier = _fit_stages(7)
+    assert verifier.n_features_in_ == 32 and verifier.n_frames_fit_ == 6
+    X, _ = scene(8, n_frames=1)
+    r = sampler.transform(X)[0]
+    kp = r.payload["keypoints"]
+    H = patch_histograms(r.image, kp[:, 0], kp[:, 1])
+    kept = verifier.transform([r])[0].payload["keypoints"]
+    assert np.array_equal(kp[verifier.predict(H) == 1], kept)
+    assert verifier.transform(H).shape == (len(kp), verifier.n_centers_)
+
+
+def test_frame_mode_needs_y_and_keypoints():
+    X, y = scene(0, n_frames=2)
+    with pytest.raises(ValueError, match="requires y"):
+        KMeansHistogramVerifier().fit(IntensityKeypointSampler().fit_transform(X))
+    with pytest.raises(ValueError, match="IntensityKeypointSampler"):
+        KMeansHistogramVerifier().fit(X, y)
+
+
+_X, _Y = scene(5, n_frames=3, size=(120, 160))
+_XK = IntensityKeypointSampler().fit_transform(_X)
+_FAST = KMeansHistogramVerifier(n_positive_clusters=8, n_negative_clusters=20, n_centers=4)
+
+
+@pytest.mark.parametrize("name, check", list(record_stage_checks(_FAST, _XK, _Y)))
+def test_record_stage_checks(name, check):
+    check()
+
+
+@pytest.mark.parametrize("name, check", list(sklearn_api_checks(KMeansHistogramVerifier())))
+def test_sklearn_api_checks(name, check):
+    check()
