@@ -121,3 +121,24 @@ def test_method_commands_are_registered(verb, kind, capsys):
         main([verb, kind, "--help"])
     assert exc.value.code == 0
     assert f"tunnelsense {verb} {kind}" in capsys.readouterr().out
+
+
+def test_info_into_a_closed_pipe_is_not_an_error(tmp_path):
+    import subprocess
+    import sys
+
+    g = LaserGeometry(-1.4, 0.0087, 0.05, 8.191, 2.0)
+    write_run(
+        Run.from_arrays("r", np.ones((4, 6)), np.arange(4) / 75, g), tmp_path / "r"
+    )
+    code = "import sys; from tunnelsense._cli import main; sys.exit(main(sys.argv[1:]))"
+    proc = subprocess.run(
+        f"{sys.executable} -c '{code}' info {tmp_path / 'r'} --json | head -c 1",
+        shell=True,
+        capture_output=True,
+        text=True,
+        executable="/bin/bash",
+        env={"PATH": "/usr/bin:/bin", "PYTHONUNBUFFERED": "0"},
+    )
+    assert proc.stdout == "{"
+    assert "error" not in proc.stderr

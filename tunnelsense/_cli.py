@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -183,12 +184,13 @@ def main(argv=None) -> int:
         return 0
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:  # e.g. `tunnelsense info ... | head -1`: not an error
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes
+        return 0
     except (FileNotFoundError, ValueError, OSError) as exc:
         print(f"tunnelsense: error: {exc}", file=sys.stderr)
         return 1
-    except BrokenPipeError:  # e.g. `tunnelsense info ... | head`
-        sys.stderr.close()
-        return 0
     except KeyboardInterrupt:
         print("tunnelsense: interrupted", file=sys.stderr)
         return 130

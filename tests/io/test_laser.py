@@ -171,3 +171,52 @@ def test_info_json_is_plain_json(run, tmp_path):
     with np.load(tmp_path / "scans.npz", allow_pickle=False) as npz:
         assert json.loads(str(npz["info_json"]))["scenario"] == "sparse"
         assert npz["ranges"].shape == (12, 40)
+
+
+def test_float32_ranges_keep_their_no_returns(run, tmp_path):
+    """ROS ranges are float32: float32(8.191) must still mean no return."""
+    write_run(run, tmp_path)
+    with np.load(tmp_path / "scans.npz") as npz:
+        fields = {k: npz[k] for k in npz.files}
+    fields["ranges"] = fields["ranges"].astype(np.float32)
+    np.savez(tmp_path / "scans.npz", **fields)
+    back = read_run(tmp_path).scans.ranges()
+    assert back[2, 5] == np.inf  # was 8.191 exactly
+    assert np.isnan(back[0, 3]) and back[1, 4] == np.inf
+    g = run.geometry
+    no_return = ~np.isfinite(back) | (back >= g.range_max)
+    original = run.scans.ranges()
+    assert np.array_equal(no_return, ~np.isfinite(original) | (original >= g.range_max))
+
+
+def test_gt_beyond_the_run_names_the_line(run, tmp_path):
+    write_run(run, tmp_path)
+    (tmp_path / "gt.csv").write_text(
+        "id,first_scan,last_scan,label\n1,0,3,parked\n\n2,4,99,passing\n"
+    )
+    with pytest.raises(
+        ValueError, match=r"gt.csv, line 4: last_scan 99 is beyond the run's 12 scans"
+    ):
+        read_run(tmp_path)
+
+
+def test_gt_csv_line_numbers_count_blank_lines(tmp_path):
+    (tmp_path / "gt.csv").write_text(
+        "\ufeffid,first_scan,last_scan,label\n\n1,0,3,parked\n\n2,4,5,bicycle\n"
+    )
+    with pytest.raises(ValueError, match=r"gt.csv, line 5: unknown label 'bicycle'"):
+        read_run_gt(tmp_path / "gt.csv")
+
+
+@pytest.mark.parametrize(
+    "fields, message",
+    [
+        ({"info_json": np.array("[1, 2]")}, "info_json must hold a JSON object"),
+        ({"range_max": np.array("8.191")}, "range_max must be one finite number"),
+        ({"stamps": np.array([0.0, np.nan, 2.0])}, "stamps contain NaN"),
+    ],
+)
+def test_malformed_fields_name_the_file(tmp_path, fields, message):
+    _save(tmp_path, **fields)
+    with pytest.raises(ValueError, match=f"scans.npz: {message}"):
+        read_run(tmp_path)

@@ -244,3 +244,52 @@ def test_results_round_trip(tmp_path):
     back = read_mot_results(tmp_path / "res.txt")
     pd.testing.assert_frame_equal(back[list(res.columns)], res)
     assert (back[["x", "y", "z"]] == -1).all().all()
+
+
+def test_gt_errors_name_the_right_line_despite_blank_lines(tour, tmp_path):
+    write_tour(tour, tmp_path / "s")
+    gt = tmp_path / "s" / "gt" / "gt.txt"
+    gt.write_text("1,1,2,3,4,5,1,1,1\n\n\n2,1,2,3,4,5,1,1,1\n9,1,2,3,4,5,1,1,1\n")
+    with pytest.raises(ValueError, match=r"gt.txt, line 5: frame 9 is outside 1..4"):
+        read_tour(tmp_path / "s")
+    gt.write_text("1,1,2,3,4,5,1,1,1\n\n2,1,nan,3,4,5,1,1,1\n")
+    with pytest.raises(ValueError, match=r"gt.txt, line 3: NaN or infinity"):
+        read_mot_gt(gt)
+    gt.write_text("1,1,2,3,-4,5,1,1,1\n")
+    with pytest.raises(ValueError, match=r"gt.txt, line 1: negative box width"):
+        read_mot_gt(gt)
+
+
+def test_seqinfo_with_bom_and_lower_case_section(tour, tmp_path):
+    write_tour(tour, tmp_path / "s")
+    ini = tmp_path / "s" / "seqinfo.ini"
+    ini.write_text("\ufeff" + ini.read_text().replace("[Sequence]", "[sequence]"))
+    assert len(read_tour(tmp_path / "s")) == 4
+
+
+def test_natural_order_and_hidden_files(tmp_path):
+    import cv2
+
+    for i in (1, 2, 10):
+        cv2.imwrite(str(tmp_path / f"frame_{i}.png"), np.full((3, 3), i, np.uint8))
+    (tmp_path / "._frame_3.png").write_bytes(b"macOS resource fork")
+    tour = read_image_folder(tmp_path)
+    assert [int(r.image[0, 0]) for r in tour.frames] == [1, 2, 10]
+
+
+def test_png_with_bytes_after_iend_is_not_truncated(tour, tmp_path):
+    write_tour(tour, tmp_path / "s")
+    f = tmp_path / "s" / "img1" / "000001.png"
+    f.write_bytes(f.read_bytes() + b"\x00" * 64)
+    assert np.array_equal(read_image(f), tour.frames[0].image)
+
+
+def test_rewriting_a_shorter_tour_removes_stale_frames(tour, tmp_path):
+    write_tour(tour, tmp_path / "s")
+    short = Tour.from_array("seq-a", np.stack([r.image for r in tour.frames][:2]))
+    write_tour(short, tmp_path / "s")
+    assert sorted(p.name for p in (tmp_path / "s" / "img1").iterdir()) == [
+        "000001.png",
+        "000002.png",
+    ]
+    assert len(read_tour(tmp_path / "s")) == 2

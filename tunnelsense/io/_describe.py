@@ -19,7 +19,9 @@ _MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 def open_source(source) -> Tour | Run:
     """Read a tour (MOTChallenge folder, image folder, video) or a laser run."""
     source = Path(source)
-    if (source.is_dir() and (source / "scans.npz").exists()) or source.suffix == ".npz":
+    if (
+        source.is_dir() and (source / "scans.npz").exists()
+    ) or source.suffix.lower() == ".npz":
         return read_run(source)
     return open_tour(source)
 

@@ -68,7 +68,7 @@ def read_image(path) -> np.ndarray:
     data = np.fromfile(path, dtype=np.uint8)
     if data.size == 0:
         raise ValueError(f"{path}: empty file, expected an image")
-    if data[:8].tobytes() == _PNG_SIGNATURE and b"IEND" not in data[-12:].tobytes():
+    if data[:8].tobytes() == _PNG_SIGNATURE and data.tobytes().rfind(b"IEND") < 0:
         # libpng may hand back a partly decoded frame for a truncated file.
         raise ValueError(
             f"{path}: truncated PNG (no IEND chunk at the end of the file)"

@@ -69,7 +69,7 @@ def read_run(path) -> Run:
     path = Path(path)
     if path.is_dir():
         folder, npz_path = path, path / "scans.npz"
-    elif path.suffix == ".npz":
+    elif path.suffix.lower() == ".npz" and path.is_file():
         folder, npz_path = path.parent, path
     else:
         raise FileNotFoundError(f"{path}: run folder not found")
@@ -92,7 +92,11 @@ def read_run(path) -> Run:
     scalars = {}
     for k in _SCALARS:
         value = data[k]
-        if value.size != 1 or not np.isfinite(value).all():
+        if (
+            value.size != 1
+            or value.dtype.kind not in "fiu"
+            or not np.isfinite(value).all()
+        ):
             raise ValueError(
                 f"{npz_path}: {k} must be one finite number; got {value!r}"
             )
@@ -120,9 +124,27 @@ def read_run(path) -> Run:
             raise ValueError(
                 f"{npz_path}: info_json is not valid JSON ({exc})"
             ) from None
+        if not isinstance(info, dict):
+            raise ValueError(
+                f"{npz_path}: info_json must hold a JSON object; got {type(info).__name__}"
+            )
+    if not np.all(np.isfinite(stamps)):
+        raise ValueError(f"{npz_path}: stamps contain NaN or infinity")
+    if ranges.dtype.kind == "f" and ranges.dtype != np.float64:
+        # ROS ranges are float32: float32(8.191) widens to 8.19099998..., below the
+        # float64 range_max. Mark no-returns in the file's own precision first.
+        limit = np.asarray(scalars["range_max"], dtype=ranges.dtype)
+        ranges = np.where(ranges >= limit, np.inf, ranges)
     name = str(info.pop("name", folder.resolve().name))
     gt_path = folder / "gt.csv"
     gt = read_run_gt(gt_path) if gt_path.exists() else empty_run_gt()
+    beyond = np.flatnonzero(gt["last_scan"].to_numpy() >= len(ranges))
+    if beyond.size:
+        i = beyond[0]
+        raise ValueError(
+            f"{gt_path}, line {gt.attrs['lines'][i]}: last_scan {gt['last_scan'].iloc[i]} "
+            f"is beyond the run's {len(ranges)} scans (numbered from 0)"
+        )
     geometry = LaserGeometry(**scalars)
     return Run.from_arrays(
         name, ranges.astype(np.float64, copy=False), stamps, geometry, gt, info=info
@@ -140,10 +162,20 @@ def read_run_gt(path) -> pd.DataFrame:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: ground-truth file not found")
     try:
-        gt = pd.read_csv(path, dtype=str, keep_default_na=False)
+        gt = pd.read_csv(
+            path,
+            dtype=str,
+            keep_default_na=False,
+            skip_blank_lines=False,
+            encoding="utf-8-sig",
+        )
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: not a readable CSV file ({exc})") from None
     gt.columns = [c.strip() for c in gt.columns]
+    # file line of each row (header is line 1); then drop blank lines
+    lines = np.arange(2, len(gt) + 2)
+    blank = (gt.apply(lambda col: col.str.strip()) == "").all(axis=1).to_numpy()
+    gt, lines = gt[~blank].reset_index(drop=True), lines[~blank]
     missing = [c for c in RUN_GT_COLUMNS if c not in gt.columns]
     if missing:
         raise ValueError(
@@ -153,7 +185,7 @@ def read_run_gt(path) -> pd.DataFrame:
     out = {}
     for c in ("id", "first_scan", "last_scan"):
         values = []
-        for i, v in enumerate(gt[c], start=2):
+        for i, v in zip(lines, gt[c], strict=True):
             try:
                 values.append(int(v.strip()))
             except ValueError:
@@ -162,7 +194,7 @@ def read_run_gt(path) -> pd.DataFrame:
                 ) from None
         out[c] = np.array(values, dtype=np.int64)
     labels = [v.strip() for v in gt["label"]]
-    for i, label in enumerate(labels, start=2):
+    for i, label in zip(lines, labels, strict=True):
         if label not in RUN_LABELS:
             raise ValueError(
                 f"{path}, line {i}: unknown label {label!r}, expected one of "
@@ -176,7 +208,9 @@ def read_run_gt(path) -> pd.DataFrame:
                 f"{path}, line {i}: first_scan={a}, last_scan={b}; expected "
                 "0 <= first_scan <= last_scan"
             )
-    return pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
+    table = pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
+    table.attrs["lines"] = [int(i) for i in lines]
+    return table
 
 
 def write_run_gt(gt: pd.DataFrame, path) -> None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import configparser
 import io
+import re
 from pathlib import Path
 
 import cv2
@@ -109,6 +110,7 @@ def _parse_line_by_line(path, text, columns):
 
 
 def _read_table(path, columns) -> pd.DataFrame:
+    """Parse a headerless MOT table; ``table.attrs["lines"]`` holds each row's line."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: file not found")
@@ -141,8 +143,28 @@ def _read_table(path, columns) -> pd.DataFrame:
         if not ok:
             rows = _parse_line_by_line(path, text, columns)
             table = pd.DataFrame(rows, columns=list(columns), dtype=np.float64)
+    values = table.to_numpy()
+    lines = [i for i, line in enumerate(text.splitlines(), 1) if line.strip()]
+    bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
+    if bad.size:
+        raise ValueError(
+            f"{path}, line {lines[bad[0]]}: NaN or infinity, expected numbers"
+        )
+    ints = table[int_columns].to_numpy()
+    bad = np.flatnonzero((np.abs(ints) >= 2**62).any(axis=1))
+    if bad.size:
+        raise ValueError(f"{path}, line {lines[bad[0]]}: integer column out of range")
+    if "bb_width" in table:
+        bad = np.flatnonzero(
+            (table[["bb_width", "bb_height"]].to_numpy() < 0).any(axis=1)
+        )
+        if bad.size:
+            raise ValueError(
+                f"{path}, line {lines[bad[0]]}: negative box width or height"
+            )
     for c in int_columns:
         table[c] = table[c].to_numpy().astype(np.int64)
+    table.attrs["lines"] = lines
     return table
 
 
@@ -218,12 +240,13 @@ def _read_seqinfo(path: Path) -> dict:
     parser = configparser.ConfigParser(interpolation=None)
     parser.optionxform = str
     try:
-        parser.read(path, encoding="utf-8")
-    except configparser.Error as exc:
+        parser.read(path, encoding="utf-8-sig")
+    except (configparser.Error, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: not a valid ini file: {exc}") from None
-    if not parser.has_section("Sequence"):
+    sections = [s for s in parser.sections() if s.lower() == "sequence"]
+    if not sections:
         raise ValueError(f"{path}: no [Sequence] section")
-    items = dict(parser.items("Sequence"))
+    items = dict(parser.items(sections[0]))
     lower = {k.lower(): k for k in items}
     info = {}
     missing = []
@@ -321,11 +344,11 @@ def read_tour(path) -> Tour:
     gt_path = path / "gt" / "gt.txt"
     gt = read_mot_gt(gt_path) if gt_path.exists() else empty_mot_gt()
     if len(gt):
-        bad = gt.index[(gt["frame"] < 1) | (gt["frame"] > seq["seqLength"])]
-        if len(bad):
+        bad = np.flatnonzero((gt["frame"] < 1) | (gt["frame"] > seq["seqLength"]))
+        if bad.size:
             raise ValueError(
-                f"{gt_path}, line {bad[0] + 1}: frame {gt['frame'][bad[0]]} is outside "
-                f"1..{seq['seqLength']}"
+                f"{gt_path}, line {gt.attrs['lines'][bad[0]]}: frame "
+                f"{gt['frame'].iloc[bad[0]]} is outside 1..{seq['seqLength']}"
             )
     return Tour(seq["name"], frames, gt, seq["frameRate"], dict(seq["extra"]))
 
@@ -368,6 +391,9 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
             raise OSError(f"{target}: OpenCV could not write the frame")
         if progress is not None:
             progress(i, len(tour.frames))
+    for stale in image_dir.glob("*.png"):  # frames of an earlier, longer tour
+        if stale.stem.isdigit() and int(stale.stem) > len(tour.frames):
+            stale.unlink()
     parser = configparser.ConfigParser(interpolation=None)
     parser.optionxform = str
     section = {
@@ -392,8 +418,16 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
 # --------------------------------------------------------------------------------------
 # Image folders and videos
 # --------------------------------------------------------------------------------------
+def _natural_key(path):
+    """``frame_2`` before ``frame_10``: digit runs compare as numbers."""
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", path.name)]
+
+
 def read_image_folder(path, *, frame_rate=30.0) -> Tour:
-    """Read a plain folder of image files (sorted by name) as a tour without ground truth.
+    """Read a plain folder of image files as a tour without ground truth.
+
+    Files are ordered by name with digit runs compared as numbers (``f_2.png`` before
+    ``f_10.png``); hidden files are skipped.
 
     Parameters
     ----------
@@ -401,6 +435,11 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
         A folder of frames (PNG, TIFF, JPEG, BMP, PGM; 8-bit or 16-bit).
     frame_rate : float, default=30.0
         Frames per second (a folder does not say).
+
+    Returns
+    -------
+    tour : Tour
+        Named after the folder; frames numbered from 1, decoded on access.
     """
     path = Path(path)
     if not path.is_dir():
@@ -409,9 +448,11 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
         (
             p
             for p in path.iterdir()
-            if p.suffix.lower() in IMAGE_EXTENSIONS and p.is_file()
+            if p.suffix.lower() in IMAGE_EXTENSIONS
+            and not p.name.startswith(".")
+            and p.is_file()
         ),
-        key=lambda p: p.name,
+        key=_natural_key,
     )
     if not files:
         raise ValueError(
