@@ -200,9 +200,7 @@ def read_run_gt(path) -> pd.DataFrame:
                 f"{path}, line {i}: unknown label {label!r}, expected one of "
                 f"{', '.join(RUN_LABELS)}"
             )
-    for i, (a, b) in enumerate(
-        zip(out["first_scan"], out["last_scan"], strict=True), 2
-    ):
+    for i, a, b in zip(lines, out["first_scan"], out["last_scan"], strict=True):
         if a < 0 or b < a:
             raise ValueError(
                 f"{path}, line {i}: first_scan={a}, last_scan={b}; expected "
