@@ -30,6 +30,8 @@ import pandas as pd
 
 __all__ = [
     "FrameRecord",
+    "ImageFile",
+    "VideoFrame",
     "FrameSequence",
     "LaserGeometry",
     "MOT_GT_COLUMNS",
@@ -565,6 +567,7 @@ class Run:
 
     @property
     def geometry(self) -> LaserGeometry:
+        """The sensor geometry of the run's scans (that of its first scan)."""
         if not len(self.scans):
             raise ValueError(f"run {self.name!r} has no scans")
         return self.scans[0].geometry

@@ -17,7 +17,18 @@ _MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 
 
 def open_source(source) -> Tour | Run:
-    """Read a tour (MOTChallenge folder, image folder, video) or a laser run."""
+    """Read a tour (MOTChallenge folder, image folder, video) or a laser run.
+
+    Parameters
+    ----------
+    source : str or Path
+        A laser run folder (holding ``scans.npz``) or ``.npz`` file, or anything
+        :func:`~tunnelsense.io.open_tour` reads.
+
+    Returns
+    -------
+    data : Tour or Run
+    """
     source = Path(source)
     if (
         source.is_dir() and (source / "scans.npz").exists()
@@ -32,9 +43,17 @@ def describe(source) -> dict:
     A model file (``.skops``, ``.joblib``) is described by its model card instead
     (:func:`~tunnelsense.io.describe_model`).
 
-    Keys: ``kind`` (``"tunnel"`` or ``"street"``), ``name``, ``frames`` or ``scans``,
-    ``objects`` (class or label name -> number of distinct object ids), and the image
-    size and frame rate, or the beams, scan rate and geometry.
+    Parameters
+    ----------
+    source : str, Path, Tour or Run
+        What to describe.
+
+    Returns
+    -------
+    facts : dict
+        ``kind`` (``"tunnel"``, ``"street"`` or ``"model"``), ``name``, ``frames`` or
+        ``scans``, ``objects`` (class or label name -> number of distinct object ids),
+        and the image size and frame rate, or the beams, scan rate and geometry.
     """
     if (
         not isinstance(source, Tour | Run)

@@ -107,7 +107,18 @@ def read_video_frame(path, index: int) -> np.ndarray:
 
 
 def iter_video(path):
-    """Yield the frames of a video file one by one (2-D arrays), decoding sequentially."""
+    """Yield the frames of a video file one by one, decoding sequentially.
+
+    Parameters
+    ----------
+    path : str or Path
+        A video file OpenCV can open.
+
+    Yields
+    ------
+    image : ndarray of shape (height, width)
+        Grey frames, in order.
+    """
     capture = open_video(path)
     try:
         while True:

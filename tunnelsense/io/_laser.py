@@ -154,9 +154,21 @@ def read_run(path) -> Run:
 def read_run_gt(path) -> pd.DataFrame:
     """Read a laser run's ``gt.csv`` (``id,first_scan,last_scan,label``).
 
-    Raises ``ValueError`` naming the file and line for a missing column, a non-integer
-    scan number, ``first_scan > last_scan`` or a label other than ``parked`` /
-    ``passing``.
+    Parameters
+    ----------
+    path : str or Path
+        The ground-truth file.
+
+    Returns
+    -------
+    gt : DataFrame
+        ``id``, ``first_scan``, ``last_scan`` as int64 and ``label`` as strings.
+
+    Raises
+    ------
+    ValueError
+        A missing column, a non-integer scan number, ``first_scan > last_scan`` or a
+        label other than ``parked`` / ``passing`` (names the file and line).
     """
     path = Path(path)
     if not path.is_file():
@@ -212,7 +224,15 @@ def read_run_gt(path) -> pd.DataFrame:
 
 
 def write_run_gt(gt: pd.DataFrame, path) -> None:
-    """Write a laser run's ground truth as ``gt.csv``."""
+    """Write a laser run's ground truth as ``gt.csv``.
+
+    Parameters
+    ----------
+    gt : DataFrame
+        With the columns ``id,first_scan,last_scan,label``.
+    path : str or Path
+        The file to write (its folder is created).
+    """
     missing = [c for c in RUN_GT_COLUMNS if c not in gt.columns]
     if missing:
         raise ValueError(f"cannot write {path}: the table lacks columns {missing}")

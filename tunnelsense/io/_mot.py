@@ -207,20 +207,54 @@ def _write_table(frame: pd.DataFrame, path, columns):
 
 
 def write_mot_gt(gt: pd.DataFrame, path) -> None:
-    """Write ground truth as a MOTChallenge ``gt.txt`` (floats round-trip exactly)."""
+    """Write ground truth as a MOTChallenge ``gt.txt``.
+
+    Floats are written in their shortest round-trip form, so :func:`read_mot_gt` gives
+    back the same table.
+
+    Parameters
+    ----------
+    gt : DataFrame
+        With the columns ``frame,id,bb_left,bb_top,bb_width,bb_height,conf,class,
+        visibility``.
+    path : str or Path
+        The file to write (its folder is created).
+    """
     _write_table(gt, path, MOT_GT_COLUMNS)
 
 
 def read_mot_results(path) -> pd.DataFrame:
-    """Read a MOTChallenge results file (10 columns) as a DataFrame."""
+    """Read a MOTChallenge results file as a DataFrame.
+
+    Parameters
+    ----------
+    path : str or Path
+        A results file with the 10 columns
+        ``frame,id,bb_left,bb_top,bb_width,bb_height,conf,x,y,z``.
+
+    Returns
+    -------
+    results : DataFrame
+        ``frame`` and ``id`` as int64, the rest float64.
+
+    Raises
+    ------
+    ValueError
+        A line with another number of columns or a non-number (names file and line).
+    """
     return _read_table(path, MOT_RESULT_COLUMNS)
 
 
 def write_mot_results(results: pd.DataFrame, path) -> None:
     """Write detections as a MOTChallenge results file.
 
-    ``results`` needs ``frame,id,bb_left,bb_top,bb_width,bb_height,conf``; ``x, y, z``
-    are written as -1 unless given.
+    Parameters
+    ----------
+    results : DataFrame
+        With ``frame,id,bb_left,bb_top,bb_width,bb_height,conf``; ``x, y, z`` are
+        written as -1 unless given.
+    path : str or Path
+        The file to write (its folder is created).
     """
     results = results.copy()
     for c in ("x", "y", "z"):
@@ -476,8 +510,18 @@ def read_video(path) -> Tour:
     """Read a video file (through OpenCV) as a tour without ground truth.
 
     Frames are decoded on access (a seek per frame); for a pass over the whole video,
-    :func:`iter_video` decodes sequentially and is faster.  Colour video is converted
-    to grey.
+    :func:`iter_video` decodes sequentially and is much faster.  Colour video is
+    converted to grey.
+
+    Parameters
+    ----------
+    path : str or Path
+        A video file OpenCV can open.
+
+    Returns
+    -------
+    tour : Tour
+        Named after the file; frames numbered from 1; the frame rate the file states.
     """
     path = Path(path)
     capture = open_video(path)
@@ -498,7 +542,18 @@ def read_video(path) -> Tour:
 
 
 def open_tour(source) -> Tour:
-    """Read a tour from a MOTChallenge folder, an image folder or a video file."""
+    """Read a tour from a MOTChallenge folder, an image folder or a video file.
+
+    Parameters
+    ----------
+    source : str or Path
+        A folder with ``seqinfo.ini`` (:func:`read_tour`), another folder
+        (:func:`read_image_folder`) or a file (:func:`read_video`).
+
+    Returns
+    -------
+    tour : Tour
+    """
     source = Path(source)
     if source.is_dir():
         if (source / "seqinfo.ini").exists():
