@@ -19,6 +19,7 @@ from tunnelsense.street._restoration import (
     restore_points,
 )
 from tunnelsense.street._roi import roi_mask
+from tunnelsense.street._sections import section_evidence
 
 __all__ = [
     "OBJECT_COLUMNS",
@@ -34,5 +35,6 @@ __all__ = [
     "plot_objects",
     "restore_points",
     "roi_mask",
+    "section_evidence",
     "single_linkage",
 ]

@@ -27,6 +27,11 @@ from tunnelsense.street._restoration import (
     restore_points,
 )
 from tunnelsense.street._roi import roi_mask
+from tunnelsense.street._sections import section_evidence
+
+_BODY, _HIDDEN = 0b0111, 0b1000  # bits of the per-scan evidence flags
+#: Shortest visible part (m) of a vehicle cut short by an occluder.
+_MIN_VISIBLE = 0.5
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline", "split_profile"]
 
@@ -213,6 +218,12 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         "max_length": [Interval(numbers.Real, 0, None, closed="neither")],
         "merge_gap": [Interval(numbers.Real, 0, None, closed="left")],
         "speed": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "roof_width": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_clearance": [Interval(numbers.Real, None, None, closed="neither")],
+        "min_body_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
+        "occlusion_margin": [Interval(numbers.Real, 0, None, closed="left")],
+        "bridge_occluded": ["boolean"],
+        "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
     }
 
     def __init__(
@@ -231,6 +242,12 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         max_length=25.0,
         merge_gap=0.5,
         speed=None,
+        roof_width=0.8,
+        min_clearance=0.2,
+        min_body_fraction=0.3,
+        occlusion_margin=1.0,
+        bridge_occluded=True,
+        occluded_length=4.0,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -246,6 +263,12 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         self.max_length = max_length
         self.merge_gap = merge_gap
         self.speed = speed
+        self.roof_width = roof_width
+        self.min_clearance = min_clearance
+        self.min_body_fraction = min_body_fraction
+        self.occlusion_margin = occlusion_margin
+        self.bridge_occluded = bridge_occluded
+        self.occluded_length = occluded_length
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -319,7 +342,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         follows = ~new_run & np.r_[False, sscans[1:] == sscans[:-1] + 1]
         run_starts = np.flatnonzero(new_run)
         run_ends = np.r_[run_starts[1:], n]
-        xs, ys, ps, bs = [], [], [], []
+        xs, ys, ps, bs, abs_, bes = [], [], [], [], [], []
         tilt = np.zeros(n)
         step = np.zeros(n)  # metres travelled per scan, per scan
         for a, b in zip(run_starts, run_ends, strict=True):
@@ -353,10 +376,21 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             ys.append(height[rows, cols])
             ps.append(rows + a)
             bs.append(cols)
+            # the returns of the beams just above and below every ROI point
+            nb = depth.shape[1]
+            up, dn = np.minimum(cols + 1, nb - 1), np.maximum(cols - 1, 0)
+            ab = np.column_stack([depth[rows, up], height[rows, up]])
+            ab[cols + 1 >= nb] = np.nan
+            be = np.column_stack([depth[rows, dn], height[rows, dn]])
+            be[cols == 0] = np.nan
+            abs_.append(ab)
+            bes.append(be)
         x = np.concatenate(xs) if xs else np.empty(0)
         y = np.concatenate(ys) if ys else np.empty(0)
         pos = np.concatenate(ps).astype(np.int64) if ps else np.empty(0, np.int64)
         beams = np.concatenate(bs).astype(np.int64) if bs else np.empty(0, np.int64)
+        above = np.concatenate(abs_) if abs_ else np.empty((0, 2))
+        below = np.concatenate(bes) if bes else np.empty((0, 2))
         # 4. intra-scan clusters
         local = _single_linkage_groups(x, y, pos, float(self.cut))
         n_cl = np.zeros(n, dtype=np.int64)
@@ -370,11 +404,16 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         cdepth = np.bincount(cid, weights=x, minlength=k) / np.maximum(npts, 1)
         ctop = np.full(k, -np.inf)
         np.maximum.at(ctop, cid, y)
+        roof, wall, raised, hidden = section_evidence(
+            x, y, cid, beams, above, below, n_clusters=k, roof_width=self.roof_width,
+            max_height=self.max_height, cut=self.cut, min_clearance=self.min_clearance)
+        cflag = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
+                 | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
         # 5. inter-scan linking
         cobj = link_scans(cpos, cdepth, follows, float(self.link_distance))
         # 6-7. objects
         objects, cobj, spans = self._objects(cpos, cdepth, ctop, npts, cobj, step,
-                                             sruns, sscans, follows)
+                                             sruns, sscans, follows, cflag)
         return {
             "order": order, "beams": beams, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
             "local": local, "cid": cid, "cpos": cpos, "cobj": cobj, "tilt": tilt,
@@ -415,7 +454,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
     def _region(self, depth):
         return np.searchsorted(self.region_edges_, depth, side="right")
 
-    def _objects(self, cpos, cdepth, ctop, npts, cobj, step, runs, scans, follows):
+    def _objects(self, cpos, cdepth, ctop, npts, cobj, step, runs, scans, follows,
+                 cflag):
         """Merge, split and label object-clusters; return the object table."""
         w = npts.astype(np.float64)
         n_pos = len(step)
@@ -431,7 +471,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             if self.split_merged:
                 cobj = self._split(_Profiles(cobj, cpos, cdepth, ctop, w), cobj, near,
                                    step)
-        prof = _Profiles(cobj, cpos, cdepth, ctop, w)
+        prof = _Profiles(cobj, cpos, cdepth, ctop, w, cflag)
         n_obj = prof.n
         # order objects by (first scan, depth); ids from 1
         order = np.lexsort((prof.depth, prof.first))
@@ -444,7 +484,24 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         length = cum[o_last + 1] - cum[o_first]
         region = self._region(o_depth)
         label = np.asarray(self.labels_, dtype=object)[region]
-        vehicle_like = (length >= self.min_length) & (length <= self.max_length)
+        vehicle_like = length <= self.max_length
+        body = np.zeros(n_obj)
+        # scans before / after every object where something at least
+        # occlusion_margin nearer hides it (its true end may lie behind)
+        hid_before = np.zeros(n_obj, dtype=np.int64)
+        hid_after = np.zeros(n_obj, dtype=np.int64)
+        if self.occluded_length is not None:
+            for i in np.flatnonzero(vehicle_like):
+                hid_before[i], hid_after[i] = _hidden_ends(
+                    near, follows, o_first[i], o_last[i],
+                    o_depth[i] - self.occlusion_margin)
+        hid_len = (cum[o_first] - cum[o_first - hid_before]) + (
+            cum[o_last + 1 + hid_after] - cum[o_last + 1])
+        # an object cut short by an occluder may be a vehicle when its visible part
+        # is at least min_visible long; otherwise it must be min_length long
+        cut_short = (hid_len > 0) & (length >= _MIN_VISIBLE)
+        vehicle_like &= (length >= self.min_length) | (
+            cut_short & (length + hid_len >= self.min_length))
         # a vehicle is one continuous surface: its longest stretch of consecutive
         # scans seen (or hidden by something nearer) must be vehicle-long too, and so
         # must the scans where it is actually seen; rows of pedestrians, bins or
@@ -459,7 +516,27 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             edges = np.r_[-1, brk, len(seen)] + pos[0]
             run_len = cum[edges[1:]] - cum[edges[:-1] + 1]
             seen_len = (cum[pos + 1] - cum[pos]).sum()
-            vehicle_like[i] = min(run_len.max(), seen_len) >= self.min_length
+            if cut_short[i]:
+                vehicle_like[i] = (seen_len >= _MIN_VISIBLE) & (
+                    run_len.max() + hid_len[i] >= self.min_length)
+            else:
+                vehicle_like[i] = min(run_len.max(), seen_len) >= self.min_length
+            # cross-section evidence of a vehicle body (roof, wall or raised body) in
+            # enough of the scans where it is seen
+            fl = prof.scan_flags(o)
+            body[i] = np.mean((fl & _BODY) > 0)
+        vehicle_like &= body >= self.min_body_fraction
+        # extend vehicles cut short by an occluder to occluded_length behind it
+        if self.occluded_length is not None:
+            o_first, o_last = o_first.copy(), o_last.copy()
+            # not objects cut by a run boundary: their unseen part may lie beyond it
+            at_start = ~follows[o_first]
+            at_end = ~np.r_[follows[1:], False][o_last]
+            ext = np.flatnonzero(vehicle_like & (hid_len > 0) & ~at_start & ~at_end)
+            for i in ext:
+                self._extend(i, o_first, o_last, hid_before, hid_after, region,
+                             vehicle_like, cum)
+            length = cum[o_last + 1] - cum[o_first]
         label = np.where(vehicle_like, label, "other").astype(object)
         table = pd.DataFrame({
             "run": runs[o_first].astype(object),
@@ -474,6 +551,38 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             "n_points": o_pts.astype(np.int64),
         }, columns=list(OBJECT_COLUMNS))
         return table, cobj, (o_first, o_last)
+
+    def _extend(self, i, first, last, hid_before, hid_after, region, vehicle, cum):
+        """Extend object ``i`` into the scans where an occluder hides its ends.
+
+        The visible part of a vehicle cut by an occluder is shorter than the
+        vehicle; its best length estimate is the larger of the visible length and
+        ``occluded_length`` (a typical vehicle), never beyond the hidden scans nor into
+        another vehicle of the same region.  Both hidden ends share the extension.
+        """
+        want = self.occluded_length - (cum[last[i] + 1] - cum[first[i]])
+        if want <= 0:
+            return
+        same = np.flatnonzero(vehicle & (region == region[i]))
+        same = same[same != i]
+        lo = first[i] - hid_before[i]
+        hi = last[i] + hid_after[i]
+        prev = last[same][last[same] < first[i]]
+        nxt = first[same][first[same] > last[i]]
+        if len(prev):
+            lo = max(lo, int(prev.max()) + 1)
+        if len(nxt):
+            hi = min(hi, int(nxt.min()) - 1)
+        room_b = cum[first[i]] - cum[lo]
+        room_a = cum[hi + 1] - cum[last[i] + 1]
+        take_b = min(room_b, max(want / 2, want - room_a))
+        take_a = min(room_a, want - take_b)
+        if take_b > 0:
+            first[i] = int(np.searchsorted(cum, cum[first[i]] - take_b, side="left"))
+            first[i] = max(first[i], lo)
+        if take_a > 0:
+            last[i] = int(np.searchsorted(cum, cum[last[i] + 1] + take_a, side="left")) - 1
+            last[i] = min(last[i], hi)
 
     def _merge(self, prof, near, step, follows):
         """Three-region merging: union-find parent of every object-cluster.
@@ -521,8 +630,9 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                     if join:
                         gap = cum[first[hi]] - cum[last[lo] + 1]
                         ref = min(prof.end_depth[lo], prof.start_depth[hi])
-                        hidden = near[last[lo] + 1:first[hi]] < ref - 2 * self.link_distance
-                        join = gap <= self.merge_gap or bool(np.all(hidden))
+                        hidden = near[last[lo] + 1:first[hi]] < ref - self.occlusion_margin
+                        join = gap <= self.merge_gap or (
+                            self.bridge_occluded and bool(np.all(hidden)))
                 if join:
                     ra, rb = find(a), find(b)
                     if ra != rb:
@@ -660,8 +770,9 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
 class _Profiles:
     """Per object-cluster aggregates and per-(object, scan) profiles."""
 
-    def __init__(self, cobj, cpos, cdepth, ctop, w):
+    def __init__(self, cobj, cpos, cdepth, ctop, w, cflag=None):
         self.cpos = cpos
+        self.p_flag = np.empty(0, dtype=np.int8)
         n = int(cobj.max()) + 1 if len(cobj) else 0
         self.n = n
         if n == 0:
@@ -682,6 +793,8 @@ class _Profiles:
                   if len(starts) else np.empty(0))
         ptop = np.maximum.reduceat(ctop[order], starts) if len(starts) else np.empty(0)
         pobj, ppos = so[starts], sp[starts]
+        if cflag is not None and len(starts):
+            self.p_flag = np.bitwise_or.reduceat(cflag[order], starts)
         self.p_obj, self.p_pos, self.p_top = pobj, ppos, ptop
         obj_new = np.r_[True, pobj[1:] != pobj[:-1]] if len(pobj) else np.empty(0, bool)
         ofirst_row = np.flatnonzero(obj_new)
@@ -702,6 +815,26 @@ class _Profiles:
     def scan_profile(self, o):
         a, b = self.rows[o], self.rows[o + 1]
         return self.p_pos[a:b], self.p_top[a:b]
+
+    def scan_flags(self, o):
+        return self.p_flag[self.rows[o]:self.rows[o + 1]]
+
+
+def _hidden_ends(near, follows, first, last, depth):
+    """Consecutive scans right before ``first`` and after ``last`` (within one
+    stretch of consecutive scans) whose nearest cluster is nearer than ``depth``."""
+    n = len(near)
+    before = 0
+    p = first - 1
+    while p >= 0 and follows[p + 1] and near[p] < depth:
+        before += 1
+        p -= 1
+    after = 0
+    p = last + 1
+    while p < n and follows[p] and near[p] < depth:
+        after += 1
+        p += 1
+    return before, after
 
 
 def _scan_period(stamps):
