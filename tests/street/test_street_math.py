@@ -125,3 +125,30 @@ def test_link_scans_breaks_on_gap_and_depth():
     follows[1] = False  # a run boundary
     assert link_scans(pos, depth, follows).tolist() == [0, 1, 2, 1, 3]
     assert link_scans(pos, depth, follows, 0.3).tolist() == [0, 1, 2, 3, 4]
+
+
+def test_section_evidence_wall_and_hidden_lower_part():
+    from tunnelsense.street import section_evidence
+
+    # cluster 0: a van's near face reaching the ceiling, the beam above hits it again;
+    # cluster 1: a pedestrian's upper body, the beam below hits a nearer car;
+    # cluster 2: a pedestrian under a tree whose crown is 1 m behind (not the same face)
+    d = np.array([4.5, 4.5, 4.5, 6.0, 6.0, 6.0, 6.0])
+    h = np.array([0.3, 1.2, 1.97, 1.0, 1.7, 1.0, 1.8])
+    c = np.array([0, 0, 0, 1, 1, 2, 2])
+    b = np.array([10, 20, 30, 40, 45, 60, 65])
+    above = np.full((7, 2), np.nan)
+    below = np.full((7, 2), np.nan)
+    above[2] = (4.5, 2.02)
+    below[0] = (5.2, 0.0)
+    below[3] = (2.0, 0.9)
+    above[6] = (7.0, 2.3)
+    roof, wall, raised, hidden = section_evidence(d, h, c, b, above, below)
+    assert wall.tolist() == [True, False, False]
+    assert raised.tolist() == [True, False, False]
+    assert hidden.tolist() == [False, True, False]
+    assert not roof.any()
+    # no points, no clusters
+    assert all(len(a) == 0 for a in section_evidence(
+        np.empty(0), np.empty(0), np.empty(0, int), np.empty(0, int),
+        np.empty((0, 2)), np.empty((0, 2))))
