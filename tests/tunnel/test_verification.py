@@ -4,7 +4,8 @@ from scipy.spatial.distance import cdist
 from sklearn.cluster import KMeans
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from tunnelsense import FrameSequence
+from tunnelsense import FrameSequence, to_xy
+from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.tunnel import (
     IntensityKeypointSampler,
     KMeansHistogramVerifier,
@@ -207,3 +208,54 @@ def test_record_stage_checks(name, check):
 @pytest.mark.parametrize("name, check", list(sklearn_api_checks(KMeansHistogramVerifier())))
 def test_sklearn_api_checks(name, check):
     check()
+
+
+# ------------------------------------------------------------------ simulated tours
+def _indicator_figures(sampler, verifier, tour, min_height):
+    """(instances, kept, negatives, negatives kept) on a tour not used for fitting."""
+    X, y, _ = to_xy([tour])
+    out = verifier.transform(sampler.transform(X))
+    tall = tour.boxes((1,), min_height=min_height + 1e-9)
+    n = kept = neg = neg_kept = 0
+    for r, boxes, tall_boxes in zip(out, y, tall, strict=True):
+        s, k = r.payload["sampled_keypoints"], r.payload["keypoints"]
+        for box in tall_boxes:
+            n += 1
+            kept += points_in_boxes(k[:, 0], k[:, 1], box[None]).any()
+        neg += (~points_in_boxes(s[:, 0], s[:, 1], boxes)).sum()
+        neg_kept += (~points_in_boxes(k[:, 0], k[:, 1], boxes)).sum()
+    return n, kept, neg, neg_kept
+
+
+def test_on_simulated_tours_not_used_for_fitting(global_random_seed):
+    """Issue 4's validation, on small tours (the full-size figures are in
+    docs/tunnel-stages.md, from ``benchmarks/bench_tunnel_stages.py --validation``).
+
+    Issue 4 asks that >= 95 % of the indicators taller than 14 px keep a verified
+    keypoint and that >= 80 % of the negative keypoints be removed.  On 2,400
+    simulated frames the verifier removes 92-93 % of the negatives but keeps a
+    keypoint on only 82-87 % of those indicators (>= 95 % above 30 px): the smallest
+    plates are about as wide as the grid step, and their keypoints' patches mix in
+    the wall.  Fitted on two 200-frame tours, the figures vary with the seed, so the
+    bounds below are floors well under the figures seen, guarding against
+    regressions; the indicators taller than 30 px are held near the target.
+    """
+    seed = global_random_seed
+    train = [
+        make_tunnel_tour(200, scenario=sc, random_state=seed + i, first_indicator_m=40.0)
+        for i, sc in enumerate(["light", "heavy"])
+    ]
+    tests = [
+        make_tunnel_tour(150, scenario=sc, random_state=seed + 50 + i,
+                         first_indicator_m=50.0)
+        for i, sc in enumerate(["heavy", "curved"])
+    ]
+    X, y, _ = to_xy(train)
+    sampler = IntensityKeypointSampler().fit(X, y)
+    verifier = KMeansHistogramVerifier(random_state=seed).fit(sampler.transform(X), y)
+    fig14 = np.sum([_indicator_figures(sampler, verifier, t, 14.0) for t in tests], 0)
+    fig30 = np.sum([_indicator_figures(sampler, verifier, t, 30.0) for t in tests], 0)
+    assert fig14[0] >= 40 and fig30[0] >= 20 and fig14[2] >= 1000
+    assert fig14[1] / fig14[0] >= 0.45
+    assert fig30[1] / fig30[0] >= 0.85
+    assert 1 - fig14[3] / fig14[2] >= 0.55
