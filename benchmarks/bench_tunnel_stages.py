@@ -54,29 +54,29 @@ def fit_stages(tours, random_state=0):
 
 
 def detection_figures(sampler, verifier, tour, min_height=14.0):
-    """Per tour: indicator instances taller than ``min_height`` that keep >= 1 verified
-    keypoint (all, and fully visible ones), and the share of negative keypoints
-    (outside every indicator box) the verifier removes."""
+    """Per tour: indicator instances (indicator x frame) taller than ``min_height``
+    that keep >= 1 verified keypoint (all; fully visible; taller than 20 and 30 px),
+    and the negative keypoints (outside every indicator box) the verifier removes."""
     X, y, _ = to_xy([tour])
     out = verifier.transform(sampler.transform(X))
     gt = tour.gt[(tour.gt["class"] == 1) & (tour.gt["bb_height"] > min_height)]
     by_frame = {f: g for f, g in gt.groupby("frame")}
-    hit = n = hit_vis = n_vis = 0
-    neg_all = neg_kept = 0
+    f = dict.fromkeys(
+        ["instances", "hit", "instances_visible", "hit_visible", "instances_20",
+         "hit_20", "instances_30", "hit_30", "negatives", "negatives_kept"], 0)
     for r, boxes in zip(out, y, strict=True):
         S, K = r.payload["sampled_keypoints"], r.payload["keypoints"]
         for b in by_frame.get(r.frame, gt.iloc[:0]).itertuples():
             box = np.array([[b.bb_left, b.bb_top, b.bb_width, b.bb_height]])
             kept = bool(points_in_boxes(K[:, 0], K[:, 1], box).any())
-            n += 1
-            hit += kept
-            if b.visibility >= 1.0:
-                n_vis += 1
-                hit_vis += kept
-        neg_all += int((~points_in_boxes(S[:, 0], S[:, 1], boxes)).sum())
-        neg_kept += int((~points_in_boxes(K[:, 0], K[:, 1], boxes)).sum())
-    return dict(instances=n, hit=hit, instances_visible=n_vis, hit_visible=hit_vis,
-                negatives=neg_all, negatives_kept=neg_kept)
+            for key, counted in [("", True), ("_visible", b.visibility >= 1.0),
+                                 ("_20", b.bb_height > 20), ("_30", b.bb_height > 30)]:
+                if counted:
+                    f["instances" + key] += 1
+                    f["hit" + key] += kept
+        f["negatives"] += int((~points_in_boxes(S[:, 0], S[:, 1], boxes)).sum())
+        f["negatives_kept"] += int((~points_in_boxes(K[:, 0], K[:, 1], boxes)).sum())
+    return f
 
 
 def speed(args):
@@ -139,9 +139,12 @@ def validation(args):
                   f" fully visible {f['hit_visible']}/{f['instances_visible']}; "
                   f"negatives removed {1 - f['negatives_kept'] / f['negatives']:.1%} "
                   f"of {f['negatives']}")
-        print(f"  {'all':<20} indicators: {total['hit'] / total['instances']:.1%} "
-              f"(fully visible {total['hit_visible'] / total['instances_visible']:.1%}), "
-              f"negatives removed {1 - total['negatives_kept'] / total['negatives']:.1%}"
+        t = total
+        print(f"  {'all':<20} indicators >14 px: {t['hit'] / t['instances']:.1%} of "
+              f"{t['instances']} (fully visible {t['hit_visible'] / t['instances_visible']:.1%}"
+              f"; >20 px {t['hit_20'] / t['instances_20']:.1%}; >30 px "
+              f"{t['hit_30'] / t['instances_30']:.1%}), negatives removed "
+              f"{1 - t['negatives_kept'] / t['negatives']:.1%} of {t['negatives']}"
               "  [targets: >= 95 %, >= 80 %]")
 
 
