@@ -12,10 +12,11 @@ street run with a 1,081-beam scanner (178 degrees, the simulator's widest fan, a
 
 Every figure is the median of repeats measured in this run.
 
-``python benchmarks/bench_scan_clusterer.py --quality [n_scans] [n_seeds]`` prints
-instead the detection quality on simulated runs of every scenario (4,000 scans, seeds
-1000 and up, none used while developing), with the merge-splitting option and the tilt
-compensation each switched off in turn.
+``python benchmarks/bench_scan_clusterer.py --quality [n_scans] [n_seeds] [first_seed]``
+prints instead the detection quality on simulated runs of every scenario (4,000 scans,
+seeds ``first_seed`` (default 2000) and up, none used while developing), with the
+merge-splitting option, the tilt compensation, the cross-section body evidence and the
+occlusion extension each switched off in turn.
 """
 
 import os
@@ -92,7 +93,7 @@ def main(n_scans=3000):
           f"{'met' if n_scans / t_detect >= 5000 else 'NOT met'}")
 
 
-def quality(n_scans=4000, n_seeds=3):
+def quality(n_scans=4000, n_seeds=3, first_seed=2000):
     import pandas as pd
 
     from tunnelsense.datasets import STREET_SCENARIOS
@@ -102,9 +103,12 @@ def quality(n_scans=4000, n_seeds=3):
         "default": {},
         "split_merged=False": {"split_merged": False},
         "tilt_compensation=False": {"tilt_compensation": False},
+        "min_body_fraction=0": {"min_body_fraction": 0.0},
+        "occluded_length=None": {"occluded_length": None},
+        "bridge_occluded=False": {"bridge_occluded": False},
     }
-    print(f"parked vehicles, {n_seeds} runs x {n_scans} scans per scenario "
-          "(tp / fp / fn, recall, precision)")
+    print(f"parked vehicles, {n_seeds} runs x {n_scans} scans per scenario, seeds "
+          f"{first_seed}-{first_seed + n_seeds - 1} (tp / fp / fn, recall, precision)")
     print(f"{'scenario':16s} {'variant':24s} {'tp':>5s} {'fp':>4s} {'fn':>4s} "
           f"{'recall':>7s} {'precision':>9s}")
     cases = [(s, {}) for s in STREET_SCENARIOS]
@@ -112,7 +116,7 @@ def quality(n_scans=4000, n_seeds=3):
     # not compensated); rolled down, the road rises into the ROI
     cases.append(("tilted", {"roll_deg": -3.0}))
     for scenario, over in cases:
-        runs = [make_street_scans(n_scans, scenario=scenario, random_state=1000 + k,
+        runs = [make_street_scans(n_scans, scenario=scenario, random_state=first_seed + k,
                                   **over)
                 for k in range(n_seeds)]
         if over:

@@ -140,7 +140,10 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
     7. beyond the paper: objects with two humps in their height profile are split
        (``split_merged``); objects shorter than ``min_length`` or longer than
        ``max_length`` metres, or not seen over ``min_length`` metres (in all, and
-       without a break) are labelled ``"other"`` (not vehicles).
+       without a break), or whose cross-sections show no vehicle body (roof, wall
+       or raised body in fewer than ``min_body_fraction`` of their scans) are
+       labelled ``"other"`` (not vehicles); vehicles cut short by a nearer occluder
+       are extended behind it (``occluded_length``).
 
     Objects are labelled by the region of their mean depth through ``region_labels``.
 
@@ -178,6 +181,24 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         Ego speed (m/s) turning scan counts into lengths.  None: the median of the
         scans' payload ``"speed"`` when the scans carry one, else 40 km/h (the
         paper's).
+    roof_width : float, default=0.8
+        Smallest depth extent (m) of a cluster's top surface that counts as a
+        vehicle roof, bonnet or boot seen from above (see
+        :func:`~tunnelsense.street.section_evidence`).
+    min_clearance : float, default=0.2
+        Lowest bottom (m) of a raised body (a vehicle between its wheels).
+    min_body_fraction : float, default=0.3
+        Smallest fraction of an object's seen scans showing a roof, a wall taller
+        than the region of interest or a raised body for it to be a vehicle;
+        rows of pedestrians, bins and bollards show none.  0 switches the rule off.
+    occlusion_margin : float, default=1.0
+        How much nearer (m) something must be to hide an object.
+    bridge_occluded : bool, default=True
+        Merge fragments of one region across a gap of any length hidden by
+        something nearer (beyond the paper).
+    occluded_length : float or None, default=4.0
+        Length (m) to which a vehicle cut short by an occluder is extended into the
+        hidden scans; None: no extension.
 
     Attributes
     ----------
