@@ -28,7 +28,7 @@ from collections.abc import Iterable, Iterator
 
 from sklearn.utils.validation import check_is_fitted
 
-__all__ = ["StreamingPipeline", "start_stream"]
+__all__ = ["ResultsWriter", "StreamingPipeline", "start_stream"]
 
 
 class _StatelessStream:
@@ -145,3 +145,108 @@ class StreamingPipeline:
         for record in records:
             yield from self.push(record)
         yield from self.close()
+
+
+class ResultsWriter:
+    """Write result lines as they come, flushed, so an interrupted run keeps them.
+
+    With ``resume=True`` an existing file is continued: its complete lines are kept (a
+    partly written last line is dropped), and the first lines written again -- the
+    detector replays the source from its start, which rebuilds its trackers' state
+    exactly -- are checked against them instead of being written twice.  The result
+    equals an uninterrupted run.
+
+    Parameters
+    ----------
+    path : str or Path
+        The results file.
+    header : str or None, default=None
+        A first line (for CSV files); checked, not rewritten, when resuming.
+    resume : bool, default=False
+        Continue an existing file instead of replacing it.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense._streaming import ResultsWriter
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "res.txt"
+    >>> with ResultsWriter(path) as w:
+    ...     w.write("1,1,0,0,4,8,0.9,-1,-1,-1")
+    >>> _ = path.write_text(path.read_text() + "2,1,0")  # killed while writing line 2
+    >>> with ResultsWriter(path, resume=True) as w:
+    ...     w.write("1,1,0,0,4,8,0.9,-1,-1,-1")  # replayed: checked, not written
+    ...     w.write("2,1,1,0,4,8,0.8,-1,-1,-1")
+    >>> path.read_text().splitlines()
+    ['1,1,0,0,4,8,0.9,-1,-1,-1', '2,1,1,0,4,8,0.8,-1,-1,-1']
+    """
+
+    def __init__(self, path, *, header=None, resume=False):
+        from pathlib import Path
+
+        self.path = Path(path)
+        self._existing = []
+        if resume and self.path.exists():
+            data = self.path.read_bytes()
+            complete = data[: data.rfind(b"\n") + 1]
+            self._existing = complete.decode("utf-8").splitlines()
+            with open(self.path, "r+b") as f:
+                f.truncate(len(complete))
+            if header is not None:
+                if not self._existing or self._existing[0] != header:
+                    raise ValueError(
+                        f"{self.path}: cannot resume, its first line is not the header "
+                        f"{header!r}"
+                    )
+                self._existing = self._existing[1:]
+            self._file = open(self.path, "a", encoding="utf-8")  # noqa: SIM115
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(self.path, "w", encoding="utf-8")  # noqa: SIM115
+            if header is not None:
+                self._file.write(header + "\n")
+                self._file.flush()
+        self._replayed = 0
+        self.written = 0
+
+    @property
+    def resumed_lines(self) -> int:
+        """Lines kept from an interrupted run."""
+        return len(self._existing)
+
+    def write(self, line: str) -> None:
+        """Write one line (without its newline); replayed lines are checked instead."""
+        if self._replayed < len(self._existing):
+            expected = self._existing[self._replayed]
+            if line != expected:
+                raise ValueError(
+                    f"{self.path}: cannot resume, line {self._replayed + 1} differs from "
+                    f"this run's ({expected!r} vs {line!r}); was it written with another "
+                    "model or source?"
+                )
+            self._replayed += 1
+            return
+        self._file.write(line + "\n")
+        self.written += 1
+
+    def flush(self) -> None:
+        """Push what was written to the operating system (call after each frame)."""
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._replayed < len(self._existing):
+            missing = len(self._existing) - self._replayed
+            self._file.close()
+            raise ValueError(
+                f"{self.path}: the existing file has {missing} more lines than this run "
+                "produced; was it written with another model or source?"
+            )
+        self._file.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self._file.close()
