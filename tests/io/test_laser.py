@@ -220,3 +220,33 @@ def test_malformed_fields_name_the_file(tmp_path, fields, message):
     _save(tmp_path, **fields)
     with pytest.raises(ValueError, match=f"scans.npz: {message}"):
         read_run(tmp_path)
+
+
+def test_stream_equals_read_run_with_bounded_chunks(run, tmp_path):
+    from tunnelsense.io import open_run_stream
+
+    write_run(run, tmp_path)
+    stream = open_run_stream(tmp_path, chunk_scans=5)
+    assert (stream.name, len(stream), stream.geometry) == ("run-x", 12, run.geometry)
+    pd.testing.assert_frame_equal(stream.gt, run.gt)
+    scans = list(stream)
+    assert [s.scan for s in scans] == list(range(12))
+    assert np.array_equal(
+        np.stack([s.ranges for s in scans]), run.scans.ranges(), equal_nan=True
+    )
+    assert [s.stamp for s in scans] == [s.stamp for s in run.scans]
+
+
+def test_stream_keeps_float32_no_returns_and_reports_truncation(run, tmp_path):
+    from tunnelsense.io import open_run_stream
+
+    write_run(run, tmp_path)
+    with np.load(tmp_path / "scans.npz") as npz:
+        fields = {k: npz[k] for k in npz.files}
+    fields["ranges"] = fields["ranges"].astype(np.float32)
+    np.savez(tmp_path / "scans.npz", **fields)
+    scans = list(open_run_stream(tmp_path, chunk_scans=4))
+    assert scans[2].ranges[5] == np.inf and scans[0].ranges.dtype == np.float64
+    with pytest.raises(ValueError, match=r"scans.npz: lacks field\(s\) ranges"):
+        _save(tmp_path, ranges=None)
+        open_run_stream(tmp_path)

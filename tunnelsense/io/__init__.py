@@ -11,7 +11,14 @@
 
 from tunnelsense.io._describe import describe, open_source
 from tunnelsense.io._images import iter_video, read_image
-from tunnelsense.io._laser import read_run, read_run_gt, write_run, write_run_gt
+from tunnelsense.io._laser import (
+    RunStream,
+    open_run_stream,
+    read_run,
+    read_run_gt,
+    write_run,
+    write_run_gt,
+)
 from tunnelsense.io._model import (
     ModelVersionWarning,
     UntrustedModelError,
@@ -41,6 +48,8 @@ __all__ = [
     "save_model",
     "describe",
     "iter_video",
+    "RunStream",
+    "open_run_stream",
     "open_source",
     "open_tour",
     "read_image",

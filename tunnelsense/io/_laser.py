@@ -28,17 +28,39 @@ from tunnelsense._records import (
     empty_run_gt,
 )
 
-__all__ = ["read_run", "read_run_gt", "write_run", "write_run_gt"]
+__all__ = [
+    "RunStream",
+    "open_run_stream",
+    "read_run",
+    "read_run_gt",
+    "write_run",
+    "write_run_gt",
+]
 
 _SCALARS = ("angle_min", "angle_increment", "range_min", "range_max", "mount_height")
 
 
-def _load_npz(path: Path) -> dict:
+def _load_npz(path: Path, *, lazy_ranges=False) -> dict:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: scans file not found")
     try:
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
-            return {k: npz[k] for k in npz.files}
+            data = {k: npz[k] for k in npz.files if not (lazy_ranges and k == "ranges")}
+        if lazy_ranges:
+            with zipfile.ZipFile(path) as zf:
+                if "ranges.npy" in zf.namelist():
+                    with zf.open("ranges.npy") as f:
+                        version = np.lib.format.read_magic(f)
+                        shape, fortran, dtype = np.lib.format._read_array_header(
+                            f, version
+                        )
+                        offset = f.tell()
+                    if fortran or dtype.hasobject:
+                        raise ValueError(
+                            "ranges.npy is Fortran-ordered or holds objects"
+                        )
+                    data["ranges"] = _LazyRanges(path, shape, dtype, offset)
+        return data
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as exc:
         raise ValueError(f"{path}: corrupt or not an .npz file ({exc})") from None
 
@@ -66,6 +88,48 @@ def read_run(path) -> Run:
         ``angle_max`` that does not match the number of beams; ``gt.csv`` is malformed
         (the message names the file and line).
     """
+    name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=False)
+    ranges = _as_float64(ranges, geometry.range_max)
+    return Run.from_arrays(name, ranges, stamps, geometry, gt, info=info)
+
+
+def _as_float64(ranges, range_max):
+    """Ranges as float64, no-returns of narrower floats kept as such (+inf)."""
+    if ranges.dtype.kind == "f" and ranges.dtype != np.float64:
+        # ROS ranges are float32: float32(8.191) widens to 8.19099998..., below the
+        # float64 range_max. Mark no-returns in the file's own precision first.
+        limit = np.asarray(range_max, dtype=ranges.dtype)
+        ranges = np.where(ranges >= limit, np.inf, ranges)
+    return ranges.astype(np.float64, copy=False)
+
+
+class _LazyRanges:
+    """Shape and dtype of ``ranges.npy`` inside an npz, rows read on demand."""
+
+    def __init__(self, npz_path, shape, dtype, offset):
+        self.npz_path, self.shape, self.dtype, self.offset = (
+            npz_path,
+            shape,
+            dtype,
+            offset,
+        )
+
+    def iter_chunks(self, rows):
+        n_scans, n_beams = self.shape
+        row_bytes = n_beams * self.dtype.itemsize
+        with zipfile.ZipFile(self.npz_path) as zf, zf.open("ranges.npy") as f:
+            f.read(self.offset)
+            for start in range(0, n_scans, rows):
+                n = min(rows, n_scans - start)
+                buf = f.read(n * row_bytes)
+                if len(buf) != n * row_bytes:
+                    raise ValueError(
+                        f"{self.npz_path}: ranges end early (truncated file)"
+                    )
+                yield start, np.frombuffer(buf, dtype=self.dtype).reshape(n, n_beams)
+
+
+def _open_run(path, *, lazy):
     path = Path(path)
     if path.is_dir():
         folder, npz_path = path, path / "scans.npz"
@@ -73,12 +137,12 @@ def read_run(path) -> Run:
         folder, npz_path = path.parent, path
     else:
         raise FileNotFoundError(f"{path}: run folder not found")
-    data = _load_npz(npz_path)
+    data = _load_npz(npz_path, lazy_ranges=lazy)
     missing = [k for k in ("ranges", "stamps", *_SCALARS) if k not in data]
     if missing:
         raise ValueError(f"{npz_path}: lacks field(s) {', '.join(missing)}")
     ranges = data["ranges"]
-    if ranges.ndim != 2 or ranges.dtype.kind not in "fiu":
+    if len(ranges.shape) != 2 or ranges.dtype.kind not in "fiu":
         raise ValueError(
             f"{npz_path}: ranges must be a numeric array of shape (n_scans, n_beams); "
             f"got {ranges.dtype} of shape {ranges.shape}"
@@ -130,11 +194,6 @@ def read_run(path) -> Run:
             )
     if not np.all(np.isfinite(stamps)):
         raise ValueError(f"{npz_path}: stamps contain NaN or infinity")
-    if ranges.dtype.kind == "f" and ranges.dtype != np.float64:
-        # ROS ranges are float32: float32(8.191) widens to 8.19099998..., below the
-        # float64 range_max. Mark no-returns in the file's own precision first.
-        limit = np.asarray(scalars["range_max"], dtype=ranges.dtype)
-        ranges = np.where(ranges >= limit, np.inf, ranges)
     name = str(info.pop("name", folder.resolve().name))
     gt_path = folder / "gt.csv"
     gt = read_run_gt(gt_path) if gt_path.exists() else empty_run_gt()
@@ -146,9 +205,75 @@ def read_run(path) -> Run:
             f"is beyond the run's {len(ranges)} scans (numbered from 0)"
         )
     geometry = LaserGeometry(**scalars)
-    return Run.from_arrays(
-        name, ranges.astype(np.float64, copy=False), stamps, geometry, gt, info=info
-    )
+    return name, ranges, stamps, geometry, gt, info
+
+
+class RunStream:
+    """A laser run read scan by scan, with memory independent of its length.
+
+    Made by :func:`open_run_stream`; iterate over it for the
+    :class:`~tunnelsense.ScanRecord` objects, in order.
+
+    Attributes
+    ----------
+    name : str
+    geometry : LaserGeometry
+    gt : DataFrame
+    info : dict
+    n_scans : int
+    """
+
+    def __init__(self, name, ranges, stamps, geometry, gt, info, chunk_scans):
+        self.name, self.geometry, self.gt, self.info = name, geometry, gt, info
+        self._ranges, self._stamps, self._chunk = ranges, stamps, chunk_scans
+        self.n_scans = int(ranges.shape[0])
+
+    def __len__(self):
+        return self.n_scans
+
+    def __iter__(self):
+        from tunnelsense._records import ScanRecord
+
+        g = self.geometry
+        for start, block in self._ranges.iter_chunks(self._chunk):
+            block = _as_float64(block, g.range_max)
+            for i in range(len(block)):
+                s = start + i
+                yield ScanRecord(self.name, s, block[i], float(self._stamps[s]), g)
+
+
+def open_run_stream(path, *, chunk_scans=1024) -> RunStream:
+    """Open a laser run for reading scan by scan (bounded memory).
+
+    The same checks as :func:`read_run` are made up front, from the file's headers;
+    the ranges are decompressed ``chunk_scans`` scans at a time while iterating.
+
+    Parameters
+    ----------
+    path : str or Path
+        The run folder, or its ``scans.npz`` file.
+    chunk_scans : int, default=1024
+        Scans decompressed at a time.
+
+    Returns
+    -------
+    stream : RunStream
+        Iterable of :class:`~tunnelsense.ScanRecord`, with ``name``, ``geometry``,
+        ``gt``, ``info`` and ``n_scans``.
+
+    Examples
+    --------
+    >>> import numpy as np, pathlib, tempfile
+    >>> from tunnelsense import LaserGeometry, Run
+    >>> from tunnelsense.io import open_run_stream, write_run
+    >>> g = LaserGeometry(-1.4, 0.0087, 0.05, 8.191, 2.0)
+    >>> run = Run.from_arrays("r", np.ones((5, 4)), np.arange(5) / 75, g)
+    >>> folder = write_run(run, pathlib.Path(tempfile.mkdtemp()) / "r")
+    >>> [s.scan for s in open_run_stream(folder, chunk_scans=2)]
+    [0, 1, 2, 3, 4]
+    """
+    name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=True)
+    return RunStream(name, ranges, stamps, geometry, gt, info, int(chunk_scans))
 
 
 def read_run_gt(path) -> pd.DataFrame:
