@@ -51,9 +51,12 @@ def _load_npz(path: Path, *, lazy_ranges=False) -> dict:
                 if "ranges.npy" in zf.namelist():
                     with zf.open("ranges.npy") as f:
                         version = np.lib.format.read_magic(f)
-                        shape, fortran, dtype = np.lib.format._read_array_header(
-                            f, version
+                        read_header = (
+                            np.lib.format.read_array_header_1_0
+                            if version == (1, 0)
+                            else np.lib.format.read_array_header_2_0
                         )
+                        shape, fortran, dtype = read_header(f)
                         offset = f.tell()
                     if fortran or dtype.hasobject:
                         raise ValueError(
