@@ -200,12 +200,12 @@ def _open_run(path, *, lazy):
     name = str(info.pop("name", folder.resolve().name))
     gt_path = folder / "gt.csv"
     gt = read_run_gt(gt_path) if gt_path.exists() else empty_run_gt()
-    beyond = np.flatnonzero(gt["last_scan"].to_numpy() >= len(ranges))
+    beyond = np.flatnonzero(gt["last_scan"].to_numpy() >= ranges.shape[0])
     if beyond.size:
         i = beyond[0]
         raise ValueError(
             f"{gt_path}, line {gt.attrs['lines'][i]}: last_scan {gt['last_scan'].iloc[i]} "
-            f"is beyond the run's {len(ranges)} scans (numbered from 0)"
+            f"is beyond the run's {ranges.shape[0]} scans (numbered from 0)"
         )
     geometry = LaserGeometry(**scalars)
     return name, ranges, stamps, geometry, gt, info
