@@ -12,14 +12,16 @@ than ``vote`` (80 %) of the decisions it connects are positive.
 from __future__ import annotations
 
 import numbers
+from collections import deque
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense._records import FrameRecord, FrameSequence, check_frames
 from tunnelsense.tunnel._appearance import boxes_of
+from tunnelsense.tunnel._tracking import tour_order
 
 __all__ = ["PCCVerifier", "pearson_r", "trajectory_r"]
 
@@ -101,6 +103,190 @@ def _payload(record, index, key, m, stage, before):
             f"must have shape ({m},), one entry per cluster; got shape {value.shape}"
         )
     return value
+
+
+class _Released:
+    """Stands in for the image source of a record released by a stream state."""
+
+    __slots__ = ()
+
+    def load(self):
+        raise ValueError(
+            "this frame's image was released by the streaming detector (only lazy "
+            "sources, such as image files, are kept); keep the image yourself if you "
+            "need it after detection"
+        )
+
+    def __repr__(self):
+        return "Released()"
+
+
+_RELEASED = _Released()
+
+
+class _Frame:
+    """A frame waiting for the trajectories through it to end."""
+
+    __slots__ = ("tag", "boxes", "tracks", "r", "length", "indicator", "positive",
+                 "fraction", "unresolved")
+
+    def __init__(self, tag, boxes, tracks):
+        m = len(boxes)
+        self.tag = tag
+        self.boxes = boxes
+        self.tracks = tracks
+        self.r = np.zeros(m)
+        self.length = np.zeros(m, np.int64)
+        self.indicator = np.zeros(m, bool)
+        self.positive = np.zeros(m, bool)
+        self.fraction = np.zeros(m)
+        self.unresolved = m
+
+    def results(self):
+        keep = self.positive
+        det = np.column_stack(
+            [self.boxes[keep], self.tracks[keep].astype(np.float64), self.fraction[keep]]
+        )
+        return dict(
+            motion_r=self.r,
+            trajectory_length=self.length,
+            indicator=self.indicator,
+            trajectory_positive=keep,
+            detections=det.reshape(-1, 6),
+        )
+
+
+class _Trajectory:
+    __slots__ = ("xs", "ys", "app", "members")
+
+    def __init__(self):
+        self.xs, self.ys, self.app, self.members = [], [], [], []
+
+
+class _PCCState:
+    """The verifier's state machine over the frames of one tour at a time.
+
+    ``step(tag, record, boxes, appearance, tracks)`` adds a frame (frames of a tour in
+    increasing order; a record of another tour first ends every trajectory of the
+    previous one) and returns the ``(tag, results)`` of the frames that are final, in
+    input order.  A trajectory is decided when it ends (``payload["ended_tracks"]``
+    of :class:`TrajectoryLinker`, the end of its tour, or :meth:`finish`); a frame is
+    final when every trajectory through it is decided.
+    """
+
+    def __init__(self, min_r, min_length, vote):
+        self.min_r = float(min_r)
+        self.min_length = int(min_length)
+        self.vote = float(vote)
+        self.tour = None
+        self.last_frame = None
+        self.open: dict = {}
+        self.waiting: deque = deque()
+
+    def _decide(self, traj):
+        n = len(traj.xs)
+        r = pearson_r(traj.xs, traj.ys) if n > 1 else 0.0
+        motion_ok = n >= self.min_length and abs(r) >= self.min_r
+        indicator = [a and motion_ok for a in traj.app]
+        fraction = sum(indicator) / n
+        positive = fraction > self.vote
+        for (entry, j), ind in zip(traj.members, indicator, strict=True):
+            entry.r[j] = r
+            entry.length[j] = n
+            entry.indicator[j] = ind
+            entry.positive[j] = positive
+            entry.fraction[j] = fraction
+            entry.unresolved -= 1
+
+    def _release(self):
+        out = []
+        waiting = self.waiting
+        while waiting and waiting[0].unresolved == 0:
+            entry = waiting.popleft()
+            out.append((entry.tag, entry.results()))
+        return out
+
+    def finish(self):
+        """End every open trajectory; return every frame still waiting."""
+        for traj in self.open.values():
+            self._decide(traj)
+        self.open = {}
+        self.tour = None
+        return self._release()
+
+    def step(self, tag, record, boxes, appearance, tracks):
+        out = []
+        if record.tour != self.tour:
+            out = self.finish()
+            self.tour = record.tour
+        elif record.frame <= self.last_frame:
+            raise ValueError(
+                f"frames of tour {record.tour!r} must arrive in increasing order: "
+                f"frame {record.frame} came after frame {self.last_frame}"
+            )
+        self.last_frame = record.frame
+        entry = _Frame(tag, boxes, tracks)
+        if len(boxes):
+            cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
+            cy = (boxes[:, 1] + boxes[:, 3] / 2).tolist()
+            for j, (tid, a) in enumerate(zip(tracks.tolist(), appearance.tolist(), strict=True)):
+                traj = self.open.get(tid)
+                if traj is None:
+                    traj = self.open[tid] = _Trajectory()
+                traj.xs.append(cx[j])
+                traj.ys.append(cy[j])
+                traj.app.append(a)
+                traj.members.append((entry, j))
+        self.waiting.append(entry)
+        ended = record.payload.get("ended_tracks")
+        if ended is not None:
+            for tid in np.asarray(ended).reshape(-1).tolist():
+                traj = self.open.pop(tid, None)
+                if traj is not None:
+                    self._decide(traj)
+        out.extend(self._release())
+        return out
+
+    @property
+    def n_waiting(self):
+        return len(self.waiting)
+
+
+class _PCCStream:
+    """Stream state of :class:`PCCVerifier` (see :meth:`PCCVerifier.start_stream`)."""
+
+    def __init__(self, verifier):
+        self._state = _PCCState(verifier.min_r, verifier.min_length, verifier.vote)
+        self._count = 0
+
+    @property
+    def n_waiting(self):
+        """Frames held until the trajectories through them end."""
+        return self._state.n_waiting
+
+    def push(self, record):
+        boxes, app, tracks = _frame_payload(record, self._count)
+        self._count += 1
+        source = record.source
+        if isinstance(source, np.ndarray):
+            source = _RELEASED
+        kept = FrameRecord(record.tour, record.frame, source, record.payload)
+        return self._emit(self._state.step(kept, record, boxes, app, tracks))
+
+    def close(self):
+        return self._emit(self._state.finish())
+
+    @staticmethod
+    def _emit(done):
+        return [r.evolve(**res) for r, res in done]
+
+
+def _frame_payload(record, index):
+    b = boxes_of(record, index, "PCCVerifier")
+    m = len(b)
+    app = _payload(record, index, "appearance", m, "PCCVerifier", "WeightedAdaBoost")
+    tracks = _payload(record, index, "track_ids", m, "PCCVerifier", "TrajectoryLinker")
+    return b, app.astype(bool), tracks.astype(np.int64)
 
 
 class PCCVerifier(TransformerMixin, BaseEstimator):
@@ -188,16 +374,7 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         return tags
 
     def _gather(self, records):
-        boxes, app, tracks = [], [], []
-        for i, r in enumerate(records):
-            b = boxes_of(r, i, "PCCVerifier")
-            m = len(b)
-            boxes.append(b)
-            app.append(_payload(r, i, "appearance", m, "PCCVerifier", "WeightedAdaBoost").astype(bool))
-            tracks.append(
-                _payload(r, i, "track_ids", m, "PCCVerifier", "TrajectoryLinker").astype(np.int64)
-            )
-        return boxes, app, tracks
+        return [_frame_payload(r, i) for i, r in enumerate(records)]
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -232,72 +409,56 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         """
         check_is_fitted(self)
         records, _ = check_frames(X)
-        boxes, app, tracks = self._gather(records)
-        counts = np.fromiter((len(b) for b in boxes), np.intp, len(boxes))
-        n = int(counts.sum())
-        if n == 0:
-            empty = np.empty(0)
-            return FrameSequence(
-                r.evolve(
-                    motion_r=empty,
-                    trajectory_length=np.empty(0, np.int64),
-                    indicator=np.empty(0, bool),
-                    trajectory_positive=np.empty(0, bool),
-                    detections=np.empty((0, 6)),
-                )
-                for r in records
-            )
-        B = np.concatenate(boxes)
-        A = np.concatenate(app)
-        T = np.concatenate(tracks)
-        rec = np.repeat(np.arange(len(records)), counts)
-        tour_names = {}
-        tour = np.fromiter(
-            (tour_names.setdefault(records[i].tour, len(tour_names)) for i in rec.tolist()),
-            np.int64, n,
-        )
-        frame = np.fromiter((records[i].frame for i in rec.tolist()), np.int64, n)
-        order = np.lexsort((frame, T, tour))
-        key_t, key_k = tour[order], T[order]
-        new = np.ones(n, bool)
-        new[1:] = (key_t[1:] != key_t[:-1]) | (key_k[1:] != key_k[:-1])
-        starts = np.flatnonzero(new)
-        seg = np.cumsum(new) - 1
-        lengths = np.diff(np.append(starts, n))
-        cx = B[order, 0] + B[order, 2] / 2
-        cy = B[order, 1] + B[order, 3] / 2
-        r_traj = trajectory_r(cx, cy, starts)
-        motion_ok = (lengths >= self.min_length) & (np.abs(r_traj) >= self.min_r)
-        indicator_sorted = A[order] & motion_ok[seg]
-        fraction = np.add.reduceat(indicator_sorted.astype(np.float64), starts) / lengths
-        positive = fraction > self.vote
-        # back to input order
-        inv = np.empty(n, np.intp)
-        inv[order] = np.arange(n)
-        seg_in = seg[inv]
-        r_in = r_traj[seg_in]
-        len_in = lengths[seg_in]
-        ind_in = indicator_sorted[inv]
-        pos_in = positive[seg_in]
-        frac_in = fraction[seg_in]
-        out = []
-        bounds = np.append(0, np.cumsum(counts))
-        for i, r in enumerate(records):
-            lo, hi = bounds[i], bounds[i + 1]
-            keep = pos_in[lo:hi]
-            det = np.column_stack(
-                [boxes[i][keep], tracks[i][keep].astype(np.float64), frac_in[lo:hi][keep]]
-            )
-            out.append(
-                r.evolve(
-                    motion_r=r_in[lo:hi],
-                    trajectory_length=len_in[lo:hi].astype(np.int64),
-                    indicator=ind_in[lo:hi],
-                    trajectory_positive=keep,
-                    detections=det,
-                )
-            )
-        return FrameSequence(out)
+        payloads = self._gather(records)
+        results = [None] * len(records)
+        for group in tour_order(records):
+            state = _PCCState(self.min_r, self.min_length, self.vote)
+            done = []
+            for i in group.tolist():
+                done += state.step(i, records[i], *payloads[i])
+            done += state.finish()
+            for i, res in done:
+                results[i] = res
+        return FrameSequence(r.evolve(**res) for r, res in zip(records, results, strict=True))
+
+    def start_stream(self):
+        """Verify frames online, one at a time (the streaming protocol).
+
+        Returns
+        -------
+        state : object
+            ``state.push(record)`` takes the next frame (frames of a tour in
+            increasing order; a record of another tour ends every trajectory of the
+            previous one) and returns the frames whose decisions are final, in input
+            order, evolved as :meth:`predict` does; ``state.close()`` ends every
+            trajectory and returns the frames still held.  A frame is final when
+            every trajectory through it has ended (``payload["ended_tracks"]`` of
+            :class:`TrajectoryLinker`): with the linker's ``max_track_length`` of
+            ``L`` frames, a frame is released at most ``L - 1`` frames after it
+            arrived, and at most ``L`` frames are held.  Held frames keep their
+            payload arrays only: an in-memory image is released (reading ``.image``
+            of the returned record then raises); a lazy source (an image file) is
+            kept.  ``state.n_waiting`` is the number of frames held.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from tunnelsense import FrameRecord
+        >>> from tunnelsense.tunnel import PCCVerifier
+        >>> img = np.zeros((48, 64), np.uint8)
+        >>> def frame(f, ended=()):
+        ...     return FrameRecord("t", f, img, {"cluster_boxes": np.array([[40. - 3 * f, 30 - f, 4, 8]]),
+        ...         "appearance": np.array([True]), "track_ids": np.array([1]),
+        ...         "ended_tracks": np.array(ended, np.int64)})
+        >>> state = PCCVerifier(min_length=3).fit([frame(1)]).start_stream()
+        >>> [len(state.push(frame(f))) for f in (1, 2)]
+        [0, 0]
+        >>> out = state.push(frame(3, ended=[1]))  # trajectory 1 ends: three frames final
+        >>> [(r.frame, r.payload["detections"].shape) for r in out]
+        [(1, (1, 6)), (2, (1, 6)), (3, (1, 6))]
+        """
+        check_is_fitted(self)
+        return _PCCStream(self)
 
     def transform(self, X):
         """The same as :meth:`predict` (so that the stage can sit anywhere)."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections import deque
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -108,13 +109,16 @@ def link_log_likelihood(
 
 
 class _Track:
-    __slots__ = ("id", "frames", "xs", "ys", "size", "hist", "last")
+    """A trajectory being linked: its last ``history`` positions (bounded memory)."""
 
-    def __init__(self, track_id, frame, x, y, size, hist):
+    __slots__ = ("id", "first", "frames", "xs", "ys", "size", "hist", "last")
+
+    def __init__(self, track_id, frame, x, y, size, hist, history):
         self.id = track_id
-        self.frames = [frame]
-        self.xs = [x]
-        self.ys = [y]
+        self.first = frame
+        self.frames = deque([frame], maxlen=history)
+        self.xs = deque([x], maxlen=history)
+        self.ys = deque([y], maxlen=history)
         self.size = size
         self.hist = hist
         self.last = frame
@@ -127,15 +131,12 @@ class _Track:
         self.hist = hist
         self.last = frame
 
-    def predict(self, frame, history):
-        """Position at ``frame`` by a straight-line fit of the last positions in time."""
-        n = len(self.frames)
-        if n == 1:
+    def predict(self, frame):
+        """Position at ``frame`` by a straight-line fit of the kept positions in time."""
+        k = len(self.frames)
+        if k == 1:
             return self.xs[0], self.ys[0]
-        k = min(n, history)
-        t = self.frames[-k:]
-        xs = self.xs[-k:]
-        ys = self.ys[-k:]
+        t, xs, ys = self.frames, self.xs, self.ys
         tm = sum(t) / k
         xm = sum(xs) / k
         ym = sum(ys) / k
@@ -145,6 +146,116 @@ class _Track:
         return xm + vx * (frame - tm), ym + vy * (frame - tm)
 
 
+class _LinkState:
+    """The linker's state machine over the frames of one tour at a time.
+
+    ``step(record, boxes)`` links one frame (frames of a tour in increasing order; a
+    record of another tour starts afresh) and returns ``(track_ids, ended_tracks)``.
+    A trajectory *ends* as soon as it can no longer link a later frame: it missed more
+    than ``max_gap`` frames, or its duration reached ``max_track_length`` frames.
+    """
+
+    def __init__(self, linker):
+        self.kw = dict(
+            max_scale_change=float(linker.max_scale_change),
+            gate=float(linker.gate),
+            min_gate=float(linker.min_gate),
+            position_sigma=float(linker.position_sigma),
+            scale_sigma=float(linker.scale_sigma),
+            appearance_sigma=float(linker.appearance_sigma),
+            gap_penalty=float(linker.gap_penalty),
+        )
+        self.reach = int(linker.max_gap) + 1
+        self.history = int(linker.history)
+        self.max_length = (
+            math.inf if linker.max_track_length is None else int(linker.max_track_length)
+        )
+        self.hungarian = linker.assignment == "hungarian"
+        self.tour = None
+        self.last_frame = None
+        self.alive: list[_Track] = []
+        self.next_id = 1
+
+    def _can_link(self, t, frame):
+        return frame - t.last <= self.reach and frame - t.first < self.max_length
+
+    def step(self, record, boxes):
+        frame = record.frame
+        if record.tour != self.tour:
+            self.tour, self.alive, self.next_id = record.tour, [], 1
+        elif frame <= self.last_frame:
+            raise ValueError(
+                f"frames of tour {record.tour!r} must arrive in increasing order: "
+                f"frame {frame} came after frame {self.last_frame}"
+            )
+        self.last_frame = frame
+        ended = [t.id for t in self.alive if not self._can_link(t, frame)]
+        alive = [t for t in self.alive if self._can_link(t, frame)]
+        m = len(boxes)
+        out = np.zeros(m, dtype=np.int64)
+        if m:
+            hists = record.payload.get("cluster_histograms")
+            if hists is not None and len(hists) != m:
+                hists = None
+            bl = boxes.tolist()
+            cx = [L + w / 2 for L, _, w, _ in bl]
+            cy = [T + h / 2 for _, T, _, h in bl]
+            size = [math.sqrt(w * h) for _, _, w, h in bl]
+            pairs = []
+            kw = self.kw
+            for ti, t in enumerate(alive):
+                px, py = t.predict(frame)
+                gap = frame - t.last
+                for j in range(m):
+                    ll = link_log_likelihood(
+                        (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
+                        None if hists is None else hists[j], gap, **kw,
+                    )
+                    if ll > -math.inf:
+                        pairs.append((ll, ti, j))
+            linked = TrajectoryLinker._assign(pairs, len(alive), m, self.hungarian)
+            taken = set()
+            for ti, j in linked:
+                t = alive[ti]
+                t.add(frame, cx[j], cy[j], size[j], None if hists is None else hists[j])
+                out[j] = t.id
+                taken.add(j)
+            for j in range(m):
+                if j not in taken:
+                    alive.append(
+                        _Track(
+                            self.next_id, frame, cx[j], cy[j], size[j],
+                            None if hists is None else hists[j], self.history,
+                        )
+                    )
+                    out[j] = self.next_id
+                    self.next_id += 1
+        # what cannot link the next frame has ended
+        nxt = frame + 1
+        ended += [t.id for t in alive if not self._can_link(t, nxt)]
+        self.alive = [t for t in alive if self._can_link(t, nxt)]
+        return out, np.array(sorted(ended), dtype=np.int64)
+
+
+class _LinkerStream:
+    """Stream state of :class:`TrajectoryLinker` (see :meth:`TrajectoryLinker.start_stream`)."""
+
+    def __init__(self, linker):
+        self._state = _LinkState(linker)
+        self._count = 0
+
+    def push(self, record):
+        boxes = boxes_of(record, self._count, "TrajectoryLinker")
+        self._count += 1
+        ids, ended = self._state.step(record, boxes)
+        return [record.evolve(track_ids=ids, ended_tracks=ended)]
+
+    def close(self):
+        self._state.tour = None
+        self._state.alive = []
+        return []
+
+
 class TrajectoryLinker(TransformerMixin, BaseEstimator):
     """Link keypoint clusters of consecutive frames into trajectories (section 3.5).
 
@@ -152,12 +263,19 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
     records are processed tour by tour in frame order (whatever order they come in);
     trajectories never cross a tour boundary, and a trajectory that has missed more
     than ``max_gap`` frames (in the tour's frame numbers, so a gap in the records
-    counts) ends.  ``transform`` returns the frames in their input order, each evolved
+    counts) ends; so does a trajectory whose duration reaches ``max_track_length``
+    frames (the next cluster on the same object starts a new trajectory).
+    ``transform`` returns the frames in their input order, each evolved
     with
 
     * ``payload["track_ids"]``: ndarray of shape (m,), int64 -- the trajectory of
       every keypoint cluster of ``payload["cluster_boxes"]``, numbered 1, 2, ... per
-      tour in order of birth.
+      tour in order of birth;
+    * ``payload["ended_tracks"]``: ndarray of int64 -- the trajectories that ended at
+      this frame: they cannot link any later frame (they missed more than
+      ``max_gap`` frames, or reached ``max_track_length``).  :class:`PCCVerifier`
+      decides a trajectory as soon as it has ended, which bounds its memory when
+      streaming.  Trajectories still alive at the end of a tour end with it.
 
     Each trajectory's per-frame appearance decisions stay with its clusters
     (``payload["appearance"]``), where :class:`PCCVerifier` reads them.
@@ -174,6 +292,18 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
     ----------
     max_gap : int, default=3
         Largest number of consecutive frames a trajectory may miss and still link.
+    max_track_length : int or None, default=300
+        Longest duration of a trajectory, in frames (first to last, gaps included);
+        a trajectory that reaches it ends and the object's next cluster starts a new
+        one.  ``None``: unbounded.  This bounds the delay after which a frame's
+        decisions are final and the memory of online detection (a vehicle followed
+        for minutes would otherwise hold its frames for minutes).  The default is
+        10 s at 30 fps, from the physics of an indicator's passage: a sign of about
+        0.5 m seen by an 800 px camera is a cluster (>= 7 px tall) from about 57 m
+        away and leaves the image about 10 m before it is passed, so it is in view
+        for about 50 m of travel -- less than 10 s above 18 km/h.  In slower traffic
+        an indicator's trajectory is cut into 10-s pieces, each still long and
+        straight.
     max_scale_change : float, default=4.0
         Largest ratio of the sizes of linked responses (the paper's 4).
     gate : float, default=1.0
@@ -215,6 +345,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "max_gap": [Interval(numbers.Integral, 0, None, closed="left")],
+        "max_track_length": [Interval(numbers.Integral, 2, None, closed="left"), None],
         "max_scale_change": [Interval(numbers.Real, 1, None, closed="left")],
         "gate": [Interval(numbers.Real, 0, None, closed="neither")],
         "min_gate": [Interval(numbers.Real, 0, None, closed="left")],
@@ -230,6 +361,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         self,
         *,
         max_gap=3,
+        max_track_length=300,
         max_scale_change=4.0,
         gate=1.0,
         min_gate=12.0,
@@ -241,6 +373,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         assignment="greedy",
     ):
         self.max_gap = max_gap
+        self.max_track_length = max_track_length
         self.max_scale_change = max_scale_change
         self.gate = gate
         self.min_gate = min_gate
@@ -281,6 +414,9 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
     def transform(self, X):
         """Link the clusters of every tour into trajectories.
 
+        Runs the same state machine as :meth:`start_stream` over each tour's frames in
+        frame order, so batch and streaming give identical trajectories.
+
         Parameters
         ----------
         X : sequence of FrameRecord
@@ -290,80 +426,53 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         Returns
         -------
         X_new : FrameSequence
-            The frames in input order, with ``payload["track_ids"]``.
+            The frames in input order, with ``payload["track_ids"]`` and
+            ``payload["ended_tracks"]``.
         """
         check_is_fitted(self)
         records, _ = check_frames(X)
         boxes = [boxes_of(r, i, "TrajectoryLinker") for i, r in enumerate(records)]
         ids = [None] * len(records)
+        ended = [None] * len(records)
         for group in tour_order(records):
-            self._link_tour(records, boxes, group, ids)
+            state = _LinkState(self)
+            for i in group.tolist():
+                ids[i], ended[i] = state.step(records[i], boxes[i])
         return FrameSequence(
-            r.evolve(track_ids=t) for r, t in zip(records, ids, strict=True)
+            r.evolve(track_ids=t, ended_tracks=e)
+            for r, t, e in zip(records, ids, ended, strict=True)
         )
 
-    def _link_tour(self, records, boxes, group, ids):
-        kw = dict(
-            max_scale_change=float(self.max_scale_change),
-            gate=float(self.gate),
-            min_gate=float(self.min_gate),
-            position_sigma=float(self.position_sigma),
-            scale_sigma=float(self.scale_sigma),
-            appearance_sigma=float(self.appearance_sigma),
-            gap_penalty=float(self.gap_penalty),
-        )
-        reach = int(self.max_gap) + 1
-        history = int(self.history)
-        hungarian = self.assignment == "hungarian"
-        alive: list[_Track] = []
-        next_id = 1
-        for i in group.tolist():
-            r = records[i]
-            frame = r.frame
-            b = boxes[i]
-            m = len(b)
-            alive = [t for t in alive if frame - t.last <= reach]
-            out = np.zeros(m, dtype=np.int64)
-            if m == 0:
-                ids[i] = out
-                continue
-            hists = r.payload.get("cluster_histograms")
-            if hists is not None and len(hists) != m:
-                hists = None
-            bl = b.tolist()
-            cx = [L + w / 2 for L, _, w, _ in bl]
-            cy = [T + h / 2 for _, T, _, h in bl]
-            size = [math.sqrt(w * h) for _, _, w, h in bl]
-            pairs = []
-            if alive:
-                for ti, t in enumerate(alive):
-                    px, py = t.predict(frame, history)
-                    gap = frame - t.last
-                    for j in range(m):
-                        ll = link_log_likelihood(
-                            (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
-                            None if hists is None else hists[j], gap, **kw,
-                        )
-                        if ll > -math.inf:
-                            pairs.append((ll, ti, j))
-            linked = self._assign(pairs, len(alive), m, hungarian)
-            taken = set()
-            for ti, j in linked:
-                t = alive[ti]
-                t.add(frame, cx[j], cy[j], size[j], None if hists is None else hists[j])
-                out[j] = t.id
-                taken.add(j)
-            for j in range(m):
-                if j not in taken:
-                    alive.append(
-                        _Track(
-                            next_id, frame, cx[j], cy[j], size[j],
-                            None if hists is None else hists[j],
-                        )
-                    )
-                    out[j] = next_id
-                    next_id += 1
-            ids[i] = out
+    def start_stream(self):
+        """Link frames online, one at a time (the streaming protocol).
+
+        Returns
+        -------
+        state : object
+            ``state.push(record)`` takes the next frame (frames of a tour in
+            increasing order; a record of another tour starts that tour afresh) and
+            returns it at once, evolved as :meth:`transform` does; ``state.close()``
+            ends the stream and returns ``[]``.  Memory is bounded: at most the live
+            trajectories, each keeping its last ``history`` positions.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from tunnelsense import FrameRecord
+        >>> from tunnelsense.tunnel import TrajectoryLinker
+        >>> img = np.zeros((48, 64), np.uint8)
+        >>> X = [FrameRecord("t", 1, img, {"cluster_boxes": np.empty((0, 4))})]
+        >>> state = TrajectoryLinker(max_gap=1).fit(X).start_stream()
+        >>> for f in (1, 2, 5):
+        ...     (out,) = state.push(FrameRecord("t", f, img,
+        ...                         {"cluster_boxes": np.array([[10. + f, 20, 4, 8]])}))
+        ...     print(f, out.payload["track_ids"], out.payload["ended_tracks"])
+        1 [1] []
+        2 [1] []
+        5 [2] [1]
+        """
+        check_is_fitted(self)
+        return _LinkerStream(self)
 
     @staticmethod
     def _assign(pairs, n_tracks, m, hungarian):
