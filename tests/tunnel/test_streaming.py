@@ -1,0 +1,157 @@
+"""Streaming the FIR indicator detector: identical to batch, bounded memory and delay."""
+
+import numpy as np
+import pytest
+
+from tunnelsense import FrameRecord, FrameSequence, to_xy
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.datasets import TUNNEL_SCENARIOS, make_tunnel_tour
+from tunnelsense.tunnel import PCCVerifier, TrajectoryLinker, make_indicator_pipeline
+from tunnelsense.utils import assert_records_equal
+
+
+@pytest.fixture(scope="module")
+def model():
+    tour = make_tunnel_tour(150, scenario="light", random_state=0, first_indicator_m=30.0)
+    X, y, _ = to_xy([tour])
+    # min_length 5 so that these short tours hold positive trajectories too
+    return make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+
+
+@pytest.fixture(scope="module")
+def tours():
+    return {
+        s: make_tunnel_tour(100, scenario=s, random_state=10 + k, first_indicator_m=25.0)
+        for k, s in enumerate(TUNNEL_SCENARIOS)
+    }
+
+
+def _n_detections(records):
+    return sum(len(r.payload["detections"]) for r in records)
+
+
+@pytest.mark.parametrize("scenario", TUNNEL_SCENARIOS)
+def test_stream_equals_batch(model, tours, scenario):
+    X = to_xy([tours[scenario]])[0]
+    batch = model.predict(X)
+    stream = list(StreamingPipeline(model).run(X))
+    assert_records_equal(stream, batch)
+    assert sum(len(r.payload["cluster_boxes"]) for r in batch) > 0
+
+
+def test_stream_equals_batch_with_some_detections(model, tours):
+    X = FrameSequence.concat(to_xy([t])[0] for t in tours.values())
+    batch = model.predict(X)
+    assert _n_detections(batch) > 0  # the comparisons above are not all-empty
+    assert_records_equal(list(StreamingPipeline(model).run(X)), batch)
+
+
+def test_tour_changes_and_frame_gaps_inside_a_stream(model, tours):
+    a = to_xy([tours["light"]])[0]
+    b = to_xy([tours["heavy"]])[0]
+    # frames 31-45 of tour a are missing (a gap longer than max_gap), tour b follows
+    keep = [i for i in range(len(a)) if not 30 <= i < 45]
+    X = FrameSequence.concat([a[np.array(keep)], b])
+    batch = model.predict(X)
+    stream = list(StreamingPipeline(model).run(X))
+    assert_records_equal(stream, batch)
+    # trajectories never cross the gap nor the tour boundary
+    before = {t for r in stream[:30] for t in r.payload["track_ids"].tolist()}
+    after = {t for r in stream[30 : len(keep)] for t in r.payload["track_ids"].tolist()}
+    assert not before & after
+    assert stream[len(keep)].key == (b[0].tour, 1)
+    assert min(stream[len(keep)].payload["track_ids"].tolist() or [1]) == 1
+
+
+def test_stream_order_is_checked(model, tours):
+    X = to_xy([tours["light"]])[0]
+    stream = StreamingPipeline(model)
+    stream.push(X[5])
+    with pytest.raises(ValueError, match="increasing"):
+        stream.push(X[3])
+
+
+# --------------------------------------------------------------------------------------
+# bounded memory and delay on a long sequence with an object that never leaves
+# --------------------------------------------------------------------------------------
+IMG = np.zeros((120, 160), np.uint8)
+
+
+def long_sequence(n, rng):
+    """A still warm object in every frame (a vehicle followed forever), and indicators
+    passing one after the other (20 frames each, 10 frames apart)."""
+    for f in range(1, n + 1):
+        boxes = [[60 + rng.normal(0, 1.0), 90 + rng.normal(0, 1.0), 20, 10]]
+        k = (f - 1) % 30
+        if k < 20:
+            boxes.append([100 + 2.0 * k, 40 - 1.0 * k, 4, 8])
+        boxes = np.array(boxes)
+        yield FrameRecord(
+            "long", f, IMG,
+            {"cluster_boxes": boxes, "appearance": np.ones(len(boxes), bool)},
+        )
+
+
+@pytest.mark.parametrize("max_track_length", [40, 300])
+def test_buffer_and_delay_are_bounded(global_random_seed, max_track_length):
+    rng = np.random.default_rng(global_random_seed)
+    n = 2000
+    fit_X = list(long_sequence(3, rng))
+    linker = TrajectoryLinker(max_track_length=max_track_length).fit(fit_X)
+    verifier = PCCVerifier(min_length=10).fit(
+        linker.transform(fit_X)
+    )
+    link, verify = linker.start_stream(), verifier.start_stream()
+    released, most_waiting, worst_delay = [], 0, 0
+    for r in long_sequence(n, rng):
+        (linked,) = link.push(r)
+        out = verify.push(linked)
+        most_waiting = max(most_waiting, verify.n_waiting)
+        worst_delay = max([worst_delay] + [r.frame - o.frame for o in out])
+        released += out
+    released += verify.close()
+    assert [r.frame for r in released] == list(range(1, n + 1))
+    assert most_waiting <= max_track_length
+    assert worst_delay <= max_track_length - 1
+    # the still object is cut into trajectories of max_track_length frames
+    still = [int(r.payload["track_ids"][0]) for r in released]
+    lengths = np.unique(still, return_counts=True)[1]
+    assert lengths.max() == max_track_length
+    # its jitter is no line; the indicators are, and each is detected
+    assert not any(r.payload["trajectory_positive"][0] for r in released)
+    detected = {int(t) for r in released for t in r.payload["detections"][:, 4]}
+    assert len(detected) == len(range(0, n, 30))
+
+
+def test_unbounded_trajectories_hold_every_frame():
+    # without max_track_length the still object keeps every frame waiting
+    rng = np.random.default_rng(0)
+    X = list(long_sequence(300, rng))
+    linker = TrajectoryLinker(max_track_length=None).fit(X)
+    state = PCCVerifier().fit(linker.transform(X)).start_stream()
+    out = [o for r in linker.transform(X) for o in state.push(r)]
+    assert out == [] and state.n_waiting == 300
+    assert len(state.close()) == 300
+
+
+def test_released_records_drop_in_memory_images(model, tours, tmp_path):
+    X = to_xy([tours["light"]])[0][:40]
+    out = list(StreamingPipeline(model).run(X))
+    with pytest.raises(ValueError, match="released"):
+        out[0].image  # noqa: B018
+    # batch keeps them
+    assert model.predict(X)[0].image.shape == X[0].image.shape
+
+
+def test_batch_equals_linker_and_verifier_streams(global_random_seed):
+    rng = np.random.default_rng(global_random_seed)
+    X = list(long_sequence(400, rng))
+    # shuffled input: batch sorts by frame and returns the input order
+    perm = rng.permutation(len(X))
+    shuffled = [X[i] for i in perm]
+    linker = TrajectoryLinker(max_track_length=60).fit(X)
+    verifier = PCCVerifier(min_length=10).fit(linker.transform(X))
+    batch = verifier.predict(linker.transform(shuffled))
+    link, verify = linker.start_stream(), verifier.start_stream()
+    stream = [o for r in X for o in verify.push(link.push(r)[0])] + verify.close()
+    assert_records_equal(stream, [batch[i] for i in np.argsort(perm)])
