@@ -6,7 +6,13 @@ run the seeded tests under other seeds.
 
 import os
 
-import pytest
+# scikit-learn's check_array_api_input (run by parametrize_with_checks) skips itself
+# unless SciPy's array API support is on; with it on, the check verifies that
+# enabling array API dispatch does not change results on NumPy inputs. It must be
+# set before SciPy is imported.
+os.environ.setdefault("SCIPY_ARRAY_API", "1")
+
+import pytest  # noqa: E402
 
 
 def _seeds():
