@@ -19,19 +19,11 @@ from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
-from tunnelsense.street._clustering import _single_linkage_groups, link_scans
-from tunnelsense.street._restoration import (
-    compensate_tilt,
-    estimate_tilt,
-    no_return,
-    restore_points,
+from tunnelsense.street._stream import (
+    DEFAULT_SCAN_PERIOD,  # noqa: F401 (re-exported for users of the constants)
+    DEFAULT_SPEED,  # noqa: F401
+    ScanStream,
 )
-from tunnelsense.street._roi import roi_mask
-from tunnelsense.street._sections import section_evidence
-
-_BODY, _HIDDEN = 0b0111, 0b1000  # bits of the per-scan evidence flags
-#: Shortest visible part (m) of a vehicle cut short by an occluder.
-_MIN_VISIBLE = 0.5
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline", "split_profile"]
 
@@ -48,14 +40,6 @@ OBJECT_COLUMNS = (
     "top_height",
     "n_points",
 )
-
-#: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
-#: the paper's measurement vehicle drove at about 40 km/h.
-DEFAULT_SPEED = 40 / 3.6
-
-#: Scan period (s) assumed when a run's stamps do not give one (75 scans/s).
-DEFAULT_SCAN_PERIOD = 1 / 75
-
 
 def split_profile(top, step, *, min_length=2.0, ratio=0.6):
     """Where to split an object whose height profile has two humps.
@@ -342,15 +326,58 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         return self
 
     # ------------------------------------------------------------ the method
-    def _run_all(self, X):
-        """Cluster all scans; returns a dict of arrays (see the code for keys)."""
+    def start_stream(self):
+        """An online state: scans in one at a time, finished records out.
+
+        Batch :meth:`transform`, :meth:`predict` and :meth:`detect` run this very
+        state over every run, so streaming and batch give identical results.
+
+        Returns
+        -------
+        stream : ScanStream
+            ``push(record) -> list`` of finished records (payload as
+            :meth:`transform`, plus ``"in_view"``: the ``(k, 2)`` ``(object id,
+            label code)`` of :meth:`predict`), ``push_many(records)``,
+            ``close() -> list``, and ``pop_objects()``: the object-table rows
+            (:data:`OBJECT_COLUMNS`) finished so far, in id order.  Memory follows the
+            longest object in view, not the run's length.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from tunnelsense import LaserGeometry, ScanSequence
+        >>> from tunnelsense.street import ScanClusterer
+        >>> geom = LaserGeometry(np.deg2rad(-89.0), np.deg2rad(0.5), 0.05, 30.0, 2.0)
+        >>> angles = geom.angles(181)
+        >>> road = 2.0 / np.sin(-np.minimum(angles, -1e-3))
+        >>> scans = np.tile(np.where(angles < 0, road, np.inf), (300, 1))
+        >>> side = (angles > np.arctan(-1.8 / 5.0)) & (angles < np.arctan(-0.5 / 5.0))
+        >>> scans[10:40, side] = 5.0 / np.cos(angles[side])   # a car side 5 m away
+        >>> X = ScanSequence.from_arrays(scans, np.arange(300) / 75, geom, run="r")
+        >>> stream = ScanClusterer().fit(X).start_stream()
+        >>> released = 0
+        >>> for i, record in enumerate(X):
+        ...     released += len(stream.push(record))
+        ...     for row in stream.pop_objects():   # 4 m after its end: final
+        ...         print(f"after scan {i}:", row[1:5], f"{released} scans out")
+        after scan 66: (1, 10, 39, 'parked') 41 scans out
+        >>> len(stream.close()) + released
+        300
+        """
+        check_is_fitted(self)
+        return ScanStream(self)
+
+    def _batch(self, X):
+        """Run the stream state over every run of ``X`` (sorted by run and scan).
+
+        Returns the finished records in the order of ``X`` and the object table.
+        """
         check_is_fitted(self)
         records, _ = check_scans(X)
         n = len(records)
         runs = np.array([r.run for r in records], dtype=object)
         scans = np.array([r.scan for r in records], dtype=np.int64)
         order = np.lexsort((scans, runs.astype(str))) if n else np.empty(0, np.int64)
-        srec = [records[i] for i in order]
         sruns, sscans = runs[order], scans[order]
         dup = (sruns[1:] == sruns[:-1]) & (sscans[1:] == sscans[:-1])
         if dup.any():
@@ -359,253 +386,24 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                 f"X holds scan {sscans[i]} of run {sruns[i]!r} twice: "
                 "expected each (run, scan) once"
             )
-        new_run = np.r_[True, sruns[1:] != sruns[:-1]] if n else np.empty(0, bool)
-        follows = ~new_run & np.r_[False, sscans[1:] == sscans[:-1] + 1]
-        run_starts = np.flatnonzero(new_run)
-        run_ends = np.r_[run_starts[1:], n]
-        xs, ys, ps, bs, abs_, bes = [], [], [], [], [], []
-        tilt = np.zeros(n)
-        step = np.zeros(n)  # metres travelled per scan, per scan
-        for a, b in zip(run_starts, run_ends, strict=True):
-            block = srec[a:b]
-            ranges, geom = self._validate_run(block)
-            stamps = np.array([r.stamp for r in block])
-            if np.any(np.diff(stamps) < 0):
-                i = int(np.flatnonzero(np.diff(stamps) < 0)[0])
-                raise ValueError(
-                    f"stamps of run {block[0].run!r} are not sorted: scan "
-                    f"{block[i + 1].scan} ({stamps[i + 1]}) comes after scan "
-                    f"{block[i].scan} ({stamps[i]}); expected non-decreasing stamps"
-                )
-            step[a:b] = self._speed(block) * _scan_period(stamps)
-            r = np.where(no_return(ranges, geom.range_min, geom.range_max), np.nan, ranges)
-            angles = geom.angles(r.shape[1])
-            if self.tilt_compensation:
-                t, off = estimate_tilt(
-                    r, angles, geom.mount_height, max_tilt=self.max_tilt,
-                    tolerance=self.min_height,
-                )
-                depth, height, t = compensate_tilt(r, angles, geom.mount_height, t, off)
-            else:
-                t = np.zeros(len(r))
-                depth, height = restore_points(r, angles, geom.mount_height)
-            tilt[a:b] = t
-            m = roi_mask(depth, height, min_height=self.min_height,
-                         max_height=self.max_height)
-            rows, cols = np.nonzero(m)
-            xs.append(depth[rows, cols])
-            ys.append(height[rows, cols])
-            ps.append(rows + a)
-            bs.append(cols)
-            # the returns of the beams just above and below every ROI point
-            nb = depth.shape[1]
-            up, dn = np.minimum(cols + 1, nb - 1), np.maximum(cols - 1, 0)
-            ab = np.column_stack([depth[rows, up], height[rows, up]])
-            ab[cols + 1 >= nb] = np.nan
-            be = np.column_stack([depth[rows, dn], height[rows, dn]])
-            be[cols == 0] = np.nan
-            abs_.append(ab)
-            bes.append(be)
-        x = np.concatenate(xs) if xs else np.empty(0)
-        y = np.concatenate(ys) if ys else np.empty(0)
-        pos = np.concatenate(ps).astype(np.int64) if ps else np.empty(0, np.int64)
-        beams = np.concatenate(bs).astype(np.int64) if bs else np.empty(0, np.int64)
-        above = np.concatenate(abs_) if abs_ else np.empty((0, 2))
-        below = np.concatenate(bes) if bes else np.empty((0, 2))
-        # 4. intra-scan clusters
-        local = _single_linkage_groups(x, y, pos, float(self.cut))
-        n_cl = np.zeros(n, dtype=np.int64)
-        if len(pos):
-            np.maximum.at(n_cl, pos, local + 1)
-        cl_start = np.cumsum(n_cl) - n_cl
-        cid = cl_start[pos] + local
-        k = int(n_cl.sum())
-        cpos = np.repeat(np.arange(n), n_cl)
-        npts = np.bincount(cid, minlength=k)
-        cdepth = np.bincount(cid, weights=x, minlength=k) / np.maximum(npts, 1)
-        ctop = np.full(k, -np.inf)
-        np.maximum.at(ctop, cid, y)
-        roof, wall, raised, hidden = section_evidence(
-            x, y, cid, beams, above, below, n_clusters=k, roof_width=self.roof_width,
-            max_height=self.max_height, cut=self.cut, min_clearance=self.min_clearance)
-        cflag = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
-                 | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
-        # 5. inter-scan linking
-        cobj = link_scans(cpos, cdepth, follows, float(self.link_distance))
-        # 6-7. objects
-        objects, cobj, spans = self._objects(cpos, cdepth, ctop, npts, cobj, step,
-                                             sruns, sscans, follows, cflag)
-        return {
-            "order": order, "beams": beams, "runs": sruns, "scans": sscans, "pos": pos, "x": x, "y": y,
-            "local": local, "cid": cid, "cpos": cpos, "cobj": cobj, "tilt": tilt,
-            "objects": objects, "spans": spans, "n_cl": n_cl, "cl_start": cl_start,
-        }
-
-    @staticmethod
-    def _validate_run(block):
-        geom = block[0].geometry
-        nb = len(block[0].ranges)
-        for r in block:
-            if len(r.ranges) != nb:
-                raise ValueError(
-                    f"scan {r.scan} of run {r.run!r} has {len(r.ranges)} ranges but "
-                    f"scan {block[0].scan} has {nb}: expected the same number of "
-                    "beams (angles) in every scan of a run"
-                )
-            if r.geometry != geom:
-                raise ValueError(
-                    f"scan {r.scan} of run {r.run!r} has another LaserGeometry than "
-                    f"scan {block[0].scan}: expected one geometry per run"
-                )
-        if nb == 0:
-            raise ValueError(f"run {block[0].run!r}: scans have no beams")
-        if not (np.isfinite(geom.mount_height) and np.isfinite(geom.angle_increment)):
-            raise ValueError(f"run {block[0].run!r}: geometry is not finite: {geom}")
-        ranges = np.stack([np.asarray(r.ranges, dtype=np.float64) for r in block])
-        return ranges, geom
-
-    def _speed(self, block):
-        if self.speed is not None:
-            return float(self.speed)
-        v = [r.payload["speed"] for r in block if "speed" in r.payload]
-        v = np.asarray(v, dtype=np.float64)
-        v = v[np.isfinite(v) & (v > 0)]
-        return float(np.median(v)) if len(v) else DEFAULT_SPEED
+        stream = ScanStream(self)
+        done = stream.push_many([records[i] for i in order])
+        done.extend(stream.close())
+        out = [None] * n
+        for i, rec in zip(order, done, strict=True):
+            out[i] = rec
+        table = pd.DataFrame(stream.pop_objects(), columns=list(OBJECT_COLUMNS))
+        table = table.astype({"id": np.int64, "first_scan": np.int64,
+                              "last_scan": np.int64, "mean_depth": np.float64,
+                              "region": np.int64, "length": np.float64,
+                              "top_height": np.float64, "n_points": np.int64,
+                              "run": object, "label": object})
+        return out, table
 
     def _region(self, depth):
         return np.searchsorted(self.region_edges_, depth, side="right")
 
-    def _objects(self, cpos, cdepth, ctop, npts, cobj, step, runs, scans, follows,
-                 cflag):
-        """Merge, split and label object-clusters; return the object table."""
-        w = npts.astype(np.float64)
-        n_pos = len(step)
-        # nearest cluster of every scan (to tell occlusion from an empty gap)
-        near = np.full(n_pos, np.inf)
-        if len(cpos):
-            np.minimum.at(near, cpos, cdepth)
-        prof = _Profiles(cobj, cpos, cdepth, ctop, w)
-        if prof.n:
-            parent = self._merge(prof, near, step, follows)
-            _, cobj = np.unique(parent[cobj], return_inverse=True)
-            cobj = cobj.ravel()
-            if self.split_merged:
-                cobj = self._split(_Profiles(cobj, cpos, cdepth, ctop, w), cobj, near,
-                                   step)
-        prof = _Profiles(cobj, cpos, cdepth, ctop, w, cflag)
-        n_obj = prof.n
-        # order objects by (first scan, depth); ids from 1
-        order = np.lexsort((prof.depth, prof.first))
-        rank = np.empty(n_obj, dtype=np.int64)
-        rank[order] = np.arange(n_obj)
-        cobj = rank[cobj] if len(cobj) else cobj
-        o_first, o_last = prof.first[order], prof.last[order]
-        o_pts, o_depth, o_top = prof.pts[order], prof.depth[order], prof.top[order]
-        cum = np.r_[0.0, np.cumsum(step)]
-        length = cum[o_last + 1] - cum[o_first]
-        region = self._region(o_depth)
-        label = np.asarray(self.labels_, dtype=object)[region]
-        vehicle_like = length <= self.max_length
-        body = np.zeros(n_obj)
-        # scans before / after every object where something at least
-        # occlusion_margin nearer hides it (its true end may lie behind)
-        hid_before = np.zeros(n_obj, dtype=np.int64)
-        hid_after = np.zeros(n_obj, dtype=np.int64)
-        if self.occluded_length is not None:
-            for i in np.flatnonzero(vehicle_like):
-                hid_before[i], hid_after[i] = _hidden_ends(
-                    near, follows, o_first[i], o_last[i],
-                    o_depth[i] - self.occlusion_margin)
-        hid_len = (cum[o_first] - cum[o_first - hid_before]) + (
-            cum[o_last + 1 + hid_after] - cum[o_last + 1])
-        # an object cut short by an occluder may be a vehicle when its visible part
-        # is at least min_visible long; otherwise it must be min_length long
-        cut_short = (hid_len > 0) & (length >= _MIN_VISIBLE)
-        vehicle_like &= (length >= self.min_length) | (
-            cut_short & (length + hid_len >= self.min_length))
-        # a vehicle is one continuous surface: its longest stretch of consecutive
-        # scans seen (or hidden by something nearer) must be vehicle-long too, and so
-        # must the scans where it is actually seen; rows of pedestrians, bins or
-        # bollards bridged by short gaps are not
-        for i in np.flatnonzero(vehicle_like):
-            o = order[i]
-            pos, _ = prof.scan_profile(o)
-            hidden = near < prof.depth[o] - self.link_distance
-            seen = hidden[pos[0]:pos[-1] + 1].copy()
-            seen[pos - pos[0]] = True
-            brk = np.flatnonzero(~seen)
-            edges = np.r_[-1, brk, len(seen)] + pos[0]
-            run_len = cum[edges[1:]] - cum[edges[:-1] + 1]
-            seen_len = (cum[pos + 1] - cum[pos]).sum()
-            if cut_short[i]:
-                vehicle_like[i] = (seen_len >= _MIN_VISIBLE) & (
-                    run_len.max() + hid_len[i] >= self.min_length)
-            else:
-                vehicle_like[i] = min(run_len.max(), seen_len) >= self.min_length
-            # cross-section evidence of a vehicle body (roof, wall or raised body) in
-            # enough of the scans where it is seen
-            fl = prof.scan_flags(o)
-            body[i] = np.mean((fl & _BODY) > 0)
-        vehicle_like &= body >= self.min_body_fraction
-        # extend vehicles cut short by an occluder to occluded_length behind it
-        if self.occluded_length is not None:
-            o_first, o_last = o_first.copy(), o_last.copy()
-            # not objects cut by a run boundary: their unseen part may lie beyond it
-            at_start = ~follows[o_first]
-            at_end = ~np.r_[follows[1:], False][o_last]
-            ext = np.flatnonzero(vehicle_like & (hid_len > 0) & ~at_start & ~at_end)
-            for i in ext:
-                self._extend(i, o_first, o_last, hid_before, hid_after, region,
-                             vehicle_like, cum)
-            length = cum[o_last + 1] - cum[o_first]
-        label = np.where(vehicle_like, label, "other").astype(object)
-        table = pd.DataFrame({
-            "run": runs[o_first].astype(object),
-            "id": np.arange(1, n_obj + 1, dtype=np.int64),
-            "first_scan": scans[o_first].astype(np.int64),
-            "last_scan": scans[o_last].astype(np.int64),
-            "label": label,
-            "mean_depth": o_depth,
-            "region": (region + 1).astype(np.int64),
-            "length": length,
-            "top_height": o_top,
-            "n_points": o_pts.astype(np.int64),
-        }, columns=list(OBJECT_COLUMNS))
-        return table, cobj, (o_first, o_last)
-
-    def _extend(self, i, first, last, hid_before, hid_after, region, vehicle, cum):
-        """Extend object ``i`` into the scans where an occluder hides its ends.
-
-        The visible part of a vehicle cut by an occluder is shorter than the
-        vehicle; its best length estimate is the larger of the visible length and
-        ``occluded_length`` (a typical vehicle), never beyond the hidden scans nor into
-        another vehicle of the same region.  Both hidden ends share the extension.
-        """
-        want = self.occluded_length - (cum[last[i] + 1] - cum[first[i]])
-        if want <= 0:
-            return
-        same = np.flatnonzero(vehicle & (region == region[i]))
-        same = same[same != i]
-        lo = first[i] - hid_before[i]
-        hi = last[i] + hid_after[i]
-        prev = last[same][last[same] < first[i]]
-        nxt = first[same][first[same] > last[i]]
-        if len(prev):
-            lo = max(lo, int(prev.max()) + 1)
-        if len(nxt):
-            hi = min(hi, int(nxt.min()) - 1)
-        room_b = cum[first[i]] - cum[lo]
-        room_a = cum[hi + 1] - cum[last[i] + 1]
-        take_b = min(room_b, max(want / 2, want - room_a))
-        take_a = min(room_a, want - take_b)
-        if take_b > 0:
-            first[i] = int(np.searchsorted(cum, cum[first[i]] - take_b, side="left"))
-            first[i] = max(first[i], lo)
-        if take_a > 0:
-            last[i] = int(np.searchsorted(cum, cum[last[i] + 1] + take_a, side="left")) - 1
-            last[i] = min(last[i], hi)
-
-    def _merge(self, prof, near, step, follows):
+    def _merge(self, prof, near, cum, follows):
         """Three-region merging: union-find parent of every object-cluster.
 
         Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans
@@ -620,7 +418,6 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         n_obj = prof.n
         region = self._region(depth)
         seg = np.cumsum(~follows) - 1  # contiguous stretches of scans
-        cum = np.r_[0.0, np.cumsum(step)]
         parent = np.arange(n_obj)
 
         def find(i):
@@ -660,7 +457,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                         parent[max(ra, rb)] = min(ra, rb)
         return np.array([find(i) for i in range(n_obj)], dtype=np.int64)
 
-    def _split(self, prof, cobj, near, step):
+    def _split(self, prof, cobj, near, cum):
         """Split objects with a two-hump height profile; returns new object ids.
 
         Scans of the object's span where it has no cluster count as height 0 (a gap
@@ -668,7 +465,6 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         """
         new = cobj.copy()
         next_id = prof.n
-        cum = np.r_[0.0, np.cumsum(step)]
         for o in range(prof.n):
             first, last = prof.first[o], prof.last[o]
             span = last - first + 1
@@ -706,21 +502,10 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             ``"beams"`` (n,) their beam numbers, ``"clusters"`` (n,) intra-cluster
             number of every point, ``"objects"``
             (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
-            ``"tilt"`` the tilt (rad) used.
+            ``"tilt"`` the tilt (rad) used, ``"in_view"`` the ``(k, 2)`` array of
+            :meth:`predict`.
         """
-        res = self._run_all(X)
-        records, _ = check_scans(X)
-        pts = np.column_stack([res["x"], res["y"]])
-        p_bounds = np.searchsorted(res["pos"], np.arange(len(records) + 1))
-        out = [None] * len(records)
-        for i, orig in enumerate(res["order"]):
-            a, b = p_bounds[i], p_bounds[i + 1]
-            c0, nc = res["cl_start"][i], res["n_cl"][i]
-            out[orig] = records[orig].evolve(
-                points=pts[a:b], beams=res["beams"][a:b], clusters=res["local"][a:b],
-                objects=res["cobj"][c0:c0 + nc] + 1, tilt=float(res["tilt"][i]),
-            )
-        return ScanSequence(out)
+        return ScanSequence(self._batch(X)[0])
 
     def detect(self, X, *, all_objects=False):
         """The object table: one row per detected object.
@@ -737,9 +522,10 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         objects : DataFrame
             Columns :data:`OBJECT_COLUMNS`: ``run, id, first_scan, last_scan, label,
             mean_depth`` (m), ``region`` (1-3), ``length`` (m along the track),
-            ``top_height`` (m), ``n_points``.
+            ``top_height`` (m), ``n_points``.  Ids count from 1 over the runs of ``X``
+            in sorted order, by first scan (then mean depth) within a run.
         """
-        table = self._run_all(X)["objects"]
+        table = self._batch(X)[1]
         if not all_objects:
             table = table[table["label"].isin(list(RUN_LABELS))].reset_index(drop=True)
         return table
@@ -759,109 +545,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         -------
         y_pred : list of ndarray of shape (k_i, 2), int64
         """
-        res = self._run_all(X)
-        table = res["objects"]
-        n = len(res["order"])
-        codes = table["label"].map(RUN_LABELS)
-        keep = codes.notna().to_numpy()
-        ids = table["id"].to_numpy()[keep]
-        codes = codes.to_numpy()[keep].astype(np.int64)
-        fp = res["spans"][0][keep]
-        lp = res["spans"][1][keep]
-        counts = lp - fp + 1
-        per_pos = [[] for _ in range(n)]
-        total = int(counts.sum())
-        if total:
-            owner = np.repeat(np.arange(len(ids)), counts)
-            p = np.repeat(fp, counts) + (np.arange(total) - np.repeat(
-                np.cumsum(counts) - counts, counts))
-            srt = np.argsort(p, kind="stable")
-            p, owner = p[srt], owner[srt]
-            bounds = np.searchsorted(p, np.arange(n + 1))
-            pairs = np.column_stack([ids[owner], codes[owner]])
-            per_pos = [pairs[bounds[i]:bounds[i + 1]] for i in range(n)]
-        else:
-            per_pos = [np.empty((0, 2), np.int64) for _ in range(n)]
-        out = [None] * n
-        for i, orig in enumerate(res["order"]):
-            out[orig] = np.asarray(per_pos[i], dtype=np.int64).reshape(-1, 2)
-        return out
-
-
-class _Profiles:
-    """Per object-cluster aggregates and per-(object, scan) profiles."""
-
-    def __init__(self, cobj, cpos, cdepth, ctop, w, cflag=None):
-        self.cpos = cpos
-        self.p_flag = np.empty(0, dtype=np.int8)
-        n = int(cobj.max()) + 1 if len(cobj) else 0
-        self.n = n
-        if n == 0:
-            e = np.empty(0, dtype=np.int64)
-            self.p_obj = self.p_pos = self.first = self.last = e
-            self.rows = np.zeros(1, dtype=np.int64)
-            self.p_top = self.start_depth = self.end_depth = np.empty(0)
-            self.pts = self.depth = self.top = np.empty(0)
-            return
-        order = np.lexsort((cpos, cobj))
-        so, sp = cobj[order], cpos[order]
-        # one row per (object, scan)
-        key_new = np.r_[True, (so[1:] != so[:-1]) | (sp[1:] != sp[:-1])]
-        starts = np.flatnonzero(key_new)
-        sw = w[order]
-        pw = np.add.reduceat(sw, starts) if len(starts) else np.empty(0)
-        pdepth = (np.add.reduceat(sw * cdepth[order], starts) / np.maximum(pw, 1)
-                  if len(starts) else np.empty(0))
-        ptop = np.maximum.reduceat(ctop[order], starts) if len(starts) else np.empty(0)
-        pobj, ppos = so[starts], sp[starts]
-        if cflag is not None and len(starts):
-            self.p_flag = np.bitwise_or.reduceat(cflag[order], starts)
-        self.p_obj, self.p_pos, self.p_top = pobj, ppos, ptop
-        obj_new = np.r_[True, pobj[1:] != pobj[:-1]] if len(pobj) else np.empty(0, bool)
-        ofirst_row = np.flatnonzero(obj_new)
-        olast_row = np.r_[ofirst_row[1:], len(pobj)] - 1
-        self.rows = np.r_[ofirst_row, len(pobj)]
-        self.first = ppos[ofirst_row]
-        self.last = ppos[olast_row]
-        self.start_depth = pdepth[ofirst_row]
-        self.end_depth = pdepth[olast_row]
-        self.pts = np.bincount(cobj, weights=w, minlength=n)
-        self.depth = np.bincount(cobj, weights=w * cdepth, minlength=n) / np.maximum(
-            self.pts, 1
-        )
-        self.top = ptop[ofirst_row] if n else np.empty(0)
-        if n:
-            self.top = np.maximum.reduceat(ptop, ofirst_row)
-
-    def scan_profile(self, o):
-        a, b = self.rows[o], self.rows[o + 1]
-        return self.p_pos[a:b], self.p_top[a:b]
-
-    def scan_flags(self, o):
-        return self.p_flag[self.rows[o]:self.rows[o + 1]]
-
-
-def _hidden_ends(near, follows, first, last, depth):
-    """Consecutive scans right before ``first`` and after ``last`` (within one
-    stretch of consecutive scans) whose nearest cluster is nearer than ``depth``."""
-    n = len(near)
-    before = 0
-    p = first - 1
-    while p >= 0 and follows[p + 1] and near[p] < depth:
-        before += 1
-        p -= 1
-    after = 0
-    p = last + 1
-    while p < n and follows[p] and near[p] < depth:
-        after += 1
-        p += 1
-    return before, after
-
-
-def _scan_period(stamps):
-    d = np.diff(np.asarray(stamps, dtype=np.float64))
-    d = d[np.isfinite(d) & (d > 0)]
-    return float(np.median(d)) if len(d) else DEFAULT_SCAN_PERIOD
+        return [r.payload["in_view"] for r in self._batch(X)[0]]
 
 
 def make_parking_pipeline(**params):
