@@ -1,10 +1,15 @@
 """``tunnelsense train|detect|evaluate street``: the street-parked vehicle detector.
 
 * ``tunnelsense train street RUNDIR... --model PATH [--search]`` fits the detector
-  (a :func:`~tunnelsense.street.make_parking_pipeline`) on labelled runs and saves it
-  with joblib; ``--search`` grid-searches its thresholds with ``GroupKFold`` by run.
-* ``tunnelsense detect street --model PATH RUNDIR --out OBJECTS.csv [--draw DIR]``
-  writes the object table (``id,first_scan,last_scan,label,mean_depth,...``).
+  (a :func:`~tunnelsense.street.make_parking_pipeline`) on labelled runs and saves it,
+  by the extension of ``PATH``: ``.skops`` the safe format (no code runs on load;
+  versions, training summary, checksum), ``.joblib`` a pickle; ``--search``
+  grid-searches its thresholds with ``GroupKFold`` by run.
+* ``tunnelsense detect street --model PATH RUNDIR --out OBJECTS.csv [--resume]
+  [--draw DIR]`` reads the run scan by scan and streams it through the detector
+  (memory bounded by the longest object in view), writing the object table
+  (``id,first_scan,last_scan,label,mean_depth,...``) row by row as objects finish,
+  flushed; ``--resume`` continues an interrupted file by deterministic replay.
 * ``tunnelsense evaluate street RUNDIR OBJECTS.csv [--json]`` scores it against the
   run's ``gt.csv``.
 """
@@ -52,17 +57,22 @@ def _with_speed(run):
 
 
 def _cmd_train(args) -> int:
-    import joblib
     from sklearn.model_selection import GridSearchCV, GroupKFold
 
     from tunnelsense._records import to_xy
+    from tunnelsense.io import save_model
     from tunnelsense.metrics import make_street_scorer
     from tunnelsense.street import make_parking_pipeline
 
+    if Path(args.model).suffix.lower() not in (".skops", ".joblib"):
+        raise ValueError(f"--model {args.model}: expected a .skops (safe) or .joblib "
+                         "(pickle) file name")
     runs = _read_runs(args.rundirs)
     X, y, groups = to_xy(runs)
     X = [r for run in runs for r in _with_speed(run)]
     pipe = make_parking_pipeline()
+    summary = {"task": "street", "runs": [run.name for run in runs],
+               "scans": int(len(X))}
     if args.search:
         n_groups = len(set(groups))
         if n_groups < 2:
@@ -74,43 +84,105 @@ def _cmd_train(args) -> int:
                               error_score="raise")
         search.fit(X, y, groups=groups)
         pipe = search.best_estimator_
+        summary["search"] = {"grid": _SEARCH_GRID, "best_params": search.best_params_,
+                             "best_score": float(search.best_score_),
+                             "scoring": "parked F1", "folds": min(n_groups, 5)}
         print(f"best parameters: {search.best_params_} "
               f"(parked F1 {search.best_score_:.3f} over {n_groups} runs)")
     else:
         pipe.fit(X, y)
+    summary["parameters"] = {k: v for k, v in pipe.get_params(deep=True).items()
+                             if "__" in k}
     Path(args.model).parent.mkdir(parents=True, exist_ok=True)
-    joblib.dump(pipe, args.model)
+    save_model(pipe, args.model, summary=summary)
     print(f"saved {args.model}")
     return 0
 
 
 def _load_model(path):
-    import joblib
+    from tunnelsense.io import load_model
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: model file not found")
-    return joblib.load(path)
+    if path.suffix.lower() in (".joblib", ".pkl", ".pickle"):
+        print(f"note: {path} is a pickle; loading it runs code - use it only if you "
+              "trust its source (.skops files cannot run code)", file=sys.stderr)
+        return load_model(path, allow_pickle=True)
+    return load_model(path)
+
+
+#: Columns written by ``detect street`` (the object table without ``run``).
+DETECT_COLUMNS = ("id", "first_scan", "last_scan", "label", "mean_depth", "region",
+                  "length", "top_height", "n_points")
+
+#: Scans pushed into the stream at once (decisions are the same at any chunking).
+_CHUNK = 64
+
+
+def _format_row(row):
+    _run, oid, first, last, label, depth, region, length, top, n_points = row
+    return (f"{oid},{first},{last},{label},{depth:.4f},{region},{length:.4f},"
+            f"{top:.4f},{n_points}")
 
 
 def _cmd_detect(args) -> int:
+    from tunnelsense._progress import Progress
+    from tunnelsense._records import RUN_LABELS
+    from tunnelsense._streaming import ResultsWriter
+    from tunnelsense.io import open_run_stream
+
     model = _load_model(args.model)
-    run = _read_runs([args.rundir])[0]
-    X = _with_speed(run)
+    source = open_run_stream(args.rundir, chunk_scans=1024)
+    speed = _speed_of(source)
     step = model.steps[-1][1] if hasattr(model, "steps") else model
     head = model[:-1] if hasattr(model, "steps") and len(model.steps) > 1 else None
-    Xt = head.transform(X) if head is not None else X
-    objects = step.detect(Xt, all_objects=args.all_objects)
+    if not hasattr(step, "start_stream"):
+        raise TypeError(f"--model {args.model}: its last step "
+                        f"{type(step).__name__} cannot stream (no start_stream)")
+    state = step.start_stream()
+    keep = None if args.all_objects else set(RUN_LABELS)
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    objects.drop(columns=["run"]).to_csv(out, index=False, float_format="%.4f")
-    counts = objects["label"].value_counts().to_dict()
-    print(f"{run.name}: {len(objects)} objects "
-          + (", ".join(f"{n} {k}" for k, n in sorted(counts.items())) or "")
-          + f" -> {out}")
+    counts = {}
+    progress = Progress(source.n_scans, f"{source.name}: detecting",
+                        enabled=not args.quiet)
+    done = 0
+    with ResultsWriter(out, header=",".join(DETECT_COLUMNS), resume=args.resume) as w:
+
+        def feed(chunk):
+            if head is not None and chunk:
+                chunk = list(head.transform(chunk))
+            state.push_many(chunk) if chunk else state.close()
+            for row in state.pop_objects():
+                if keep is None or row[4] in keep:
+                    w.write(_format_row(row))
+                    counts[row[4]] = counts.get(row[4], 0) + 1
+            w.flush()
+
+        chunk = []
+        for record in source:
+            chunk.append(record if speed is None else record.evolve(speed=speed))
+            if len(chunk) == _CHUNK:
+                feed(chunk)
+                done += len(chunk)
+                progress.update(done)
+                chunk = []
+        if chunk:
+            feed(chunk)
+            done += len(chunk)
+            progress.update(done)
+        feed([])
+        resumed = w.resumed_lines
+    n = sum(counts.values())
+    print(f"{source.name}: {n} objects "
+          + (", ".join(f"{c} {k}" for k, c in sorted(counts.items())) or "")
+          + f" -> {out}" + (f" (resumed after {resumed} rows)" if resumed else ""))
     if args.draw:
         from tunnelsense.street._plotting import draw_run
 
+        run = _read_runs([args.rundir])[0]
+        X = _with_speed(run)
+        Xt = head.transform(X) if head is not None else X
         written = draw_run(run, step, args.draw, X=Xt)
         print(f"drew {len(written)} pictures in {args.draw}")
     return 0
@@ -172,18 +244,24 @@ def register(verbs) -> None:
     p = verbs["train"].add_parser("street", help="fit the parked-vehicle detector")
     p.add_argument("rundirs", nargs="+", metavar="RUNDIR",
                    help="laser run folders (scans.npz + gt.csv)")
-    p.add_argument("--model", required=True, help="where to save the model (joblib)")
+    p.add_argument("--model", required=True,
+                   help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
     p.set_defaults(func=_guard(_cmd_train))
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
     p.add_argument("rundir", metavar="RUNDIR", help="a laser run folder")
-    p.add_argument("--model", required=True, help="a model saved by train street")
+    p.add_argument("--model", required=True,
+                   help="a model saved by train street (.skops, or a .joblib pickle)")
     p.add_argument("--out", required=True, metavar="OBJECTS.csv",
                    help="object table to write")
     p.add_argument("--all-objects", action="store_true",
                    help="also write roadside objects and non-vehicles ('other')")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted OBJECTS.csv (rows are replayed and "
+                        "checked, not duplicated)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")
     p.set_defaults(func=_guard(_cmd_detect))
