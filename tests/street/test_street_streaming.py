@@ -1,0 +1,165 @@
+"""ScanClusterer online: streaming equals batch, bounded memory, shipped models."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from _street_scenes import make_run, sedan
+
+from tunnelsense import ScanSequence
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.datasets import STREET_SCENARIOS, make_street_scans
+from tunnelsense.street import OBJECT_COLUMNS, ScanClusterer, make_parking_pipeline
+
+
+def _rows(table):
+    return [tuple(r) for r in table[list(OBJECT_COLUMNS)].itertuples(index=False)]
+
+
+@pytest.mark.parametrize("scenario", STREET_SCENARIOS)
+def test_streaming_equals_batch(scenario, global_random_seed):
+    run = make_street_scans(700, scenario=scenario, random_state=global_random_seed)
+    X = run.scans
+    pipe = make_parking_pipeline().fit(X)
+    est = pipe.named_steps["cluster"]
+    batch = pipe.transform(X)
+    table = est.detect(X, all_objects=True)
+    stream = StreamingPipeline(pipe)
+    state = stream._states[0]
+    out, rows = [], []
+    for record in X:  # one scan at a time, rows collected as objects finish
+        out.extend(stream.push(record))
+        rows.extend(state.pop_objects())
+    out.extend(stream.close())
+    rows.extend(state.pop_objects())
+    assert [r.scan for r in out] == [r.scan for r in batch]
+    for a, b in zip(out, batch, strict=True):
+        assert np.array_equal(a.payload["objects"], b.payload["objects"])
+        assert np.array_equal(a.payload["in_view"], b.payload["in_view"])
+        assert np.array_equal(a.payload["points"], b.payload["points"])
+        assert a.payload["tilt"] == b.payload["tilt"]
+    assert rows == _rows(table)
+    assert len(rows) > 5
+    # the ids are those of predict, counted by first scan
+    ids = [r[1] for r in rows]
+    assert ids == list(range(1, len(rows) + 1))
+    pred = pipe.predict(X)
+    assert all(np.array_equal(p, r.payload["in_view"]) for p, r in zip(pred, out,
+                                                                         strict=True))
+
+
+def test_chunking_and_runs(global_random_seed):
+    """Any chunking gives the same; a new run name starts afresh; batch sorts runs."""
+    a = make_street_scans(400, scenario="dense", random_state=global_random_seed,
+                          name="a")
+    b = make_street_scans(300, scenario="crowded", random_state=global_random_seed + 1,
+                          name="b")
+    X = list(b.scans) + list(a.scans)  # batch sorts: run a first
+    est = ScanClusterer().fit(X)
+    table = est.detect(X, all_objects=True)
+    for chunk in (1, 7, 64, 10_000):
+        state = est.start_stream()
+        ordered = list(a.scans) + list(b.scans)
+        out = []
+        for i in range(0, len(ordered), chunk):
+            out.extend(state.push_many(ordered[i:i + chunk]))
+        out.extend(state.close())
+        assert len(out) == len(X)
+        assert state.pop_objects() == _rows(table)
+    assert set(table["run"]) == {"a", "b"}
+    assert (table.groupby("run")["id"].min()["a"] == 1)
+
+
+def test_stream_rejects_disorder(global_random_seed):
+    run = make_street_scans(50, random_state=global_random_seed)
+    state = ScanClusterer().fit(run.scans).start_stream()
+    state.push(run.scans[5])
+    with pytest.raises(ValueError, match="scan 3 of run .* comes after scan 5"):
+        state.push(run.scans[3])
+
+
+def _cars_run(n_scans):
+    """Sedans every 8 m in region II, for as long as the run lasts."""
+    speed, rate = 11.0, 75.0
+    length = n_scans / rate * speed
+    boxes = [dict(s0=s, s1=s + 4.4, depth=5.0, top=lambda u: sedan(u))
+             for s in np.arange(3.0, length - 6.0, 8.0)]
+    return make_run(boxes, ["parked"] * len(boxes), n_scans=n_scans, n_beams=181)
+
+
+def test_memory_follows_objects_not_run_length():
+    short, long_ = _cars_run(500), _cars_run(1800)
+    est = ScanClusterer().fit(short.scans)
+    held = []
+    for run in (short, long_):
+        state = est.start_stream()
+        n_out = 0
+        for record in run.scans:
+            n_out += len(state.push(record))
+        n_out += len(state.close())
+        assert n_out == len(run.scans)
+        held.append(state.max_window)
+    # a car is 30 scans; a decision needs 4 m more (27 scans) and the history
+    assert held[0] == held[1]
+    assert held[1] < 120
+    table = est.detect(long_.scans)
+    assert len(table) == len(long_.gt)
+    assert (table["label"] == "parked").all()
+
+
+def test_long_wall_is_other():
+    """A wall longer than max_length is not a vehicle (streamed as in batch)."""
+    wall = dict(s0=2.0, s1=40.0, depth=5.0, top=1.8)
+    car = dict(s0=45.0, s1=49.4, depth=5.0, top=lambda u: sedan(u))
+    run = make_run([wall, car], [None, "parked"], n_scans=450, n_beams=181)
+    est = ScanClusterer().fit(run.scans)
+    table = est.detect(run.scans, all_objects=True)
+    assert table["label"].tolist() == ["other", "parked"]
+    state = est.start_stream()
+    for record in run.scans:
+        state.push(record)
+    state.close()
+    assert state.pop_objects() == _rows(table)
+
+
+_FRESH = textwrap.dedent("""
+    import sys, numpy as np
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.io import load_model
+    model = load_model(sys.argv[1], allow_pickle=sys.argv[1].endswith(".joblib"))
+    X = make_street_scans(400, scenario="dense", random_state=7).scans
+    y = model.predict(X)
+    np.save(sys.argv[2], np.concatenate([np.c_[np.full(len(a), i), a]
+                                         for i, a in enumerate(y)]))
+""")
+
+
+@pytest.mark.parametrize("suffix", [".skops", ".joblib"])
+def test_model_round_trip_fresh_process(tmp_path, suffix):
+    from tunnelsense.io import save_model
+
+    X = make_street_scans(400, scenario="dense", random_state=7).scans
+    pipe = make_parking_pipeline(cut=0.5).fit(X)
+    path = save_model(pipe, tmp_path / f"model{suffix}", summary={"runs": ["r"]})
+    subprocess.run([sys.executable, "-c", _FRESH, str(path), str(tmp_path / "y.npy")],
+                   check=True, timeout=120)
+    got = np.load(tmp_path / "y.npy")
+    y = pipe.predict(X)
+    want = np.concatenate([np.c_[np.full(len(a), i), a] for i, a in enumerate(y)])
+    assert len(want) > 100
+    assert np.array_equal(got, want)
+
+
+def test_skops_trusts_the_fitted_detector(tmp_path):
+    from tunnelsense.io import load_model, save_model
+
+    X = ScanSequence(list(make_street_scans(100, random_state=0).scans))
+    pipe = make_parking_pipeline().fit(X)
+    path = save_model(pipe, tmp_path / "m.skops")
+    loaded = load_model(path)  # raises on any untrusted type
+    est = loaded.named_steps["cluster"]
+    assert est.get_params() == pipe.named_steps["cluster"].get_params()
+    assert np.array_equal(est.region_edges_, [4.0, 6.6])
+    assert est.labels_ == ("passing", "parked", "roadside")
