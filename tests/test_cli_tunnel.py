@@ -1,12 +1,20 @@
 import argparse
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 
 from tunnelsense import _cli_tunnel
+from tunnelsense._cli import main
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.io import read_mot_results, write_tour
+from tunnelsense.io import read_mot_results, read_tour, write_tour
+
+CLI = [sys.executable, "-c", "import sys; from tunnelsense._cli import main; sys.exit(main())"]
 
 
 def run(argv):
@@ -33,13 +41,55 @@ def tour_dirs(tmp_path_factory):
     return dirs
 
 
-def test_train_detect_evaluate(tour_dirs, tmp_path, capsys):
-    model = tmp_path / "model.joblib"
-    assert run(["train", "tunnel", str(tour_dirs[0]), "--model", str(model)]) == 0
-    assert model.is_file()
+@pytest.fixture(scope="module")
+def models(tour_dirs, tmp_path_factory):
+    root = tmp_path_factory.mktemp("models")
+    paths = {}
+    for ext in ("skops", "joblib"):
+        paths[ext] = root / f"model.{ext}"
+        assert run(["train", "tunnel", str(tour_dirs[0]), "--model", str(paths[ext])]) == 0
+    return paths
+
+
+@pytest.fixture(scope="module")
+def long_folder(tour_dirs, tmp_path_factory):
+    """An image folder of 240 frames: the 120 frames of a tour, hard-linked twice."""
+    folder = tmp_path_factory.mktemp("long") / "long-tour"
+    folder.mkdir()
+    frames = sorted((tour_dirs[1] / "img1").glob("*.png"))
+    k = 0
+    for _ in range(2):
+        for f in frames:
+            k += 1
+            os.link(f, folder / f"{k:06d}.png")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def batch_records(models, tour_dirs):
+    """The batch predict of the trained model on the second tour."""
+    from tunnelsense.io import load_model
+
+    return load_model(models["skops"]).predict(read_tour(tour_dirs[1]).frames)
+
+
+def lines_of(records):
+    """Results lines of records, as detect writes them."""
+    return [line for r in records for line in _cli_tunnel._result_lines(r)]
+
+
+@pytest.fixture(scope="module")
+def full_long(models, long_folder, tmp_path_factory):
+    """An uninterrupted detect run on the long folder: (results, companion) bytes."""
+    full = tmp_path_factory.mktemp("full") / "full.txt"
+    run(["detect", "tunnel", "--model", str(models["skops"]), str(long_folder), "--out", str(full)])
+    return full.read_bytes(), full.with_name("full.clusters.csv").read_bytes()
+
+
+def test_train_detect_evaluate(tour_dirs, models, tmp_path, capsys):
     out = tmp_path / "res" / "results.txt"
     draw = tmp_path / "draw"
-    assert run(["detect", "tunnel", "--model", str(model), str(tour_dirs[1]),
+    assert run(["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]),
                 "--out", str(out), "--draw", str(draw)]) == 0
     res = read_mot_results(out)
     assert list(res.columns[:7]) == ["frame", "id", "bb_left", "bb_top", "bb_width", "bb_height", "conf"]
@@ -64,23 +114,122 @@ def test_train_detect_evaluate(tour_dirs, tmp_path, capsys):
     assert "detection rate" in text and "n/a" in text
 
 
-def test_detect_writes_the_detections_of_the_model(tour_dirs, tmp_path):
-    import joblib
+def test_streamed_outputs_equal_batch_predict(tour_dirs, models, batch_records, tmp_path):
+    from tunnelsense.metrics import hypotheses_from_records
 
-    from tunnelsense.io import read_tour
-
-    model = tmp_path / "model.joblib"
-    run(["train", "tunnel", str(tour_dirs[0]), "--model", str(model)])
     out = tmp_path / "r.txt"
-    run(["detect", "tunnel", "--model", str(model), str(tour_dirs[1]), "--out", str(out)])
-    records = joblib.load(model).predict(read_tour(tour_dirs[1]).frames)
-    n = sum(len(r.payload["detections"]) for r in records)
-    assert len(read_mot_results(out)) == n
+    run(["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]), "--out", str(out)])
+    lines = out.read_text().splitlines()
+    assert lines == lines_of(batch_records)
+    assert len(lines) > 0
+    # the companion holds every cluster with the batch decisions
+    import pandas as pd
+
+    hyp = hypotheses_from_records(batch_records).drop(columns="tour")
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "r.clusters.csv"), hyp)
+
+
+def test_video_source(tour_dirs, models, batch_records, tmp_path):
+    import cv2
+
+    tour = read_tour(tour_dirs[1])
+    video = tmp_path / "tour.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"FFV1"), 30.0, (640, 480), False)
+    for r in tour.frames:
+        writer.write(r.image)
+    writer.release()
+    out = tmp_path / "v.txt"
+    draw = tmp_path / "draw"
+    assert run(["detect", "tunnel", "--model", str(models["skops"]), str(video), "--out", str(out),
+                "--draw", str(draw)]) == 0
+    # FFV1 is lossless: the same detections as from the PNG folder
+    assert out.read_text().splitlines() == lines_of(batch_records)
+    assert len(list(draw.glob("*.png"))) == 120
+
+
+def test_skops_and_joblib_in_a_fresh_process(tour_dirs, models, batch_records, tmp_path):
+    outs = {}
+    for ext, path in models.items():
+        outs[ext] = tmp_path / f"{ext}.txt"
+        proc = subprocess.run(
+            [*CLI, "detect", "tunnel", "--model", str(path), str(tour_dirs[1]), "--out", str(outs[ext])],
+            capture_output=True, text=True, check=True,
+        )
+        assert ("pickle" in proc.stderr) is (ext == "joblib")
+    assert outs["skops"].read_bytes() == outs["joblib"].read_bytes()
+    assert outs["skops"].read_text().splitlines() == lines_of(batch_records)
+
+
+def test_info_shows_the_model_card(models, capsys):
+    assert main(["info", str(models["skops"])]) == 0
+    text = capsys.readouterr().out
+    assert "skops model file" in text and "trained under scikit-learn" in text
+    assert "tunnel-light-0" in text and "training_scores" in text
+    assert main(["info", str(models["skops"]), "--json"]) == 0
+    card = json.loads(capsys.readouterr().out)
+    assert card["summary"]["tours"][0]["frames"] == 120
+    assert card["summary"]["parameters"]["motion__min_r"] == 0.95
+    assert set(card["summary"]["training_scores"]) == {"cluster", "trajectory"}
+
+
+def test_pickle_posing_as_skops_is_refused(models, tour_dirs, tmp_path, capsys):
+    fake = tmp_path / "model.skops"
+    fake.write_bytes(models["joblib"].read_bytes())
+    code = main(["detect", "tunnel", "--model", str(fake), str(tour_dirs[1]),
+                 "--out", str(tmp_path / "r.txt")])
+    assert code == 1
+    assert "pickle" in capsys.readouterr().err
+    assert not (tmp_path / "r.txt").exists()
+
+
+def test_resume_completes_a_truncated_file(
+    models, long_folder, full_long, tmp_path, global_random_seed
+):
+    data, companion = full_long
+    assert data.count(b"\n") > 10
+    rng = np.random.default_rng(global_random_seed)
+    out = tmp_path / "cut.txt"
+    # cut both files mid-line, at different places (as a kill would)
+    out.write_bytes(data[: int(rng.integers(1, len(data) - 1))])
+    (tmp_path / "cut.clusters.csv").write_bytes(companion[: int(rng.integers(1, len(companion)))])
+    run(["detect", "tunnel", "--model", str(models["skops"]), str(long_folder), "--out", str(out),
+         "--resume"])
+    assert out.read_bytes() == data
+    assert (tmp_path / "cut.clusters.csv").read_bytes() == companion
+    # a file of another source cannot be resumed
+    other = tmp_path / "other.txt"
+    other.write_text("1,1,0.0,0.0,1.0,1.0,1.0,-1,-1,-1\n")
+    with pytest.raises(ValueError, match="cannot resume"):
+        run(["detect", "tunnel", "--model", str(models["skops"]), str(long_folder), "--out",
+             str(other), "--resume"])
+
+
+def test_kill_then_resume(models, long_folder, full_long, tmp_path):
+    data, full_companion = full_long
+    out = tmp_path / "killed.txt"
+    companion = tmp_path / "killed.clusters.csv"
+    argv = [*CLI, "detect", "tunnel", "--model", str(models["skops"]), str(long_folder), "--out", str(out)]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if companion.exists() and companion.read_bytes().count(b"\n") >= 20:
+            break
+        time.sleep(0.005)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL  # killed mid-run, not finished
+    kept = companion.read_bytes()
+    assert kept.endswith(b"\n")  # flushed whole lines
+    assert len(kept) < len(full_companion) and full_companion.startswith(kept)
+    assert data.startswith(out.read_bytes())
+    subprocess.run([*argv, "--resume"], check=True, capture_output=True)
+    assert out.read_bytes() == data
+    assert companion.read_bytes() == full_companion
 
 
 def test_errors(tour_dirs, tmp_path):
     with pytest.raises(FileNotFoundError, match="model file"):
-        run(["detect", "tunnel", "--model", str(tmp_path / "none"), str(tour_dirs[0]),
+        run(["detect", "tunnel", "--model", str(tmp_path / "none.skops"), str(tour_dirs[0]),
              "--out", str(tmp_path / "r.txt")])
     import joblib
 
@@ -91,7 +240,9 @@ def test_errors(tour_dirs, tmp_path):
     with pytest.raises(FileNotFoundError, match="results file"):
         run(["evaluate", "tunnel", str(tour_dirs[0]), str(tmp_path / "none.txt")])
     with pytest.raises(ValueError, match="at least 2 tours"):
-        run(["train", "tunnel", str(tour_dirs[0]), "--model", str(tmp_path / "m"), "--search"])
+        run(["train", "tunnel", str(tour_dirs[0]), "--model", str(tmp_path / "m.skops"), "--search"])
+    with pytest.raises(ValueError, match=r"\.skops"):
+        run(["train", "tunnel", str(tour_dirs[0]), "--model", str(tmp_path / "m.bin")])
 
 
 def test_demo_is_registered():

@@ -15,12 +15,15 @@ import numpy as np
 import pandas as pd
 
 __all__ = [
+    "CLUSTERS_HEADER",
     "CLUSTERS_SUFFIX",
     "detect_tour",
+    "open_frames",
     "read_hypotheses",
     "register",
     "register_top",
     "score_results",
+    "stream_detect",
 ]
 
 #: ``detect`` writes every keypoint cluster beside ``RESULTS.txt`` as
@@ -71,17 +74,6 @@ def detect_tour(model, frames, *, progress=None):
         if progress is not None:
             progress.update(done)
     return tail.predict(FrameSequence.concat(parts))
-
-
-def _results_table(records) -> pd.DataFrame:
-    rows = []
-    for r in records:
-        for det in np.asarray(r.payload["detections"]).reshape(-1, 6):
-            rows.append((r.frame, int(det[4]), *det[:4].tolist(), float(det[5])))
-    return pd.DataFrame(
-        rows,
-        columns=["frame", "id", "bb_left", "bb_top", "bb_width", "bb_height", "conf"],
-    ).astype({"frame": np.int64, "id": np.int64})
 
 
 def _clusters_path(results) -> Path:
@@ -162,21 +154,60 @@ def _format_report(scores, title=None) -> str:
 # --------------------------------------------------------------------------------------
 # commands
 # --------------------------------------------------------------------------------------
+def _training_summary(tours, model, X, y, search=None) -> dict:
+    """Tours, parameters and scores stored in a model file (``tunnelsense info``)."""
+    from tunnelsense.metrics import indicator_scores
+
+    params = {
+        k: v
+        for k, v in model.get_params(deep=True).items()
+        if "__" in k and not hasattr(v, "get_params")
+    }
+    summary = {
+        "detector": "tunnel indicator (make_indicator_pipeline)",
+        "tours": [
+            {
+                "name": t.name,
+                "frames": len(t),
+                "indicators": int(t.gt.loc[t.gt["class"] == 1, "id"].nunique()),
+                **{k: t.info[k] for k in ("scenario", "seed") if k in t.info},
+            }
+            for t in tours
+        ],
+        "parameters": params,
+        "training_scores": indicator_scores(model.predict(X), y),
+    }
+    if search is not None:
+        summary["search"] = {
+            "grid": SEARCH_GRID,
+            "best_parameters": search.best_params_,
+            "best_score": float(search.best_score_),
+            "scoring": "youden (GroupKFold over tours)",
+        }
+    return summary
+
+
 def _cmd_train(args) -> int:
-    import joblib
     from sklearn.model_selection import GridSearchCV, GroupKFold
 
     from tunnelsense import to_xy
-    from tunnelsense.io import read_tour
+    from tunnelsense.io import read_tour, save_model
     from tunnelsense.metrics import make_tunnel_scorer
     from tunnelsense.tunnel import make_indicator_pipeline
 
     start = time.perf_counter()
+    out = Path(args.model)
+    if out.suffix.lower() not in (".skops", ".joblib", ".pkl", ".pickle"):
+        raise ValueError(
+            f"--model {out}: the extension chooses the format: .skops (safe, no code "
+            "runs on load) or .joblib (pickle)"
+        )
     tours = [read_tour(d) for d in args.seqdirs]
     X, y, groups = to_xy(tours)
     n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
     print(f"training on {len(tours)} tour(s), {len(X)} frames, {n_ind} indicators")
     model = make_indicator_pipeline(random_state=args.seed)
+    search = None
     if args.search:
         if len(tours) < 2:
             raise ValueError("--search needs at least 2 tours (folds are whole tours)")
@@ -193,62 +224,197 @@ def _cmd_train(args) -> int:
         print(f"best parameters: {search.best_params_} (score {search.best_score_:.4f})")
     else:
         model.fit(X, y)
-    out = Path(args.model)
+    summary = _training_summary(tours, model, X, y, search)
     out.parent.mkdir(parents=True, exist_ok=True)
-    joblib.dump(model, out)
-    print(f"wrote {out} ({time.perf_counter() - start:.1f} s)")
+    save_model(model, out, summary=summary)
+    kind = "safe skops" if out.suffix.lower() == ".skops" else "pickle"
+    print(f"wrote {out} ({kind}; {time.perf_counter() - start:.1f} s)")
     return 0
 
 
 def _load_model(path):
-    import joblib
+    import sys
+
+    from tunnelsense.io import load_model
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: model file not found")
-    model = joblib.load(path)
+    if path.suffix.lower() in (".joblib", ".pkl", ".pickle"):
+        print(
+            f"note: {path} is a pickle, which runs code when loaded; load pickles only "
+            "from sources you trust (ship .skops files)",
+            file=sys.stderr,
+        )
+        model = load_model(path, allow_pickle=True)
+    else:
+        model = load_model(path)
     if not hasattr(model, "steps") or model.steps[-1][0] != "motion":
         raise ValueError(f"{path}: not a model written by 'tunnelsense train tunnel'")
     return model
 
 
-def _write_outputs(records, out, draw=None):
-    from tunnelsense.io import write_mot_results
-    from tunnelsense.metrics import hypotheses_from_records
+#: Header of the ``*.clusters.csv`` companion of a results file.
+CLUSTERS_HEADER = (
+    "frame,track_id,bb_left,bb_top,bb_width,bb_height,indicator,trajectory_positive"
+)
 
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    table = _results_table(records)
-    write_mot_results(table, out)
-    hyp = hypotheses_from_records(records).drop(columns="tour")
-    hyp.to_csv(_clusters_path(out), index=False)
-    if draw is not None:
-        import cv2
 
-        from tunnelsense.tunnel._pipeline import draw_detections
+def _result_lines(record):
+    """MOTChallenge result lines of one released frame."""
+    f = record.frame
+    return [
+        f"{f},{int(d[4])},{d[0]!r},{d[1]!r},{d[2]!r},{d[3]!r},{d[5]!r},-1,-1,-1"
+        for d in np.asarray(record.payload["detections"], np.float64).reshape(-1, 6).tolist()
+    ]
 
-        draw = Path(draw)
-        draw.mkdir(parents=True, exist_ok=True)
-        bar = _progress(len(records), "drawing frames")
-        for k, (r, pic) in enumerate(draw_detections(records), 1):
-            cv2.imwrite(str(draw / f"{r.frame:06d}.png"), pic)
-            bar.update(k)
-    return table
+
+def _cluster_lines(record):
+    """``*.clusters.csv`` lines of one released frame (every keypoint cluster)."""
+    p = record.payload
+    f = record.frame
+    boxes = np.asarray(p["cluster_boxes"], np.float64).reshape(-1, 4).tolist()
+    return [
+        f"{f},{t},{b[0]!r},{b[1]!r},{b[2]!r},{b[3]!r},{bool(i)},{bool(tp)}"
+        for b, t, i, tp in zip(
+            boxes,
+            np.asarray(p["track_ids"]).tolist(),
+            np.asarray(p["indicator"]).tolist(),
+            np.asarray(p["trajectory_positive"]).tolist(),
+            strict=True,
+        )
+    ]
+
+
+def open_frames(source):
+    """The frames of a source, read lazily, and their number.
+
+    A MOTChallenge or image folder gives records that decode their PNG on access; a
+    video file is decoded sequentially (:func:`tunnelsense.io.iter_video`), records
+    built on the fly.
+
+    Returns
+    -------
+    frames : iterable of FrameRecord
+    total : int
+        Number of frames (for a video, as its header states).
+    """
+    import cv2
+
+    from tunnelsense import FrameRecord
+    from tunnelsense.io import iter_video, open_tour
+
+    source = Path(source)
+    if source.is_file():
+        from tunnelsense.io._images import open_video
+
+        capture = open_video(source)
+        total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        capture.release()
+        name = source.stem
+        frames = (
+            FrameRecord(name, i, image) for i, image in enumerate(iter_video(source), 1)
+        )
+        return frames, total
+    tour = open_tour(source)
+    return iter(tour.frames), len(tour)
+
+
+def stream_detect(model, frames, *, progress=None):
+    """Run a fitted indicator pipeline online; yield the frames as they are final.
+
+    Parameters
+    ----------
+    model : Pipeline
+        From :func:`tunnelsense.tunnel.make_indicator_pipeline`, fitted.
+    frames : iterable of FrameRecord
+        In frame order within each tour.
+    progress : Progress or None
+
+    Yields
+    ------
+    record : FrameRecord
+        As ``model.predict`` gives them, in input order, each as soon as every
+        trajectory through it has ended (in-memory images are released).
+    """
+    from tunnelsense._streaming import StreamingPipeline
+
+    stream = StreamingPipeline(model)
+    for k, record in enumerate(frames, 1):
+        yield from stream.push(record)
+        if progress is not None:
+            progress.update(k)
+    yield from stream.close()
 
 
 def _cmd_detect(args) -> int:
-    from tunnelsense.io import open_tour
+    import sys
+
+    from tunnelsense._streaming import ResultsWriter
 
     start = time.perf_counter()
     model = _load_model(args.model)
-    tour = open_tour(args.source)
-    records = detect_tour(model, tour.frames, progress=_progress(len(tour), "detecting"))
-    table = _write_outputs(records, args.out, args.draw)
+    frames, total = open_frames(args.source)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    results = ResultsWriter(out, resume=args.resume)
+    clusters = ResultsWriter(
+        _clusters_path(out), header=CLUSTERS_HEADER, resume=args.resume
+    )
+    if args.resume and (results.resumed_lines or clusters.resumed_lines):
+        print(
+            f"resuming {out}: {results.resumed_lines} result lines kept, replaying the "
+            "source to rebuild the trajectories (kept lines are checked, not rewritten)",
+            file=sys.stderr,
+        )
+    images = {}
+    if args.draw is not None and Path(args.source).is_file():
+        # video frames are decoded once; keep each until its frame is released
+        def keep_images(frames):
+            for r in frames:
+                images[r.frame] = r.image
+                yield r
+
+        frames = keep_images(frames)
+    released = stream_detect(model, frames, progress=_progress(total, "detecting"))
+    if args.draw is not None:
+        import cv2
+
+        from tunnelsense import FrameRecord
+        from tunnelsense.tunnel._pipeline import draw_detections
+
+        draw = Path(args.draw)
+        draw.mkdir(parents=True, exist_ok=True)
+
+        def with_images(records):
+            for r in records:
+                image = images.pop(r.frame, None)
+                yield r if image is None else FrameRecord(r.tour, r.frame, image, r.payload)
+
+        pictures = draw_detections(with_images(released))
+    else:
+        pictures = ((r, None) for r in released)
+    n_frames = n_det = 0
+    ids = set()
+    with results, clusters:
+        for r, pic in pictures:
+            lines = _result_lines(r)
+            for line in lines:
+                results.write(line)
+            for line in _cluster_lines(r):
+                clusters.write(line)
+            results.flush()
+            clusters.flush()
+            n_frames += 1
+            n_det += len(lines)
+            if lines:
+                ids.update(int(d[4]) for d in r.payload["detections"])
+            if pic is not None:
+                cv2.imwrite(str(draw / f"{r.frame:06d}.png"), pic)
     elapsed = time.perf_counter() - start
     print(
-        f"wrote {args.out}: {len(table)} detections on {table['frame'].nunique()} of "
-        f"{len(tour)} frames, {table['id'].nunique()} indicator trajectories "
-        f"({elapsed:.1f} s)"
+        f"wrote {out}: {n_det} detections on {n_frames} frames, {len(ids)} indicator "
+        f"trajectories ({elapsed:.1f} s)"
     )
     return 0
 
@@ -311,7 +477,12 @@ def register(verbs) -> None:
         "tunnel", help="fit the indicator detector on MOTChallenge tour folders"
     )
     p.add_argument("seqdirs", nargs="+", metavar="SEQDIR", help="labelled tour folders")
-    p.add_argument("--model", required=True, help="where to write the model (joblib)")
+    p.add_argument(
+        "--model",
+        required=True,
+        help="where to write the model: .skops (safe, no code runs on load) or "
+        ".joblib (pickle), by extension",
+    )
     p.add_argument(
         "--search",
         action="store_true",
@@ -322,10 +493,18 @@ def register(verbs) -> None:
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("tunnel", help="find indicators in a tour or video")
-    p.add_argument("--model", required=True, help="model written by 'train tunnel'")
+    p.add_argument(
+        "--model", required=True, help="model written by 'train tunnel' (.skops or .joblib)"
+    )
     p.add_argument("source", help="MOTChallenge folder, image folder or video file")
     p.add_argument("--out", required=True, help="MOTChallenge results file to write")
     p.add_argument("--draw", metavar="DIR", help="also draw every frame into DIR")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run: keep the lines of --out (and its "
+        ".clusters.csv) and append the rest",
+    )
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(
