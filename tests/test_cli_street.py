@@ -65,3 +65,88 @@ def test_errors_are_reported_not_raised(rundirs, tmp_path, capsys):
     assert "lacks column" in capsys.readouterr().err
     assert run_cli(["train", "street", rundirs[0], "--model", str(tmp_path / "m"),
                     "--search"]) == 2
+
+
+@pytest.fixture(scope="module")
+def long_run(tmp_path_factory):
+    root = tmp_path_factory.mktemp("long")
+    path = root / "run"
+    io.write_run(make_street_scans(3000, scenario="dense", random_state=5), path)
+    model = root / "m.skops"
+    assert run_cli(["train", "street", str(path), "--model", str(model)]) == 0
+    full = root / "full.csv"
+    assert run_cli(["detect", "street", "--model", str(model), str(path), "--out",
+                    str(full), "--quiet"]) == 0
+    return path, model, full
+
+
+def test_train_writes_safe_model_with_summary(long_run):
+    from tunnelsense.io import describe_model
+
+    info = describe_model(long_run[1])
+    assert info["format"] == "skops"
+    assert info["summary"]["runs"] == ["street-dense-5"]
+    assert info["summary"]["scans"] == 3000
+    assert info["summary"]["parameters"]["cluster__cut"] == 0.6
+
+
+def test_detect_joblib_equals_skops(long_run, tmp_path, capsys):
+    path, model, full = long_run
+    pickle = tmp_path / "m.joblib"
+    import joblib
+
+    from tunnelsense.io import load_model
+    joblib.dump(load_model(model), pickle)
+    out = tmp_path / "o.csv"
+    assert run_cli(["detect", "street", "--model", str(pickle), str(path), "--out",
+                    str(out), "--quiet"]) == 0
+    assert "pickle" in capsys.readouterr().err
+    assert out.read_bytes() == full.read_bytes()
+    rows = pd.read_csv(full)
+    assert len(rows) > 40
+    assert rows["id"].is_monotonic_increasing
+
+
+def test_resume_after_truncation_equals_uninterrupted(long_run, tmp_path):
+    path, model, full = long_run
+    data = full.read_bytes()
+    for cut in (len(data) // 3, len(data) // 2 + 7, len(data) - 3):
+        out = tmp_path / "o.csv"
+        out.write_bytes(data[:cut])  # killed while writing a row
+        assert run_cli(["detect", "street", "--model", str(model), str(path), "--out",
+                        str(out), "--resume", "--quiet"]) == 0
+        assert out.read_bytes() == data
+    # resuming another run's file is refused, not mixed
+    out.write_bytes(data.replace(b",parked,", b",passing,", 1)[: len(data) // 2])
+    assert run_cli(["detect", "street", "--model", str(model), str(path), "--out",
+                    str(out), "--resume", "--quiet"]) == 2
+
+
+def test_killed_detect_leaves_valid_rows_and_resumes(long_run, tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path, model, full = long_run
+    out = tmp_path / "o.csv"
+    cmd = [sys.executable, "-c", "import sys; from tunnelsense._cli import main; "
+           "sys.exit(main())", "detect", "street", "--model", str(model), str(path),
+           "--out", str(out), "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.is_file() and out.read_bytes().count(b"\n") >= 4:
+            proc.send_signal(signal.SIGKILL)
+            break
+        time.sleep(0.002)
+    proc.wait(timeout=60)
+    left = out.read_bytes()
+    whole = full.read_bytes()
+    complete = left[: left.rfind(b"\n") + 1]
+    assert whole.startswith(complete)  # every complete row is a row of the full run
+    assert len(complete.splitlines()) >= 4
+    pd.read_csv(out)  # valid CSV
+    assert run_cli(["detect", "street", "--model", str(model), str(path), "--out",
+                    str(out), "--resume", "--quiet"]) == 0
+    assert out.read_bytes() == whole
