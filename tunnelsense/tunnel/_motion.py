@@ -296,8 +296,11 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
     to learn (its thresholds are hyperparameters, for :class:`~sklearn.model_selection.GridSearchCV`).
     It reads, per frame, the clusters' rectangles (``payload["cluster_boxes"]``),
     appearance labels (``payload["appearance"]``) and trajectories
-    (``payload["track_ids"]``), gathers every trajectory of every tour, and fits a
-    straight line through the centres of its rectangles.
+    (``payload["track_ids"]``), gathers each trajectory of each tour, and, when the
+    trajectory ends (``payload["ended_tracks"]`` of :class:`TrajectoryLinker`, or the
+    end of its tour), fits a straight line through the centres of its rectangles.
+    ``predict`` runs the same state machine over each tour, in frame order, as
+    :meth:`start_stream` does online, so both give identical results.
 
     A cluster is an **indicator** iff its appearance label is positive, its
     trajectory has at least ``min_length`` clusters and ``|r| >= min_r``.  The
