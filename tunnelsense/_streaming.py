@@ -185,6 +185,9 @@ class ResultsWriter:
 
         self.path = Path(path)
         self._existing = []
+        self._first_line = 1 if header is None else 2
+        if resume and self.path.exists() and b"\n" not in self.path.read_bytes():
+            resume = False  # killed before its first line was complete: start afresh
         if resume and self.path.exists():
             data = self.path.read_bytes()
             complete = data[: data.rfind(b"\n") + 1]
@@ -219,7 +222,8 @@ class ResultsWriter:
             expected = self._existing[self._replayed]
             if line != expected:
                 raise ValueError(
-                    f"{self.path}: cannot resume, line {self._replayed + 1} differs from "
+                    f"{self.path}: cannot resume, line {self._replayed + self._first_line} "
+                    "differs from "
                     f"this run's ({expected!r} vs {line!r}); was it written with another "
                     "model or source?"
                 )
