@@ -89,6 +89,36 @@ def latency(args):
     ]
     for name, t in rows:
         print(f"| {name} | {1e3 * t:.3f} ms | {1 / t:,.0f} | {t / b:.2f} |")
+    _per_stage(model, X, args.repeats)
+
+
+def _per_stage(model, X, repeats):
+    """Each step: one push per frame beside one batch call over all frames."""
+    from tunnelsense._streaming import start_stream
+
+    n = len(X)
+    steps = [(name, s) for name, s in model.steps if s != "passthrough"]
+    print(f"\nper step (its input: the previous steps' batch output), median of {repeats}\n")
+    print("| step | streaming, per frame | batch, per frame | ratio |")
+    print("|---|---|---|---|")
+    inputs = X
+    for k, (name, stage) in enumerate(steps):
+        final = k == len(steps) - 1
+        batch_call = stage.predict if final else stage.transform
+        st, bt = [], []
+        for _ in range(repeats):
+            state = start_stream(stage, final=final)
+            t0 = time.perf_counter()
+            for r in inputs:
+                state.push(r)
+            state.close()
+            st.append((time.perf_counter() - t0) / n)
+            t0 = time.perf_counter()
+            out = batch_call(inputs)
+            bt.append((time.perf_counter() - t0) / n)
+        a, b = float(np.median(st)), float(np.median(bt))
+        print(f"| {name} | {1e3 * a:.3f} ms | {1e3 * b:.3f} ms | {a / b:.2f} |")
+        inputs = out
 
 
 def _write_video(path, frames, repeat):
@@ -104,16 +134,29 @@ def _write_video(path, frames, repeat):
     writer.release()
 
 
+# A bare Python process runs the command and reports its peak memory: on Linux a child
+# starts with the resident size of the process that forked it as its high-water mark, so
+# forking from this (large) benchmark process would hide the command's own peak.
+_WRAPPER = (
+    "import resource, subprocess, sys; p = subprocess.run(sys.argv[1:], "
+    "stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True); "
+    "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+    "print(p.stdout.strip())"
+)
+
+
 def _peak_rss_mb(argv):
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
     t0 = time.perf_counter()
-    out = proc.stdout.read().decode()
-    _, status, usage = os.wait4(proc.pid, 0)
+    out = subprocess.run(
+        [sys.executable, "-S", "-c", _WRAPPER, *argv], capture_output=True, text=True,
+        check=True,
+    ).stdout
     elapsed = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode:
-        raise RuntimeError(f"{argv} failed ({proc.returncode})")
-    return usage.ru_maxrss / 1024.0, elapsed, out.strip()
+    head, _, rest = out.partition("\n")
+    code, rss_kb = (int(v) for v in head.split())
+    if code:
+        raise RuntimeError(f"{argv} failed ({code})")
+    return rss_kb / 1024.0, elapsed, rest.strip()
 
 
 def memory(args):
