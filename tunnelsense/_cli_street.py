@@ -20,6 +20,8 @@ import json
 import sys
 from pathlib import Path
 
+from tunnelsense._cli_common import load_cli_model
+
 __all__ = ["register"]
 
 _SEARCH_GRID = {
@@ -100,16 +102,7 @@ def _cmd_train(args) -> int:
 
 
 def _load_model(path):
-    from tunnelsense.io import load_model
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: model file not found")
-    if path.suffix.lower() in (".joblib", ".pkl", ".pickle"):
-        print(f"note: {path} is a pickle; loading it runs code - use it only if you "
-              "trust its source (.skops files cannot run code)", file=sys.stderr)
-        return load_model(path, allow_pickle=True)
-    return load_model(path)
+    return load_cli_model(path, last_step="cluster", command="train street")
 
 
 #: Columns written by ``detect street`` (the object table without ``run``).

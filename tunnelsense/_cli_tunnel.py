@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tunnelsense._cli_common import load_cli_model
+
 __all__ = [
     "CLUSTERS_HEADER",
     "CLUSTERS_SUFFIX",
@@ -233,25 +235,7 @@ def _cmd_train(args) -> int:
 
 
 def _load_model(path):
-    import sys
-
-    from tunnelsense.io import load_model
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: model file not found")
-    if path.suffix.lower() in (".joblib", ".pkl", ".pickle"):
-        print(
-            f"note: {path} is a pickle, which runs code when loaded; load pickles only "
-            "from sources you trust (ship .skops files)",
-            file=sys.stderr,
-        )
-        model = load_model(path, allow_pickle=True)
-    else:
-        model = load_model(path)
-    if not hasattr(model, "steps") or model.steps[-1][0] != "motion":
-        raise ValueError(f"{path}: not a model written by 'tunnelsense train tunnel'")
-    return model
+    return load_cli_model(path, last_step="motion", command="train tunnel")
 
 
 #: Header of the ``*.clusters.csv`` companion of a results file.
