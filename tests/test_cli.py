@@ -142,3 +142,28 @@ def test_info_into_a_closed_pipe_is_not_an_error(tmp_path):
     )
     assert proc.stdout == "{"
     assert "error" not in proc.stderr
+
+
+def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from tunnelsense._cli_common import load_cli_model
+    from tunnelsense.io import save_model
+
+    other = Pipeline([("scale", StandardScaler())]).fit([[0.0], [1.0]])
+    save_model(other, tmp_path / "m.skops")
+    with pytest.raises(
+        ValueError, match="not a model written by 'tunnelsense train street'"
+    ):
+        load_cli_model(
+            tmp_path / "m.skops", last_step="cluster", command="train street"
+        )
+    save_model(other, tmp_path / "m.joblib")
+    assert (
+        load_cli_model(tmp_path / "m.joblib", last_step="scale", command="x")
+        is not None
+    )
+    assert "is a pickle, which runs code" in capsys.readouterr().err
+    with pytest.raises(FileNotFoundError, match="model file not found"):
+        load_cli_model(tmp_path / "none.skops", last_step="cluster", command="x")
