@@ -9,7 +9,7 @@ from scipy.spatial.distance import pdist
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tunnelsense import FrameRecord, FrameSequence
-from tunnelsense.tunnel import MSTClusterer, cluster_boxes, mst_partition
+from tunnelsense.tunnel import MSTClusterer, cluster_boxes, mst_partition, region_boxes
 from tunnelsense.tunnel._clustering import (
     DENSE_MAX_POINTS,
     _delaunay_partition,
@@ -228,3 +228,61 @@ def test_record_stage_checks(name, check):
 @pytest.mark.parametrize("name, check", list(sklearn_api_checks(MSTClusterer())))
 def test_sklearn_api_checks(name, check):
     check()
+
+
+def _sign_frame(seed, top=100, left=200, height=16, width=6):
+    """A noisy frame with one in-band sign and an in-band blob far away."""
+    rng = np.random.default_rng(seed)
+    img = rng.normal(100, 3, (240, 320))
+    img[top : top + height, left : left + width] = rng.normal(175, 3, (height, width))
+    img[20:30, 20:40] = 176  # another in-band object, in no cluster's reach
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def test_region_box_is_the_sign_around_its_keypoints(global_random_seed):
+    img = _sign_frame(global_random_seed)
+    # keypoints of the 7 x 6 grid that fall on the sign (rows 105, 112; column 204)
+    rows, cols = np.array([105, 112]), np.array([204, 204])
+    labels = np.zeros(2, np.intp)
+    keypoint_box = cluster_boxes(rows, cols, labels)
+    assert keypoint_box.tolist() == [[204.0, 105.0, 1.0, 8.0]]
+    box = region_boxes(img, rows, cols, labels, keypoint_box, (160, 190))
+    assert box.tolist() == [[200.0, 100.0, 6.0, 16.0]]
+    # one keypoint suffices; the same sign gives the same box
+    one = cluster_boxes(rows[:1], cols[:1], labels[:1])
+    again = region_boxes(img, rows[:1], cols[:1], labels[:1], one, (160, 190))
+    assert again.tolist() == box.tolist()
+
+
+def test_region_box_stays_within_reach_and_contains_the_keypoints():
+    img = np.full((100, 100), 175, np.uint8)  # everything in band
+    box = region_boxes(img, np.array([50]), np.array([50]), np.array([0]),
+                       np.array([[50.0, 50, 1, 1]]), (160, 190), reach=(14, 12))
+    assert box.tolist() == [[38.0, 36.0, 25.0, 29.0]]
+    # a keypoint whose pixel is out of band keeps its own box
+    box = region_boxes(img, np.array([50]), np.array([50]), np.array([0]),
+                       np.array([[50.0, 50, 1, 1]]), (0, 10))
+    assert box.tolist() == [[50.0, 50.0, 1.0, 1.0]]
+
+
+def test_frame_mode_region_boxes_use_the_samplers_band():
+    from tunnelsense.tunnel import IntensityKeypointSampler
+
+    X = FrameSequence.from_array(_sign_frame(0)[None])
+    Xk = IntensityKeypointSampler().fit_transform(X)
+    assert Xk[0].payload["keypoint_band"] == (160.0, 190.0)
+    out = MSTClusterer(box="region").fit_transform(Xk)[0].payload
+    assert sorted(out["cluster_boxes"].tolist()) == [[20.0, 20.0, 20.0, 10.0], [200.0, 100.0, 6.0, 16.0]]
+    # the paper's keypoint rectangles are grid-quantized
+    paper = MSTClusterer().fit_transform(Xk)[0].payload["cluster_boxes"]
+    assert [204.0, 105.0, 1.0, 8.0] in paper.tolist()
+    # an explicit band overrides the payload's; without either it is a clear error
+    bare = [FrameRecord(r.tour, r.frame, r.image, {"keypoints": r.payload["keypoints"]}) for r in Xk]
+    with pytest.raises(ValueError, match="keypoint_band"):
+        MSTClusterer(box="region").fit(bare).transform(bare)
+    out = MSTClusterer(box="region", band=(160, 190)).fit_transform(bare)[0].payload
+    assert [200.0, 100.0, 6.0, 16.0] in out["cluster_boxes"].tolist()
+    with pytest.raises(ValueError, match="reach"):
+        MSTClusterer(box="region", reach=(1,)).fit_transform(Xk)
+    with pytest.raises(ValueError, match="band"):
+        MSTClusterer(box="region", band=(190, 160)).fit_transform(Xk)

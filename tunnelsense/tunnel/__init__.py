@@ -2,9 +2,11 @@
 
 Stages 1-3 (sections 3.1-3.3): :class:`IntensityKeypointSampler` (keypoint detection),
 :class:`KMeansHistogramVerifier` (keypoint verification), :class:`MSTClusterer`
-(keypoint clustering).  Each is a frame stage (frame records in, frame records out);
-the verifier and the clusterer also take 2-D arrays (histograms, points).  See
-``docs/tunnel-stages.md``.
+(keypoint clustering); stages 4-6 (sections 3.4-3.7): :class:`WeightedAdaBoost`,
+:class:`TrajectoryLinker`, :class:`PCCVerifier`; :func:`make_indicator_pipeline` puts
+the six in a Pipeline.  Each is a frame stage (frame records in, frame records out);
+the verifier, the clusterer and the appearance machine also take 2-D arrays.  See
+``docs/tunnel-stages.md`` and ``docs/tunnel-detector.md``.
 """
 
 from tunnelsense.tunnel._appearance import (
@@ -12,7 +14,12 @@ from tunnelsense.tunnel._appearance import (
     box_histograms,
     centres_in_boxes,
 )
-from tunnelsense.tunnel._clustering import MSTClusterer, cluster_boxes, mst_partition
+from tunnelsense.tunnel._clustering import (
+    MSTClusterer,
+    cluster_boxes,
+    mst_partition,
+    region_boxes,
+)
 from tunnelsense.tunnel._keypoints import (
     IntensityKeypointSampler,
     indicator_band,
@@ -45,5 +52,6 @@ __all__ = [
     "patch_histograms",
     "pearson_r",
     "rank_positive_centers",
+    "region_boxes",
     "sample_keypoints",
 ]

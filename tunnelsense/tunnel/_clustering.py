@@ -25,18 +25,25 @@ from __future__ import annotations
 
 import numbers
 
+import cv2
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, QhullError, cKDTree
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense.tunnel._common import is_record_input, keypoints_of
 
-__all__ = ["DENSE_MAX_POINTS", "MSTClusterer", "cluster_boxes", "mst_partition"]
+__all__ = [
+    "DENSE_MAX_POINTS",
+    "MSTClusterer",
+    "cluster_boxes",
+    "mst_partition",
+    "region_boxes",
+]
 
 #: Up to this many points, :func:`mst_partition` uses a dense distance matrix.
 DENSE_MAX_POINTS = 384
@@ -215,6 +222,82 @@ def cluster_boxes(rows, cols, labels, n_clusters=None) -> np.ndarray:
     return np.column_stack([left, top, right - left + 1, bottom - top + 1])
 
 
+def region_boxes(image, rows, cols, labels, boxes, band, reach=(14, 12)) -> np.ndarray:
+    """Refine keypoint-cluster rectangles to the in-band image region around them.
+
+    A cluster's keypoints lie on the 7 x 6 px grid, so their bounding rectangle is
+    quantized to the grid: it jumps by a grid step as the object grows or moves, and a
+    cluster of one keypoint is a 1 x 1 px box.  The object itself is the region of
+    pixels whose intensity lies in the keypoint band: this function takes, inside the
+    cluster's rectangle grown by ``reach`` px (rows, columns), the 8-connected
+    components of the pixels within ``band`` that hold a keypoint of the cluster, and
+    returns their bounding rectangle.  Keypoints whose pixel is not in the band (after
+    a band change) keep their own 1 x 1 px box in the union.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    labels : ndarray of shape (n,)
+        Cluster of every keypoint (``0 .. m - 1``).
+    boxes : ndarray of shape (m, 4)
+        The clusters' keypoint rectangles (:func:`cluster_boxes`).
+    band : (float, float)
+        Inclusive intensity band ``[low, high]`` (the keypoint band).
+    reach : (int, int), default=(14, 12)
+        How far (rows, columns; px) the region may extend beyond the keypoints'
+        rectangle: two grid steps.
+
+    Returns
+    -------
+    boxes : ndarray of shape (m, 4), float64
+        ``(left, top, width, height)`` in whole pixels; each contains the input box.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((40, 40), 100, np.uint8)
+    >>> img[10:26, 17:23] = 175          # a 16 x 6 px sign
+    >>> rows, cols = np.array([14, 21]), np.array([18, 18])
+    >>> box = cluster_boxes(rows, cols, np.array([0, 0]))
+    >>> box
+    array([[18., 14.,  1.,  8.]])
+    >>> region_boxes(img, rows, cols, np.array([0, 0]), box, (160, 190))
+    array([[17., 10.,  6., 16.]])
+    """
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    out = boxes.copy()
+    if len(boxes) == 0:
+        return out
+    h, w = image.shape
+    lo, hi = float(band[0]), float(band[1])
+    rr, rc = int(reach[0]), int(reach[1])
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    labels = np.asarray(labels, dtype=np.intp)
+    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
+        r0 = max(int(top) - rr, 0)
+        c0 = max(int(left) - rc, 0)
+        r1 = min(int(top + bh) + rr, h)
+        c1 = min(int(left + bw) + rc, w)
+        window = image[r0:r1, c0:c1]
+        mask = ((window >= lo) & (window <= hi)).view(np.uint8)
+        _, comp = cv2.connectedComponents(mask, connectivity=8)
+        member = labels == k
+        seeds = np.unique(comp[rows[member] - r0, cols[member] - c0])
+        seeds = seeds[seeds > 0]
+        if len(seeds) == 0:
+            continue
+        ys, xs = np.nonzero(np.isin(comp, seeds) if len(seeds) > 1 else comp == seeds[0])
+        y0 = min(int(ys.min()) + r0, int(top))
+        x0 = min(int(xs.min()) + c0, int(left))
+        y1 = max(int(ys.max()) + r0 + 1, int(top + bh))
+        x1 = max(int(xs.max()) + c0 + 1, int(left + bw))
+        out[k] = (x0, y0, x1 - x0, y1 - y0)
+    return out
+
+
 class MSTClusterer(TransformerMixin, BaseEstimator):
     """Single-linkage clustering of keypoints: cut MST edges longer than ``cut``.
 
@@ -254,6 +337,20 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
     ----------
     cut : float, default=40.0
         MST edges longer than this (px) are removed.
+    box : {"keypoints", "region"}, default="keypoints"
+        Frame mode: the rectangle of each cluster.  ``"keypoints"`` (the paper's):
+        the smallest rectangle of its keypoints, quantized to the 7 x 6 px grid.
+        ``"region"``: that rectangle refined on the image to the in-band pixels
+        connected to the keypoints (:func:`region_boxes`), which gives the object's
+        own extent: a stable centre and scale for tracking and the whole sign for the
+        appearance histogram.  :func:`~tunnelsense.tunnel.make_indicator_pipeline`
+        uses ``"region"``.
+    band : (float, float) or None, default=None
+        ``box="region"``: the intensity band of the region.  ``None`` takes the band
+        :class:`IntensityKeypointSampler` used, from ``payload["keypoint_band"]``.
+    reach : (int, int), default=(14, 12)
+        ``box="region"``: how far (rows, columns; px) the region may extend beyond the
+        keypoints' rectangle (two grid steps).
 
     Attributes
     ----------
@@ -294,10 +391,16 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "cut": [Interval(numbers.Real, 0, None, closed="left")],
+        "box": [StrOptions({"keypoints", "region"})],
+        "band": [tuple, list, None],
+        "reach": [tuple, list],
     }
 
-    def __init__(self, cut=40.0):
+    def __init__(self, cut=40.0, *, box="keypoints", band=None, reach=(14, 12)):
         self.cut = cut
+        self.box = box
+        self.band = band
+        self.reach = reach
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -375,8 +478,39 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
             out[lo : lo + 1024] = np.minimum.reduceat(d, starts, axis=1)
         return out
 
+    def _check_region_params(self):
+        reach = tuple(self.reach)
+        if len(reach) != 2 or not all(
+            isinstance(v, numbers.Integral) and v >= 0 for v in reach
+        ):
+            raise ValueError(
+                f"reach must be a pair (rows, columns) of non-negative ints; got {self.reach!r}"
+            )
+        if self.band is not None:
+            band = tuple(self.band)
+            if len(band) != 2 or not band[0] <= band[1]:
+                raise ValueError(
+                    f"band must be None or a pair (low, high) with low <= high; got {self.band!r}"
+                )
+
+    def _band_of(self, record, index):
+        if self.band is not None:
+            return tuple(self.band)
+        try:
+            return tuple(record.payload["keypoint_band"])
+        except KeyError:
+            raise ValueError(
+                f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
+                "payload['keypoint_band']: MSTClusterer(box='region') needs band=(low, "
+                "high) or frames that went through IntensityKeypointSampler"
+            ) from None
+
     def _transform_records(self, records):
         cut = float(self.cut)
+        region = self.box == "region"
+        if region:
+            self._check_region_params()
+            reach = tuple(int(v) for v in self.reach)
         out = []
         for i, r in enumerate(records):
             kp = keypoints_of(r, i, "MSTClusterer")
@@ -384,5 +518,9 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
             cols = kp[:, 1]
             labels = mst_partition(np.column_stack([rows, cols]), cut)
             boxes = cluster_boxes(rows, cols, labels)
+            if region and len(boxes):
+                boxes = region_boxes(
+                    r.image, rows, cols, labels, boxes, self._band_of(r, i), reach
+                )
             out.append(r.evolve(cluster_labels=labels, cluster_boxes=boxes))
         return FrameSequence(out)

@@ -153,7 +153,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
 
     * ``payload["keypoints"]``: ndarray of shape (n, 3), int32 -- the columns are
       ``(row, col, intensity)`` and the rows are in raster order (row by row, left to
-      right).
+      right);
+    * ``payload["keypoint_band"]``: ``(low_, high_)``, the band in use (read by
+      ``MSTClusterer(box="region")``).
 
     The image of each frame is read once per call.  The input is validated once per
     call, not per frame.
@@ -306,8 +308,14 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             row_offset=self.row_offset,
             col_offset=self.col_offset,
         )
+        band = (self.low_, self.high_)
         out = []
         for i, r in enumerate(records):
             image = _check_image(r.image, i, r)
-            out.append(r.evolve(keypoints=sample_keypoints(image, self.low_, self.high_, **kw)))
+            out.append(
+                r.evolve(
+                    keypoints=sample_keypoints(image, self.low_, self.high_, **kw),
+                    keypoint_band=band,
+                )
+            )
         return FrameSequence(out)
