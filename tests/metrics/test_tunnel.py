@@ -137,3 +137,18 @@ def test_hypotheses_need_detector_output():
     with pytest.raises(ValueError, match="predict"):
         hypotheses_from_records([FrameRecord("t", 1, IMG, {"cluster_boxes": np.zeros((1, 4))})])
     assert len(hypotheses_from_records([])) == 0
+
+
+def test_gt_from_boxes_follows_a_sign_clipped_by_the_frame_edge():
+    # the last frame of an indicator leaving the image: its clipped box jumps left
+    # and no longer overlaps the previous one, but it is the same indicator
+    recs = [FrameRecord("t", f, IMG) for f in (1, 2, 3)]
+    y = [
+        np.array([[12.0, 80, 35, 78]]),
+        np.array([[7.5, 75.6, 35.2, 78.2]]),
+        np.array([[-34.6, 53.5, 39.9, 88.5]]),
+    ]
+    assert gt_from_boxes(recs, y)["id"].tolist() == [1, 1, 1]
+    # a box far from the previous one (more than half its size away) is another sign
+    y[2] = np.array([[200.0, 75.6, 35.2, 78.2]])
+    assert gt_from_boxes(recs, y)["id"].tolist() == [1, 1, 2]

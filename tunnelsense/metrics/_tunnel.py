@@ -119,9 +119,12 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     """Indicator ground truth with identities, from per-frame boxes only.
 
     ``y`` (as :func:`tunnelsense.to_xy` gives it) holds boxes without identities; an
-    identity is recovered by linking each box to an overlapping box of the tour's
-    previous frame (indicators stand 200 m apart, so boxes of two indicators do not
-    overlap in consecutive frames).
+    identity is recovered by linking each box to a box of the tour's previous frame
+    that it overlaps once that previous box is grown by half its width and height on
+    every side.  An indicator moves less than that between consecutive frames, even
+    in its last frame, when it leaves the image and its box jumps as the frame's edge
+    clips it (plain overlap counted such a last frame as a second indicator); and
+    indicators stand 200 m apart, so the grown boxes of two of them never meet.
 
     Parameters
     ----------
@@ -138,6 +141,7 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     y = [np.asarray(b, dtype=np.float64).reshape(-1, 4) for b in y]
     if len(y) != len(records):
         raise ValueError(f"y has {len(y)} entries for {len(records)} frames")
+    grow = 0.5
     rows = []
     for group in tour_order(records):
         next_id = 1
@@ -152,8 +156,12 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
                     for pb, pid in zip(prev_boxes, prev_ids, strict=True):
                         if pid in used:
                             continue
-                        ix = min(box[0] + box[2], pb[0] + pb[2]) - max(box[0], pb[0])
-                        iy = min(box[1] + box[3], pb[1] + pb[3]) - max(box[1], pb[1])
+                        # grow the previous box by half its size on every side: an
+                        # indicator moves less than that between consecutive frames,
+                        # also while it is clipped by the frame's edge
+                        gx, gy = grow * pb[2], grow * pb[3]
+                        ix = min(box[0] + box[2], pb[0] + pb[2] + gx) - max(box[0], pb[0] - gx)
+                        iy = min(box[1] + box[3], pb[1] + pb[3] + gy) - max(box[1], pb[1] - gy)
                         if ix > 0 and iy > 0:
                             link = pid
                             break
