@@ -13,11 +13,15 @@ from tunnelsense.tunnel import (
     WeightedAdaBoost,
     make_indicator_pipeline,
 )
-from tunnelsense.tunnel._pipeline import INDICATOR_STEPS, draw_detections
+from tunnelsense.tunnel._pipeline import (
+    INDICATOR_STEPS,
+    PIPELINE_DEFAULTS,
+    draw_detections,
+)
 
 SMALL = dict(
-    verifier__n_positive_clusters=8,
-    verifier__n_negative_clusters=30,
+    verifier__n_positive_clusters=20,
+    verifier__n_negative_clusters=100,
     appearance__n_estimators=20,
     random_state=0,
 )
@@ -59,9 +63,11 @@ def test_fit_predict_score_and_persist(tours, tmp_path):
     assert s["trajectory"]["indicators"] == 1
     assert s["trajectory"]["detected"] == 1
     assert s["trajectory"]["false_alarms"] == 0
-    # cluster-level rate on this short tour: see the docs for where it stands
-    assert s["cluster"]["detection_rate"] >= 0.4
-    assert s["cluster"]["false_alarm_rate"] <= 0.05
+    # cluster level on this short tour (the long-run figures, and the paper's
+    # settings beside them, are in docs/tunnel-detector.md)
+    assert s["cluster"]["total"] >= 50
+    assert s["cluster"]["detection_rate"] >= 0.95
+    assert s["cluster"]["false_alarm_rate"] <= 0.01
     for r in out:
         det = r.payload["detections"]
         assert det.shape[1] == 6 and (det[:, 5] > 0.8).all()
@@ -95,6 +101,15 @@ def test_grid_search_by_tour(tours):
     assert (res["mean_test_trajectory_false_alarms"] <= 0).all()
     assert search.best_params_ in res["params"]
     assert len(search.predict(X[:10])) == 10
+
+
+def test_pipeline_defaults_and_paper_settings():
+    p = make_indicator_pipeline().get_params()
+    assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
+    assert (p["clusters__box"], p["tracks__max_gap"]) == ("region", 6)
+    paper = make_indicator_pipeline(box="keypoints", max_gap=3, max_distance=0.14).get_params()
+    assert (paper["clusters__box"], paper["tracks__max_gap"]) == ("keypoints", 3)
+    assert paper["verifier__max_distance"] == 0.14
 
 
 def test_verifier_settings_reach_the_step():

@@ -12,7 +12,25 @@ from tunnelsense.tunnel._motion import PCCVerifier
 from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import KMeansHistogramVerifier
 
-__all__ = ["DRAW_COLOURS", "INDICATOR_STEPS", "draw_detections", "make_indicator_pipeline"]
+__all__ = [
+    "DRAW_COLOURS",
+    "INDICATOR_STEPS",
+    "PIPELINE_DEFAULTS",
+    "draw_detections",
+    "make_indicator_pipeline",
+]
+
+#: Settings :func:`make_indicator_pipeline` uses where they differ from the steps'
+#: own (paper) defaults; every one can be overridden (``box="keypoints"``,
+#: ``max_gap=3`` give the paper's).  See ``docs/tunnel-detector.md``.
+PIPELINE_DEFAULTS = {
+    # the cluster rectangle is the in-band region around the keypoints, not the
+    # grid-quantized rectangle of the keypoints: stable centre and scale
+    "clusters__box": "region",
+    # a 14-20 px indicator is about one grid step wide: the grid can miss it for a
+    # few frames (0.2 s at 30 fps) as it moves; bridge such gaps
+    "tracks__max_gap": 6,
+}
 
 #: Step names of :func:`make_indicator_pipeline`, in order.
 INDICATOR_STEPS = ("keypoints", "verifier", "clusters", "appearance", "tracks", "motion")
@@ -20,6 +38,11 @@ INDICATOR_STEPS = ("keypoints", "verifier", "clusters", "appearance", "tracks", 
 
 def make_indicator_pipeline(*, verifier=True, **params):
     """The six FIR stages (sections 3.1-3.7) as a :class:`~sklearn.pipeline.Pipeline`.
+
+    The steps keep their own (the paper's) defaults except for
+    :data:`PIPELINE_DEFAULTS`: cluster rectangles refined to the in-band region
+    around the keypoints (``clusters__box="region"``) and trajectories bridging gaps
+    of up to 6 frames (``tracks__max_gap=6``).
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),
@@ -60,7 +83,7 @@ def make_indicator_pipeline(*, verifier=True, **params):
         ("tracks", TrajectoryLinker()),
         ("motion", PCCVerifier()),
     ]
-    pipe = Pipeline(steps)
+    pipe = Pipeline(steps).set_params(**PIPELINE_DEFAULTS)
     owners: dict = {}
     for name, step in steps:
         if step == "passthrough":
