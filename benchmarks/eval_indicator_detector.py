@@ -1,21 +1,31 @@
 """Detection figures of the FIR indicator detector on simulated tours.
 
-Trains on one simulated tour (``--train-scenario``, default heavy traffic, camera A:
-traffic supplies the negative clusters the appearance machine learns from) and evaluates on other seeds of
-every scenario ("light", "heavy", and "curved", which is another camera: focal length
+Trains on ONE simulated tour (``--train-scenario``, default heavy traffic, camera A;
+seed ``--seed``) and evaluates on other seeds (``--seed + 11, 12, 13``) of every
+scenario: "light", "heavy", and "curved", which is another camera (focal length
 620 px, mounted 1.35 m high, noise sigma 4, a curving tunnel).  Prints, as markdown:
 
+0. (on by default; ``--no-search`` skips it) the grid search of the motion
+   thresholds by ``GridSearchCV`` with ``GroupKFold`` over
+   ``--segments`` consecutive segments of the training tour (the only data it sees);
+   its best parameters are used for everything below;
 1. the cluster-level table (the paper's Table 1) and trajectory figures per tour;
-2. the cross-camera figures: the paper's bare-rectangle histograms (margin 0) against
-   the default grown rectangle;
-3. the ablation table: no motion check, no positive weighting, no keypoint verifier,
-   greedy vs Hungarian linking;
+2. the cross-camera figures on the other camera's tour: the paper's raw histograms
+   (keypoint rectangles, margin 0) against the robust default;
+3. the ablation table (sums over the test tours): no motion check, no positive
+   weighting, no keypoint verifier, greedy vs Hungarian linking, and the paper's
+   stages 3-5 (keypoint rectangles, margin 0, max_gap 3);
 4. the paper's bias-weight experiment: training correct rates of the appearance
-   machine, evenly weighted vs positives x7.
+   machine, evenly weighted vs positives x7;
+5. issue 4's keypoint-verifier figures on the test tours (indicators taller than
+   14 px keeping a verified keypoint, negative keypoints removed) for the stages
+   fitted on the training tour, and the trade-off curve over ``max_distance`` for
+   ``n_centers`` 10 (default) and 20.
 
 Usage::
 
     python benchmarks/eval_indicator_detector.py [--frames 3000] [--train-frames 1500]
+        [--seed 0] [--no-search]
 
 Simulated tours are cached under ``$TMPDIR/tunnelsense-eval`` (delete to refresh).
 """
@@ -23,6 +33,8 @@ Simulated tours are cached under ``$TMPDIR/tunnelsense-eval`` (delete to refresh
 from __future__ import annotations
 
 import argparse
+import copy
+import dataclasses
 import json
 import os
 import pickle
@@ -31,14 +43,26 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_tunnel_stages import detection_figures  # benchmarks/ is on the path
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from tunnelsense import to_xy
+from tunnelsense import FrameSequence, to_xy
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.metrics import indicator_scores
+from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.tunnel import WeightedAdaBoost, make_indicator_pipeline
 from tunnelsense.tunnel._appearance import centres_in_boxes
 
 CACHE = Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "tunnelsense-eval"
+
+#: Grid of the search; the first value of each is the default (ties go to it).
+#: max_distance values of the verifier's trade-off curve.
+CURVE = (0.14, 0.2, 0.25, 0.28, 0.3, 0.32, 0.35, 0.4)
+
+SEARCH_GRID = {
+    "motion__min_r": [0.95, 0.9, 0.98],
+    "motion__min_length": [10, 5, 20],
+}
 
 
 def tour(n, scenario, seed):
@@ -53,12 +77,16 @@ def tour(n, scenario, seed):
     return t
 
 
-def run_tail(head_out, y_train_out, train_clusters, variant_params, test_clusters):
-    """Fit stages 4-6 (with params) on the training clusters; predict test tours."""
-    pipe = make_indicator_pipeline(**variant_params)
-    tail = pipe[3:]
-    tail.fit(train_clusters, y_train_out)
-    return {name: tail.predict(Z) for name, Z in test_clusters.items()}
+def segments(X, y, n_segments):
+    """Cut one tour into ``n_segments`` consecutive tours (groups for GroupKFold)."""
+    bounds = np.linspace(0, len(X), n_segments + 1).astype(int)
+    recs, groups = [], []
+    for k in range(n_segments):
+        for r in X[bounds[k] : bounds[k + 1]]:
+            name = f"{r.tour}/part{k + 1}"
+            recs.append(dataclasses.replace(r, tour=name))
+            groups.append(name)
+    return FrameSequence(recs), list(y), np.asarray(groups, dtype=object)
 
 
 def row(name, s):
@@ -66,14 +94,14 @@ def row(name, s):
     return (
         f"| {name} | {c['total']} | {c['correct']} | {c['misses']} | {c['false_alarms']} | "
         f"{100 * c['detection_rate']:.1f} % | {100 * c['false_alarm_rate']:.2f} % | "
-        f"{t['detected']} / {t['indicators']} | {t['false_alarms']} |"
+        f"{t['indicators']} | {t['detected']} | {t['false_alarms']} |"
     )
 
 
 HEADER = (
     "| {} | clusters on indicators | correct | misses | false alarms | detection rate | "
-    "false-alarm rate | indicators found | false-alarm trajectories |\n"
-    "|---|---|---|---|---|---|---|---|---|"
+    "false-alarm rate | indicators | detected | false-alarm trajectories |\n"
+    "|---|---|---|---|---|---|---|---|---|---|"
 )
 
 
@@ -83,6 +111,9 @@ def main():
     ap.add_argument("--train-frames", type=int, default=1500)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--train-scenario", default="heavy", choices=["light", "heavy", "curved"])
+    ap.add_argument("--no-search", dest="search", action="store_false")
+    ap.add_argument("--segments", type=int, default=3)
+    ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()
     t_start = time.perf_counter()
     print("simulating tours", flush=True)
@@ -93,68 +124,114 @@ def main():
     }
     Xtr, ytr, _ = to_xy([train])
     data = {sc: to_xy([t])[:2] for sc, t in tests.items()}
+    base = {"random_state": args.seed}
 
-    print("fitting stages 1-3", flush=True)
-    t0 = time.perf_counter()
-    base = make_indicator_pipeline(random_state=args.seed)
-    head = base[:3].fit(Xtr, ytr)
-    train_clusters = head.transform(Xtr)
-    test_clusters = {sc: head.transform(X) for sc, (X, _) in data.items()}
-    print(f"  {time.perf_counter() - t0:.0f} s", flush=True)
+    if args.search:
+        print("grid search on the training tour", flush=True)
+        t0 = time.perf_counter()
+        Xs, ys, gs = segments(Xtr, ytr, args.segments)
+        search = GridSearchCV(
+            make_indicator_pipeline(**base),
+            SEARCH_GRID,
+            cv=GroupKFold(args.segments),
+            scoring={
+                "youden": make_tunnel_scorer(),
+                "trajectory_detection_rate": make_tunnel_scorer("trajectory_detection_rate"),
+                "trajectory_false_alarms": make_tunnel_scorer("trajectory_false_alarms"),
+            },
+            refit=False,
+            error_score="raise",
+            n_jobs=args.jobs,
+        ).fit(Xs, ys, groups=gs)
+        res = search.cv_results_
+        best = int(np.argmin(res["rank_test_youden"]))
+        base.update(res["params"][best])
+        print(f"  {time.perf_counter() - t0:.0f} s", flush=True)
 
     results = {}
 
-    def evaluate(name, params, clusters=None, train_c=None):
-        outs = run_tail(None, ytr, train_c or train_clusters, params, clusters or test_clusters)
+    def evaluate(name, params, verifier=True):
+        t0 = time.perf_counter()
+        pipe = make_indicator_pipeline(verifier=verifier, **{**base, **params}).fit(Xtr, ytr)
+        outs = {sc: pipe.predict(X) for sc, (X, _) in data.items()}
         results[name] = {sc: indicator_scores(o, data[sc][1]) for sc, o in outs.items()}
         results[name]["all"] = indicator_scores(
             [r for o in outs.values() for r in o],
             [b for sc in outs for b in data[sc][1]],
         )
-        return results[name]
+        print(f"  evaluated: {name} ({time.perf_counter() - t0:.0f} s)", flush=True)
+        return pipe
 
+    default = evaluate("default", {})
     variants = {
-        "default": {},
-        "bare rectangle (margin 0, paper)": {"appearance__margin": 0.0},
+        "paper's raw histograms (keypoint rectangle, margin 0)": {
+            "clusters__box": "keypoints", "appearance__margin": 0.0},
+        "region rectangle, margin 0": {"appearance__margin": 0.0},
         "no motion check": {"motion__min_r": 0.0, "motion__min_length": 1},
         "no positive weighting": {"appearance__positive_weight": 1.0},
         "Hungarian linking": {"tracks__assignment": "hungarian"},
+        "paper's stages 3-5 (keypoint rectangle, margin 0, max_gap 3)": {
+            "clusters__box": "keypoints", "appearance__margin": 0.0, "tracks__max_gap": 3},
     }
     for name, params in variants.items():
         evaluate(name, params)
-        print(f"  evaluated: {name}", flush=True)
+    evaluate("no keypoint verifier", {}, verifier=False)
 
-    print("fitting without the keypoint verifier", flush=True)
-    head_nv = make_indicator_pipeline(verifier=False)[:3].fit(Xtr, ytr)
-    evaluate(
-        "no keypoint verifier",
-        {},
-        {sc: head_nv.transform(X) for sc, (X, _) in data.items()},
-        head_nv.transform(Xtr),
-    )
-
-    # bias-weight experiment: training correct rates of the appearance machine
+    # bias-weight experiment: training correct rates of the appearance machine, on
+    # the paper's raw histograms and on the default ones
     bias = {}
-    probe = WeightedAdaBoost()
-    H, labels = [], []
-    for (_, b, h), gt in zip(probe._frame_histograms(list(train_clusters)), ytr, strict=True):
-        H.append(h)
-        labels.append(centres_in_boxes(b, gt))
-    H, labels = np.concatenate(H), np.concatenate(labels)
-    for w in (1.0, 7.0):
-        clf = WeightedAdaBoost(positive_weight=w).fit(H, labels)
-        pred = clf.predict(H)
-        bias[w] = {
-            "overall": float((pred == labels).mean()),
-            "positive": float(pred[labels].mean()),
-            "negative": float((~pred[~labels]).mean()),
-            "n_positive": int(labels.sum()),
-            "n_negative": int((~labels).sum()),
-        }
+    verified = default[:2].transform(Xtr)
+    for hist_name, box, margin in (("paper's raw histograms", "keypoints", 0.0),
+                                   ("default histograms", "region", None)):
+        clusters = clone(default.named_steps["clusters"]).set_params(box=box)
+        train_clusters = clusters.fit_transform(verified)
+        probe = clone(default.named_steps["appearance"])
+        if margin is not None:
+            probe.set_params(margin=margin)
+        H, labels = [], []
+        for (_, b, h), gt in zip(probe._frame_histograms(list(train_clusters)), ytr,
+                                 strict=True):
+            H.append(h)
+            labels.append(centres_in_boxes(b, gt))
+        H, labels = np.concatenate(H), np.concatenate(labels)
+        for w in (1.0, 7.0):
+            clf = WeightedAdaBoost(positive_weight=w).fit(H, labels)
+            pred = clf.predict(H)
+            bias[f"{hist_name}, positives x{w:g}"] = {
+                "overall": float((pred == labels).mean()),
+                "positive": float(pred[labels].mean()),
+                "negative": float((~pred[~labels]).mean()),
+                "n_positive": int(labels.sum()),
+                "n_negative": int((~labels).sum()),
+            }
+
+    # issue 4: the keypoint verifier of the default pipeline, and its trade-off curve
+    sampler = default.named_steps["keypoints"]
+    verifier = default.named_steps["verifier"]
+    curve = {}
+    wide = clone(verifier).set_params(n_centers=20).fit(sampler.transform(Xtr), ytr)
+    for nc, ver in ((verifier.n_centers, verifier), (20, wide)):
+        for md in CURVE:
+            # max_distance is used by transform only: the fitted centres stay
+            v = copy.deepcopy(ver).set_params(max_distance=md)
+            figs = {sc: detection_figures(sampler, v, t) for sc, t in tests.items()}
+            curve[(nc, md)] = figs
 
     # ---------------------------------------------------------------- report
     print()
-    print(f"## Detection (train: {train.name}, {len(train)} frames)\n")
+    if args.search:
+        print(f"## Grid search (GroupKFold({args.segments}) over segments of {train.name})\n")
+        print("| min_r | min_length | youden | trajectory detection rate "
+              "| false-alarm trajectories |\n|---|---|---|---|---|")
+        for k, p in enumerate(res["params"]):
+            mark = " **(best)**" if k == best else ""
+            print(f"| {p['motion__min_r']} | {p['motion__min_length']} | "
+                  f"{res['mean_test_youden'][k]:.4f}{mark} | "
+                  f"{res['mean_test_trajectory_detection_rate'][k]:.3f} | "
+                  f"{-res['mean_test_trajectory_false_alarms'][k]:.2f} |")
+        print()
+    print(f"## Detection (train: {train.name}, {len(train)} frames; "
+          f"parameters: {json.dumps({k: v for k, v in base.items()})})\n")
     print(HEADER.format("test tour"))
     for sc, t in tests.items():
         print(row(f"{t.name} ({len(t)} frames)", results["default"][sc]))
@@ -165,19 +242,35 @@ def main():
         print(row(name, per["all"]))
     print("\n## Cross-camera (test tour: curved, the other camera)\n")
     print(HEADER.format("histogram"))
-    for name in ("bare rectangle (margin 0, paper)", "default"):
+    for name in ("paper's raw histograms (keypoint rectangle, margin 0)",
+                 "region rectangle, margin 0", "default"):
         print(row(name, results[name]["curved"]))
     print("\n## Bias weight (training correct rates of WeightedAdaBoost)\n")
-    print("| initial weights | overall | positive | negative |\n|---|---|---|---|")
-    for w, b in bias.items():
+    print("| histograms, initial weights | overall | positive | negative | positive / "
+          "negative training clusters |\n|---|---|---|---|---|")
+    for name, b in bias.items():
         print(
-            f"| positives x{w:g} | {100 * b['overall']:.1f} % | {100 * b['positive']:.1f} % | "
-            f"{100 * b['negative']:.1f} % |"
+            f"| {name} | {100 * b['overall']:.1f} % | {100 * b['positive']:.1f} % | "
+            f"{100 * b['negative']:.1f} % | {b['n_positive']} / {b['n_negative']} |"
         )
-    n = bias[1.0]
-    print(f"\n({n['n_positive']} positive and {n['n_negative']} negative training clusters)")
-    out = CACHE / "eval_results.json"
-    out.write_text(json.dumps({"results": results, "bias": bias}, indent=1))
+    print("\n## Keypoint verifier (issue 4) on the test tours\n")
+    print("| n_centers | max_distance | " + " | ".join(
+        f"{sc}: indicators > 14 px kept / negatives removed" for sc in tests)
+        + " | all: kept | all: > 20 px kept | all: negatives removed |")
+    print("|---" * (len(tests) + 5) + "|")
+    for (nc, md), figs in curve.items():
+        tot = {k: sum(f[k] for f in figs.values()) for k in next(iter(figs.values()))}
+        cells = [f"{f['hit'] / max(f['instances'], 1):.1%} / "
+                 f"{1 - f['negatives_kept'] / max(f['negatives'], 1):.1%}" for f in figs.values()]
+        mark = " **(default)**" if (nc, md) == (verifier.n_centers, verifier.max_distance) else ""
+        print(f"| {nc} | {md}{mark} | " + " | ".join(cells)
+              + f" | {tot['hit'] / tot['instances']:.1%} of {tot['instances']} | "
+              f"{tot['hit_20'] / max(tot['instances_20'], 1):.1%} | "
+              f"{1 - tot['negatives_kept'] / tot['negatives']:.1%} of {tot['negatives']} |")
+    out = CACHE / f"eval_results-{args.seed}.json"
+    out.write_text(json.dumps({"params": base, "results": results, "bias": bias,
+                               "verifier_curve": {f"{k[0]}/{k[1]}": v for k, v in curve.items()}},
+                              indent=1, default=int))
     print(f"\nwrote {out}; total {time.perf_counter() - t_start:.0f} s")
 
 
