@@ -232,13 +232,12 @@ def test_on_simulated_tours_not_used_for_fitting(global_random_seed):
     docs/tunnel-stages.md, from ``benchmarks/bench_tunnel_stages.py --validation``).
 
     Issue 4 asks that >= 95 % of the indicators taller than 14 px keep a verified
-    keypoint and that >= 80 % of the negative keypoints be removed.  On 2,400
-    simulated frames the verifier removes 92-93 % of the negatives but keeps a
-    keypoint on only 82-87 % of those indicators (97-99 % above 20 px): the smallest
-    plates are about as wide as the grid step, and their keypoints' patches mix in
-    the wall.  Fitted on two 200-frame tours, the figures vary with the seed, so the
-    bounds below are floors well under the figures seen, guarding against
-    regressions; the indicators taller than 30 px are held near the target.
+    keypoint and that >= 80 % of the negative keypoints be removed; with
+    ``max_distance=0.32`` (the point of the trade-off curve chosen for that) the long
+    runs give 95-96 % and 80-84 % (docs/tunnel-stages.md).  Fitted on two 200-frame
+    tours only, the figures vary with the seed (seeds 0, 1, 7, 42: 93-98 % of the
+    indicators, 97-100 % above 30 px, 57-83 % of the negatives removed), so the
+    bounds below are floors under the figures seen, guarding against regressions.
     """
     seed = global_random_seed
     train = [
@@ -256,6 +255,6 @@ def test_on_simulated_tours_not_used_for_fitting(global_random_seed):
     fig14 = np.sum([_indicator_figures(sampler, verifier, t, 14.0) for t in tests], 0)
     fig30 = np.sum([_indicator_figures(sampler, verifier, t, 30.0) for t in tests], 0)
     assert fig14[0] >= 40 and fig30[0] >= 20 and fig14[2] >= 1000
-    assert fig14[1] / fig14[0] >= 0.45
-    assert fig30[1] / fig30[0] >= 0.85
-    assert 1 - fig14[3] / fig14[2] >= 0.55
+    assert fig14[1] / fig14[0] >= 0.85
+    assert fig30[1] / fig30[0] >= 0.9
+    assert 1 - fig14[3] / fig14[2] >= 0.45
