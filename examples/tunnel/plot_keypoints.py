@@ -13,7 +13,9 @@ Stages 1-3 of the FIR indicator detector on a simulated frame:
 * :class:`~tunnelsense.tunnel.MSTClusterer` cuts the minimum spanning tree of the
   verified keypoints at 40 px; each cluster's smallest bounding rectangle is a
   detection hypothesis (**yellow**, Figs. 3c-d).  Ground-truth indicator boxes are
-  drawn dashed in green.
+  drawn dashed in green.  The close-up also shows, in **cyan**, the rectangle of
+  ``MSTClusterer(box="region")`` (the indicator pipeline's default): the keypoint
+  rectangle refined to the in-band region around the keypoints, i.e. the sign itself.
 """
 
 # %%
@@ -40,14 +42,17 @@ sampler = IntensityKeypointSampler().fit(X, y)
 Xk = sampler.transform(X)
 verifier = KMeansHistogramVerifier(random_state=0).fit(Xk, y)
 clusterer = MSTClusterer(cut=40).fit(Xk)
+regions = MSTClusterer(cut=40, box="region").fit(Xk)
 
 # %%
 # Run them on the test tour and pick the frame where the indicator is about 30 px tall.
 Xt, yt, _ = to_xy([test])
-records = clusterer.transform(verifier.transform(sampler.transform(Xt)))
+verified = verifier.transform(sampler.transform(Xt))
+records = clusterer.transform(verified)
 heights = [b[:, 3].max() if len(b) else 0.0 for b in yt]
 i = int(np.argmin(np.abs(np.array(heights) - 30.0)))
 record, boxes = records[i], yt[i]
+region_boxes = regions.transform(verified[i : i + 1])[0].payload["cluster_boxes"]
 sampled = record.payload["sampled_keypoints"]
 kept = record.payload["keypoints"]
 rejected = sampled[~(sampled[:, None, :2] == kept[None, :, :2]).all(-1).any(-1)]
@@ -85,9 +90,11 @@ ax.plot(kept[:, 1], kept[:, 0], "o", mfc="none", color="red", ms=12, mew=2)
 for bl, bt, bw, bh in record.payload["cluster_boxes"]:
     ax.add_patch(Rectangle((bl - 0.5, bt - 0.5), bw, bh, fill=False, color="yellow",
                            lw=2))
+for bl, bt, bw, bh in region_boxes:
+    ax.add_patch(Rectangle((bl - 0.5, bt - 0.5), bw, bh, fill=False, color="cyan", lw=2))
 ax.add_patch(Rectangle((left, top), width, height, fill=False, color="lime", ls="--"))
 ax.set_xlim(left - 2 * height, left + width + 2 * height)
 ax.set_ylim(top + 2 * height, top - height)
-ax.set_title("close-up: the indicator")
+ax.set_title("close-up: keypoints (yellow) vs region (cyan)")
 ax.axis("off")
 plt.show()
