@@ -130,3 +130,32 @@ def test_record_stage_checks(name, check):
 @pytest.mark.parametrize("name, check", list(sklearn_api_checks(PCCVerifier())))
 def test_sklearn_api_checks(name, check):
     check()
+
+
+def test_principal_criterion_accepts_straight_lines_of_any_direction():
+    """Pearson's r is 0 on a horizontal line; the principal-axis measure is 1."""
+    from tunnelsense import FrameRecord
+    from tunnelsense.tunnel import PCCVerifier, straightness
+
+    img = np.zeros((48, 64), np.uint8)
+
+    def frames(dx, dy, jitter=0.0):
+        rng = np.random.default_rng(0)
+        return [
+            FrameRecord("t", f, img, {
+                "cluster_boxes": np.array([[10.0 + dx * f + jitter * rng.normal(),
+                                            20.0 + dy * f + jitter * rng.normal(), 4, 8]]),
+                "appearance": np.array([True]),
+                "track_ids": np.array([1]),
+            })
+            for f in range(1, 16)
+        ]
+
+    horizontal = frames(3, 0)
+    assert len(PCCVerifier().fit(horizontal).predict(horizontal)[0].payload["detections"]) == 0
+    principal = PCCVerifier(criterion="principal").fit(horizontal).predict(horizontal)
+    assert len(principal[0].payload["detections"]) == 1
+    still = frames(0, 0, jitter=2.0)  # a vehicle ahead: jitter, no line
+    out = PCCVerifier(criterion="principal").fit(still).predict(still)
+    assert all(len(r.payload["detections"]) == 0 for r in out)
+    assert straightness([0, 1, 2], [0, 2, 4]) == pytest.approx(1.0)

@@ -25,7 +25,7 @@ from tunnelsense.tunnel._keypoints import (
     indicator_band,
     sample_keypoints,
 )
-from tunnelsense.tunnel._motion import PCCVerifier, pearson_r
+from tunnelsense.tunnel._motion import PCCVerifier, pearson_r, straightness
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import (
@@ -51,6 +51,7 @@ __all__ = [
     "mst_partition",
     "patch_histograms",
     "pearson_r",
+    "straightness",
     "rank_positive_centers",
     "region_boxes",
     "sample_keypoints",

@@ -16,14 +16,14 @@ from collections import deque
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import FrameRecord, FrameSequence, check_frames
 from tunnelsense.tunnel._appearance import boxes_of
 from tunnelsense.tunnel._tracking import tour_order
 
-__all__ = ["PCCVerifier", "pearson_r", "trajectory_r"]
+__all__ = ["PCCVerifier", "pearson_r", "straightness", "trajectory_r"]
 
 #: Columns of ``payload["detections"]``.
 DETECTION_COLUMNS = ("bb_left", "bb_top", "bb_width", "bb_height", "track_id", "score")
@@ -51,6 +51,32 @@ def pearson_r(x, y) -> float:
     if sxx <= 1e-12 * scale or syy <= 1e-12 * scale:
         return 0.0
     return float(np.clip((x @ y) / np.sqrt(sxx * syy), -1.0, 1.0))
+
+
+def straightness(x, y) -> float:
+    """How well the points ``(x_i, y_i)`` fit a line, whatever its direction.
+
+    ``1 - lambda_min / lambda_max`` of the points' covariance matrix: 1 for points
+    on a line, 0 for points spread alike in every direction (or fewer than two
+    distinct positions).  Unlike Pearson's r, which is 0 for a perfectly straight
+    horizontal or vertical line because one coordinate does not vary, it treats every
+    orientation alike.
+
+    Examples
+    --------
+    >>> straightness([0, 1, 2, 3], [5, 5, 5, 5])  # horizontal: Pearson r is 0 here
+    1.0
+    >>> round(straightness([0, 1, 0, 1], [0, 0, 1, 1]), 6)
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) < 2:
+        return 0.0
+    low, high = np.linalg.eigvalsh(np.cov(x, y, bias=True))
+    if high <= 1e-12:
+        return 0.0
+    return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
 
 
 def trajectory_r(x, y, starts) -> np.ndarray:
@@ -127,8 +153,17 @@ _RELEASED = _Released()
 class _Frame:
     """A frame waiting for the trajectories through it to end."""
 
-    __slots__ = ("tag", "boxes", "tracks", "r", "length", "indicator", "positive",
-                 "fraction", "unresolved")
+    __slots__ = (
+        "tag",
+        "boxes",
+        "tracks",
+        "r",
+        "length",
+        "indicator",
+        "positive",
+        "fraction",
+        "unresolved",
+    )
 
     def __init__(self, tag, boxes, tracks):
         m = len(boxes)
@@ -145,7 +180,11 @@ class _Frame:
     def results(self):
         keep = self.positive
         det = np.column_stack(
-            [self.boxes[keep], self.tracks[keep].astype(np.float64), self.fraction[keep]]
+            [
+                self.boxes[keep],
+                self.tracks[keep].astype(np.float64),
+                self.fraction[keep],
+            ]
         )
         return dict(
             motion_r=self.r,
@@ -174,7 +213,8 @@ class _PCCState:
     final when every trajectory through it is decided.
     """
 
-    def __init__(self, min_r, min_length, vote):
+    def __init__(self, min_r, min_length, vote, criterion="pearson"):
+        self.measure = pearson_r if criterion == "pearson" else straightness
         self.min_r = float(min_r)
         self.min_length = int(min_length)
         self.vote = float(vote)
@@ -185,7 +225,7 @@ class _PCCState:
 
     def _decide(self, traj):
         n = len(traj.xs)
-        r = pearson_r(traj.xs, traj.ys) if n > 1 else 0.0
+        r = self.measure(traj.xs, traj.ys) if n > 1 else 0.0
         motion_ok = n >= self.min_length and abs(r) >= self.min_r
         indicator = [a and motion_ok for a in traj.app]
         fraction = sum(indicator) / n
@@ -229,7 +269,9 @@ class _PCCState:
         if len(boxes):
             cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
             cy = (boxes[:, 1] + boxes[:, 3] / 2).tolist()
-            for j, (tid, a) in enumerate(zip(tracks.tolist(), appearance.tolist(), strict=True)):
+            for j, (tid, a) in enumerate(
+                zip(tracks.tolist(), appearance.tolist(), strict=True)
+            ):
                 traj = self.open.get(tid)
                 if traj is None:
                     traj = self.open[tid] = _Trajectory()
@@ -256,7 +298,9 @@ class _PCCStream:
     """Stream state of :class:`PCCVerifier` (see :meth:`PCCVerifier.start_stream`)."""
 
     def __init__(self, verifier):
-        self._state = _PCCState(verifier.min_r, verifier.min_length, verifier.vote)
+        self._state = _PCCState(
+            verifier.min_r, verifier.min_length, verifier.vote, verifier.criterion
+        )
         self._count = 0
 
     @property
@@ -340,6 +384,14 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
     vote : float, default=0.8
         A trajectory is positive when more than this fraction of its clusters are
         indicators (the paper's 80 %).
+    criterion : {"pearson", "principal"}, default="pearson"
+        The straightness measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
+        eq. 5 (the paper); ``"principal"`` is :func:`straightness`, which does not
+        depend on the line's direction. Pearson's r is 0 for a perfectly horizontal
+        or vertical line and low for a nearly horizontal one, so a camera mounted
+        near the indicators' height (on a truck or bus), which sees them move almost
+        horizontally, needs ``"principal"``. ``payload["motion_r"]`` holds the
+        chosen measure (signed r for ``"pearson"``).
 
     Attributes
     ----------
@@ -363,12 +415,14 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         "min_r": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_length": [Interval(numbers.Integral, 1, None, closed="left")],
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
+        "criterion": [StrOptions({"pearson", "principal"})],
     }
 
-    def __init__(self, *, min_r=0.95, min_length=10, vote=0.8):
+    def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson"):
         self.min_r = min_r
         self.min_length = min_length
         self.vote = vote
+        self.criterion = criterion
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -415,14 +469,16 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         payloads = self._gather(records)
         results = [None] * len(records)
         for group in tour_order(records):
-            state = _PCCState(self.min_r, self.min_length, self.vote)
+            state = _PCCState(self.min_r, self.min_length, self.vote, self.criterion)
             done = []
             for i in group.tolist():
                 done += state.step(i, records[i], *payloads[i])
             done += state.finish()
             for i, res in done:
                 results[i] = res
-        return FrameSequence(r.evolve(**res) for r, res in zip(records, results, strict=True))
+        return FrameSequence(
+            r.evolve(**res) for r, res in zip(records, results, strict=True)
+        )
 
     def start_stream(self):
         """Verify frames online, one at a time (the streaming protocol).
