@@ -34,8 +34,6 @@ follows the longest object in view (plus a few metres), not the run's length.
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from tunnelsense._records import RUN_LABELS
 from tunnelsense.street._clustering import _ranges_expand, _single_linkage_groups
@@ -60,6 +58,11 @@ DEFAULT_SPEED = 40 / 3.6
 DEFAULT_SCAN_PERIOD = 1 / 75
 #: Scans over which the scan period, the ego speed and the fallback tilt are medians.
 _HISTORY = 151
+
+
+def _cat(*parts):
+    """``np.r_`` of 1-d arrays and scalars, without its per-call indexing overhead."""
+    return np.concatenate([np.atleast_1d(p) for p in parts])
 
 
 def _running_median(history, values, window=_HISTORY):
@@ -113,7 +116,7 @@ class _Profiles:
         order = np.lexsort((cpos, cobj))
         so, sp = cobj[order], cpos[order]
         # one row per (object, scan)
-        key_new = np.r_[True, (so[1:] != so[:-1]) | (sp[1:] != sp[:-1])]
+        key_new = _cat(True, (so[1:] != so[:-1]) | (sp[1:] != sp[:-1]))
         starts = np.flatnonzero(key_new)
         sw = w[order]
         pw = np.add.reduceat(sw, starts)
@@ -123,10 +126,10 @@ class _Profiles:
         if cflag is not None:
             self.p_flag = np.bitwise_or.reduceat(cflag[order], starts)
         self.p_obj, self.p_pos, self.p_top = pobj, ppos, ptop
-        obj_new = np.r_[True, pobj[1:] != pobj[:-1]]
+        obj_new = _cat(True, pobj[1:] != pobj[:-1])
         ofirst_row = np.flatnonzero(obj_new)
-        olast_row = np.r_[ofirst_row[1:], len(pobj)] - 1
-        self.rows = np.r_[ofirst_row, len(pobj)]
+        olast_row = _cat(ofirst_row[1:], len(pobj)) - 1
+        self.rows = _cat(ofirst_row, len(pobj))
         self.first = ppos[ofirst_row]
         self.last = ppos[olast_row]
         self.start_depth = pdepth[ofirst_row]
@@ -146,10 +149,30 @@ class _Profiles:
 
 
 def _components(n, a, b):
+    """Connected components of the graph of ``n`` nodes and edges ``a - b``: a label
+    per node (the smallest node of its component).
+
+    Hooking and pointer jumping in NumPy: a few passes even for long chains (the
+    links of a fragment join consecutive scans), without SciPy's sparse-matrix set-up
+    cost, which dominates on the small graphs of a single scan's decision.
+    """
+    lab = np.arange(n)
     if len(a) == 0:
-        return np.arange(n)
-    g = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(n, n))
-    return connected_components(g, directed=False)[1]
+        return lab
+    while True:
+        la, lb = lab[a], lab[b]
+        diff = la != lb
+        if not diff.any():
+            return lab
+        la, lb = la[diff], lb[diff]
+        lo = np.minimum(la, lb)
+        np.minimum.at(lab, la, lo)  # hook the larger root under the smaller label
+        np.minimum.at(lab, lb, lo)
+        while True:  # pointer jumping: every node to its root
+            nxt = lab[lab]
+            if np.array_equal(nxt, lab):
+                break
+            lab = nxt
 
 
 class ScanStream:
@@ -290,15 +313,15 @@ class _RunState:
                 )
         scans = np.array([r.scan for r in block], dtype=np.int64)
         stamps = np.array([r.stamp for r in block], dtype=np.float64)
-        prev_s = np.r_[scans[0] - 1 if first_scan is None else first_scan, scans[:-1]]
+        prev_s = _cat(scans[0] - 1 if first_scan is None else first_scan, scans[:-1])
         if np.any(scans <= prev_s):
             i = int(np.flatnonzero(scans <= prev_s)[0])
             raise ValueError(
                 f"scan {scans[i]} of run {self.name!r} comes after scan {prev_s[i]}: "
                 "expected each (run, scan) once, in increasing scan order"
             )
-        prev_t = np.r_[np.nan if self.last_stamp is None else self.last_stamp,
-                       stamps[:-1]]
+        prev_t = _cat(np.nan if self.last_stamp is None else self.last_stamp,
+                       stamps[:-1])
         dt = stamps - prev_t
         if np.any(dt < 0):
             i = int(np.flatnonzero(dt < 0)[0])
@@ -314,14 +337,14 @@ class _RunState:
         # metres travelled per scan: recent median ego speed x recent median period
         dt = np.where(np.isfinite(dt) & (dt > 0), dt, np.nan)
         period = _running_median(self.h_dt, dt)
-        self.h_dt = np.r_[self.h_dt, dt][-_HISTORY:]
+        self.h_dt = _cat(self.h_dt, dt)[-_HISTORY:]
         if est.speed is not None:
             speed = np.full(len(block), float(est.speed))
         else:
             v = np.array([float(r.payload.get("speed", np.nan)) for r in block])
             v = np.where(np.isfinite(v) & (v > 0), v, np.nan)
             speed = _running_median(self.h_speed, v)
-            self.h_speed = np.r_[self.h_speed, v][-_HISTORY:]
+            self.h_speed = _cat(self.h_speed, v)[-_HISTORY:]
         step = (np.where(np.isfinite(speed), speed, DEFAULT_SPEED)
                 * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
         # restoration and tilt compensation
@@ -334,7 +357,7 @@ class _RunState:
             t = np.asarray(t, dtype=np.float64)
             for i in range(len(t)):  # unknown: median of the recent known tilts
                 if np.isfinite(t[i]):
-                    self.h_tilt = np.r_[self.h_tilt[-(_HISTORY - 1):], t[i]]
+                    self.h_tilt = _cat(self.h_tilt[-(_HISTORY - 1):], t[i])
                 else:
                     t[i] = float(np.median(self.h_tilt)) if len(self.h_tilt) else 0.0
             depth, height, t = compensate_tilt(r, angles, geom.mount_height, t, off)
@@ -373,12 +396,12 @@ class _RunState:
             np.minimum.at(near, cpos, cdepth)
         # inter-scan links: every cluster against the previous scan's clusters
         c_abs0 = self.cbase + len(self.c_pos)
-        prev_n = np.r_[self.n_cl[-1] if len(self.n_cl) else 0, n_cl[:-1]]
-        prev_start = np.r_[self.cl_start[-1] if len(self.cl_start) else 0,
-                           c_abs0 + cl0[:-1]]
+        prev_n = _cat(self.n_cl[-1] if len(self.n_cl) else 0, n_cl[:-1])
+        prev_start = _cat(self.cl_start[-1] if len(self.cl_start) else 0,
+                           c_abs0 + cl0[:-1])
         cnt = np.where(follows, prev_n, 0)[cpos]
         pb, owner = _ranges_expand(prev_start[cpos], cnt)
-        all_depth = np.r_[self.c_depth, cdepth]
+        all_depth = _cat(self.c_depth, cdepth)
         ea = pb
         eb = c_abs0 + owner
         good = np.abs(all_depth[ea - self.cbase] - all_depth[eb - self.cbase]) < (
@@ -390,21 +413,21 @@ class _RunState:
             a, b = bounds[i], bounds[i + 1]
             self.payload.append((pts[a:b], cols[a:b], local[a:b]))
         self.recs.extend(block)
-        self.scans = np.r_[self.scans, scans]
-        self.follows = np.r_[self.follows, follows]
-        self.near = np.r_[self.near, near]
-        self.cum = np.r_[self.cum, np.cumsum(np.r_[self.cum[-1], step])[1:]]
-        self.tilt = np.r_[self.tilt, t]
-        self.n_cl = np.r_[self.n_cl, n_cl]
-        self.cl_start = np.r_[self.cl_start, c_abs0 + cl0]
-        self.c_pos = np.r_[self.c_pos, self.n_seen + cpos]
+        self.scans = _cat(self.scans, scans)
+        self.follows = _cat(self.follows, follows)
+        self.near = _cat(self.near, near)
+        self.cum = _cat(self.cum, np.cumsum(_cat(self.cum[-1], step))[1:])
+        self.tilt = _cat(self.tilt, t)
+        self.n_cl = _cat(self.n_cl, n_cl)
+        self.cl_start = _cat(self.cl_start, c_abs0 + cl0)
+        self.c_pos = _cat(self.c_pos, self.n_seen + cpos)
         self.c_depth = all_depth
-        self.c_top = np.r_[self.c_top, ctop]
-        self.c_w = np.r_[self.c_w, npts.astype(np.float64)]
-        self.c_flag = np.r_[self.c_flag, cflag]
-        self.c_oid = np.r_[self.c_oid, np.zeros(k, np.int64)]
-        self.e_a = np.r_[self.e_a, ea[good]]
-        self.e_b = np.r_[self.e_b, eb[good]]
+        self.c_top = _cat(self.c_top, ctop)
+        self.c_w = _cat(self.c_w, npts.astype(np.float64))
+        self.c_flag = _cat(self.c_flag, cflag)
+        self.c_oid = _cat(self.c_oid, np.zeros(k, np.int64))
+        self.e_a = _cat(self.e_a, ea[good])
+        self.e_b = _cat(self.e_b, eb[good])
         self.n_seen += n
 
     # ------------------------------------------------------------- decisions
@@ -483,7 +506,7 @@ class _RunState:
         comp_last = np.full(prof.n, -1, dtype=np.int64)
         np.maximum.at(comp_last, parent, last)
         cl = comp_last[parent]
-        brk = np.r_[~follows[1:], False]  # scan p is the last of its stretch
+        brk = _cat(~follows[1:], False)  # scan p is the last of its stretch
         stretch_end = np.flatnonzero(brk)
         ends_known = np.zeros(prof.n, dtype=bool)
         if len(stretch_end):
@@ -525,7 +548,7 @@ class _RunState:
                 seen = hidden[pos[0]:pos[-1] + 1].copy()
                 seen[pos - pos[0]] = True
                 brk = np.flatnonzero(~seen)
-                edges = np.r_[-1, brk, len(seen)] + pos[0]
+                edges = _cat(-1, brk, len(seen)) + pos[0]
                 run_len = cum[edges[1:]] - cum[edges[:-1] + 1]
                 seen_len = (cum[pos + 1] - cum[pos]).sum()
                 if cut_short:
