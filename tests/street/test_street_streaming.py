@@ -11,6 +11,7 @@ from _street_scenes import make_run, sedan
 from tunnelsense import ScanSequence
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.datasets import STREET_SCENARIOS, make_street_scans
+from tunnelsense.metrics import street_scores
 from tunnelsense.street import OBJECT_COLUMNS, ScanClusterer, make_parking_pipeline
 
 
@@ -163,3 +164,77 @@ def test_skops_trusts_the_fitted_detector(tmp_path):
     assert est.get_params() == pipe.named_steps["cluster"].get_params()
     assert np.array_equal(est.region_edges_, [4.0, 6.6])
     assert est.labels_ == ("passing", "parked", "roadside")
+
+
+def _street_with_wall(n_scans):
+    """A hedge 7 m away along the whole run (region III), sedans parked in region II
+    and a vehicle in the next lane (region I) now and then, hiding both."""
+    speed, rate = 11.0, 75.0
+    length = n_scans / rate * speed
+    wall = dict(s0=0.0, s1=length + 1.0, depth=7.0, top=1.2)
+    cars = [dict(s0=s, s1=s + 4.4, depth=5.0, top=lambda u: sedan(u))
+            for s in np.arange(3.0, length - 6.0, 9.0)]
+    vans = [dict(s0=s, s1=s + 6.0, depth=2.5, width=1.8, top=2.6)
+            for s in np.arange(20.0, length - 8.0, 57.0)]
+    boxes = [wall, *cars, *vans]
+    labels = [None, *(["parked"] * len(cars)), *(["passing"] * len(vans))]
+    return make_run(boxes, labels, n_scans=n_scans, n_beams=121)
+
+
+def test_roadside_wall_memory_bounded():
+    """A wall along the whole run no longer holds the stream: the window is about
+    equal for 2,000 and 8,000 scans (max_pending_length); streaming equals batch."""
+    short, long_ = _street_with_wall(2000), _street_with_wall(8000)
+    est = ScanClusterer().fit(short.scans)
+    held = []
+    for run in (short, long_):
+        table = est.detect(run.scans, all_objects=True)
+        state = est.start_stream()
+        n_out = 0
+        for i in range(0, len(run.scans), 32):
+            n_out += len(state.push_many(run.scans[i:i + 32]))
+        n_out += len(state.close())
+        assert n_out == len(run.scans)
+        assert state.pop_objects() == _rows(table)
+        held.append(state.max_window)
+        # the wall comes out in pieces of about max_pending_length, never a vehicle
+        wall = table[table["mean_depth"] > 6.6]
+        assert len(wall) >= 3
+        assert wall["label"].isin(["other", "roadside"]).all()
+        assert wall["length"].max() <= est.max_pending_length + 64 * 11 / 75 + 1
+        scores = street_scores(run.gt, table[table["label"].isin(["parked", "passing"])])
+        assert scores["parked"]["recall"] >= 0.85  # cars wholly behind a van are lost
+        assert scores["parked"]["precision"] >= 0.95
+        assert scores["passing"]["recall"] == 1.0
+    # 80 m at 11 m/s and 75 scans/s is 545 scans; a check every 64 scans; history
+    assert abs(held[1] - held[0]) <= 64
+    assert held[1] < 800
+    # without the limit the wall holds everything after its start
+    state = ScanClusterer(max_pending_length=None).fit(short.scans).start_stream()
+    for i in range(0, len(short.scans), 32):
+        state.push_many(short.scans[i:i + 32])
+    state.close()
+    assert state.max_window > 1500
+
+
+@pytest.mark.parametrize("scenario", ["dense", "crowded"])
+def test_pending_limit_any_chunking(scenario, global_random_seed):
+    """Object-clusters closed by max_pending_length (here short, so that many are,
+    in every region) are the same for any chunking and in batch."""
+    run = make_street_scans(900, scenario=scenario, random_state=global_random_seed)
+    X = list(run.scans)
+    est = ScanClusterer(max_pending_length=12.0).fit(X)
+    table = est.detect(X, all_objects=True)
+    whole = ScanClusterer(max_pending_length=None).fit(X).detect(X, all_objects=True)
+    assert _rows(table) != _rows(whole)  # the limit closed some object-clusters
+    batch = est.transform(X)
+    for chunk in (1, 5, 64, 100):
+        state = est.start_stream()
+        out = []
+        for i in range(0, len(X), chunk):
+            out.extend(state.push_many(X[i:i + chunk]))
+        out.extend(state.close())
+        assert state.pop_objects() == _rows(table)
+        assert all(np.array_equal(a.payload["objects"], b.payload["objects"])
+                   and np.array_equal(a.payload["in_view"], b.payload["in_view"])
+                   for a, b in zip(out, batch, strict=True))

@@ -183,6 +183,18 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
     occluded_length : float or None, default=4.0
         Length (m) to which a vehicle cut short by an occluder is extended into the
         hidden scans; None: no extension.
+    max_pending_length : float or None, default=80.0
+        Longest object-cluster (m along the track, from its first scan) the detector
+        waits for.  One not yet final that reaches beyond it at a check (every 64th
+        scan of a run) - a kerb, hedge or facade the three-region merge keeps
+        joining - is closed up to that scan, split and labelled as usual, and its
+        continuation starts a new object-cluster.  In a region labelled as vehicles
+        the limit is at least ``max_length`` (it cannot be one vehicle).  This bounds
+        the memory of the online detector; batch runs the same checks, so both agree.
+        The default is about 3 times the longest object-cluster of parked or passing
+        vehicles in the simulated streets (27 m: cars nose to tail, bridged behind
+        passing vehicles), which the merge split must see whole.  None: wait for
+        every object-cluster to end (memory then follows the longest one).
 
     Attributes
     ----------
@@ -229,6 +241,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         "occlusion_margin": [Interval(numbers.Real, 0, None, closed="left")],
         "bridge_occluded": ["boolean"],
         "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "max_pending_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
     }
 
     def __init__(
@@ -253,6 +266,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         occlusion_margin=1.0,
         bridge_occluded=True,
         occluded_length=4.0,
+        max_pending_length=80.0,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -274,6 +288,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         self.occlusion_margin = occlusion_margin
         self.bridge_occluded = bridge_occluded
         self.occluded_length = occluded_length
+        self.max_pending_length = max_pending_length
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -402,7 +417,6 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
 
     def _region(self, depth):
         return np.searchsorted(self.region_edges_, depth, side="right")
-
     def _merge(self, prof, near, cum, follows):
         """Three-region merging: union-find parent of every object-cluster.
 
@@ -460,8 +474,11 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
     def _split(self, prof, cobj, near, cum):
         """Split objects with a two-hump height profile; returns new object ids.
 
-        Scans of the object's span where it has no cluster count as height 0 (a gap
-        between two vehicles), unless something nearer hid it (then unknown).
+        Every region's object-clusters are split (a car parked near the region
+        II | III boundary can be merged with roadside fragments and come out of the
+        split as a parked car).  Scans of the object's span where it has no cluster
+        count as height 0 (a gap between two vehicles), unless something nearer hid
+        it (then unknown).
         """
         new = cobj.copy()
         next_id = prof.n

@@ -29,6 +29,16 @@ object that is not yet final can start before it; a scan's record is released on
 every object in it has its id and no later object can be extended over it (the
 occlusion extension reaches at most ``occluded_length`` back).  Memory therefore
 follows the longest object in view (plus a few metres), not the run's length.
+
+An object-cluster the merge keeps joining (a kerb, hedge or facade bridged behind
+passing vehicles) would never become final; so at every ``_CHECK_EVERY``-th scan of a
+run (absolute positions, the same in batch, where the scans are ingested up to each
+check), an object-cluster that is not final and reaches back more than
+``max_pending_length`` metres (at least ``max_length`` in a region labelled as
+vehicles) is closed up to that scan as if it ended there; what links to it later
+starts a new object-cluster.  The check sees exactly the scans up to it whatever the
+chunking, so the memory is bounded by about ``max_pending_length`` plus a check
+interval, and streaming still equals batch.
 """
 
 from __future__ import annotations
@@ -58,6 +68,9 @@ DEFAULT_SPEED = 40 / 3.6
 DEFAULT_SCAN_PERIOD = 1 / 75
 #: Scans over which the scan period, the ego speed and the fallback tilt are medians.
 _HISTORY = 151
+#: Every this many scans of a run (absolute positions), object-clusters pending for
+#: longer than ``max_pending_length`` are closed (the same scans in batch and online).
+_CHECK_EVERY = 64
 
 
 def _cat(*parts):
@@ -215,9 +228,18 @@ class ScanStream:
                 if self._run is not None:
                     out.extend(self._run.decide(ended=True))
                 self._run = _RunState(self, name)
-            self._run.ingest(records[i:j])
-            out.extend(self._run.decide(ended=False))
-            self.max_window = max(self.max_window, self._run.n_held)
+            run = self._run
+            k = i
+            while k < j:  # ingest up to each check (every _CHECK_EVERY scans)
+                stop = min(j, k + _CHECK_EVERY - run.n_seen % _CHECK_EVERY)
+                run.ingest(records[k:stop])
+                k = stop
+                if run.n_seen % _CHECK_EVERY == 0 and run.overdue_possible():
+                    out.extend(run.decide(ended=False, check=True))
+                    self.max_window = max(self.max_window, run.n_held)
+            if run.decided_at != run.n_seen:
+                out.extend(run.decide(ended=False))
+            self.max_window = max(self.max_window, run.n_held)
             i = j
         return out
 
@@ -250,6 +272,7 @@ class _RunState:
         self.last_scan = None
         self.last_stamp = None
         self.n_seen = 0  # scans seen in this run (absolute position of the next)
+        self.decided_at = -1  # n_seen at the last decision
         # histories for the causal medians
         self.h_dt = np.empty(0)
         self.h_speed = np.empty(0)
@@ -431,9 +454,27 @@ class _RunState:
         self.n_seen += n
 
     # ------------------------------------------------------------- decisions
-    def decide(self, *, ended):
-        """Finalize, number and release what the scans seen so far allow."""
+    def overdue_possible(self):
+        """Whether an object-cluster may be pending for longer than
+        ``max_pending_length`` (its oldest cluster that is not final is that old)."""
+        limit = self.est.max_pending_length
+        if limit is None:
+            return False
+        act = np.flatnonzero(self.c_oid == 0)
+        if not len(act):
+            return False
+        p0 = int(self.c_pos[act[0]]) - self.base
+        return bool(self.cum[len(self.recs)] - self.cum[p0] > limit)
+
+    def decide(self, *, ended, check=False):
+        """Finalize, number and release what the scans seen so far allow.
+
+        With ``check`` (at every ``_CHECK_EVERY``-th scan), object-clusters pending for
+        longer than ``max_pending_length`` are closed as one object up to the newest
+        scan; a continuation starts a new object-cluster.
+        """
         est = self.est
+        self.decided_at = self.n_seen
         n = len(self.recs)
         if n == 0:
             return []
@@ -457,6 +498,17 @@ class _RunState:
             final = self._final_fragments(prof, parent, ended)
             comp_final = np.ones(prof.n, dtype=bool)
             np.logical_and.at(comp_final, parent, final)
+            if check and est.max_pending_length is not None:
+                comp_first = np.full(prof.n, n, dtype=np.int64)
+                np.minimum.at(comp_first, parent, prof.first)
+                roots = np.flatnonzero(~comp_final & (comp_first < n))
+                span = cum[n] - cum[comp_first[roots]]
+                # a vehicle region's object-cluster also when it cannot be one vehicle
+                vehicle = np.isin(np.asarray(est.labels_)[est._region(prof.depth[roots])],
+                                  list(RUN_LABELS))
+                limit = np.where(vehicle, max(est.max_pending_length, est.max_length),
+                                 est.max_pending_length)
+                comp_final[roots[span > limit]] = True
             fin_frag = comp_final[parent]
             if not fin_frag.all():
                 frontier = base + int(prof.first[~fin_frag].min())
