@@ -167,3 +167,25 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     assert "is a pickle, which runs code" in capsys.readouterr().err
     with pytest.raises(FileNotFoundError, match="model file not found"):
         load_cli_model(tmp_path / "none.skops", last_step="cluster", command="x")
+
+
+def test_unexpected_errors_are_one_line(monkeypatch, capsys):
+    import tunnelsense._cli as cli
+
+    def broken(args):
+        raise KeyError("oops")
+
+    monkeypatch.setattr(cli, "_cmd_info", broken)
+    monkeypatch.delenv("TUNNELSENSE_DEBUG", raising=False)
+    assert main(["info", "x"]) == 3
+    err = capsys.readouterr().err
+    assert err.startswith("tunnelsense: internal error: KeyError: 'oops'")
+    assert "Traceback" not in err
+    monkeypatch.setenv("TUNNELSENSE_DEBUG", "1")
+    with pytest.raises(KeyError):
+        main(["info", "x"])
+
+
+def test_demo_with_too_few_frames_says_so(capsys):
+    assert main(["demo", "--frames", "5"]) == 1
+    assert "--frames 5 is too short" in capsys.readouterr().err

@@ -194,6 +194,15 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("tunnelsense: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a defect, not bad input: one line, traceback on request
+        if os.environ.get("TUNNELSENSE_DEBUG"):
+            raise
+        print(
+            f"tunnelsense: internal error: {type(exc).__name__}: {exc} "
+            "(set TUNNELSENSE_DEBUG=1 to see the traceback, and please report it)",
+            file=sys.stderr,
+        )
+        return 3
 
 
 if __name__ == "__main__":  # pragma: no cover

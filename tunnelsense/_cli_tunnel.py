@@ -98,8 +98,16 @@ def read_hypotheses(results, tour_name) -> tuple[pd.DataFrame, bool]:
     companion = _clusters_path(results)
     if companion.is_file():
         h = pd.read_csv(companion)
-        missing = {"frame", "track_id", "bb_left", "bb_top", "bb_width", "bb_height",
-                   "indicator", "trajectory_positive"} - set(h.columns)
+        missing = {
+            "frame",
+            "track_id",
+            "bb_left",
+            "bb_top",
+            "bb_width",
+            "bb_height",
+            "indicator",
+            "trajectory_positive",
+        } - set(h.columns)
         if missing:
             raise ValueError(f"{companion}: missing columns {sorted(missing)}")
         h.insert(0, "tour", tour_name)
@@ -134,7 +142,11 @@ def score_results(tour, results, *, min_height=14.0) -> dict:
 
 def _format_report(scores, title=None) -> str:
     c, t = scores["cluster"], scores["trajectory"]
-    far = "n/a" if c["false_alarm_rate"] is None else f"{100 * c['false_alarm_rate']:.1f} %"
+    far = (
+        "n/a"
+        if c["false_alarm_rate"] is None
+        else f"{100 * c['false_alarm_rate']:.1f} %"
+    )
     lines = [] if title is None else [title]
     lines += [
         "keypoint clusters (Table 1)",
@@ -223,7 +235,9 @@ def _cmd_train(args) -> int:
         )
         search.fit(X, y, groups=groups)
         model = search.best_estimator_
-        print(f"best parameters: {search.best_params_} (score {search.best_score_:.4f})")
+        print(
+            f"best parameters: {search.best_params_} (score {search.best_score_:.4f})"
+        )
     else:
         model.fit(X, y)
     summary = _training_summary(tours, model, X, y, search)
@@ -249,7 +263,9 @@ def _result_lines(record):
     f = record.frame
     return [
         f"{f},{int(d[4])},{d[0]!r},{d[1]!r},{d[2]!r},{d[3]!r},{d[5]!r},-1,-1,-1"
-        for d in np.asarray(record.payload["detections"], np.float64).reshape(-1, 6).tolist()
+        for d in np.asarray(record.payload["detections"], np.float64)
+        .reshape(-1, 6)
+        .tolist()
     ]
 
 
@@ -373,7 +389,11 @@ def _cmd_detect(args) -> int:
         def with_images(records):
             for r in records:
                 image = images.pop(r.frame, None)
-                yield r if image is None else FrameRecord(r.tour, r.frame, image, r.payload)
+                yield (
+                    r
+                    if image is None
+                    else FrameRecord(r.tour, r.frame, image, r.payload)
+                )
 
         pictures = draw_detections(with_images(released))
     else:
@@ -431,13 +451,21 @@ def _cmd_demo(args) -> int:
     for k, scenario in enumerate(("light", "heavy", "curved"), 1):
         print(f"simulating a test tour ({scenario}, {n} frames, seed {args.seed + k})")
         tests.append(make_tunnel_tour(n, scenario=scenario, random_state=args.seed + k))
-    print("training the indicator detector")
     X, y, _ = to_xy([train])
+    if not any(len(b) for b in train.boxes(min_height=args.min_height)):
+        raise ValueError(
+            f"--frames {n} is too short: the simulated training tour holds no indicator "
+            f"at least {args.min_height:g} px tall to learn from (use --frames 300 or "
+            "more)"
+        )
+    print("training the indicator detector")
     model = make_indicator_pipeline(random_state=args.seed).fit(X, y)
     all_scores = []
     for tour in tests:
         X, y, _ = to_xy([tour])
-        records = detect_tour(model, X, progress=_progress(len(X), f"detecting {tour.name}"))
+        records = detect_tour(
+            model, X, progress=_progress(len(X), f"detecting {tour.name}")
+        )
         scores = indicator_scores(records, y, min_height=args.min_height)
         all_scores.append(scores)
         print()
@@ -478,7 +506,9 @@ def register(verbs) -> None:
 
     p = verbs["detect"].add_parser("tunnel", help="find indicators in a tour or video")
     p.add_argument(
-        "--model", required=True, help="model written by 'train tunnel' (.skops or .joblib)"
+        "--model",
+        required=True,
+        help="model written by 'train tunnel' (.skops or .joblib)",
     )
     p.add_argument("source", help="MOTChallenge folder, image folder or video file")
     p.add_argument("--out", required=True, help="MOTChallenge results file to write")
@@ -498,7 +528,9 @@ def register(verbs) -> None:
     p.add_argument("results", help="results file written by 'detect tunnel'")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument(
-        "--min-height", type=float, default=14.0,
+        "--min-height",
+        type=float,
+        default=14.0,
         help="indicator boxes at least this tall (px) count (default 14)",
     )
     p.set_defaults(func=_cmd_evaluate)
@@ -511,9 +543,11 @@ def register_top(sub) -> None:
         help="simulate tunnel tours, train the indicator detector, detect and report",
     )
     p.add_argument(
-        "--frames", type=int, default=900, help="frames per simulated tour (default 900)"
+        "--frames",
+        type=int,
+        default=900,
+        help="frames per simulated tour (default 900)",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--min-height", type=float, default=14.0, help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_demo)
-

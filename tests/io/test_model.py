@@ -162,3 +162,16 @@ def test_pickles_need_consent_and_load_in_a_fresh_process(model, tmp_path):
 def test_unknown_extension(model, tmp_path):
     with pytest.raises(ValueError, match=r"unknown model format '.bin'"):
         save_model(model[0], tmp_path / "m.bin")
+
+
+def test_model_from_an_older_version_is_refused_clearly(model, tmp_path):
+    """A parameter added since the model was saved: say so at load time."""
+    pipe, _ = model
+    del pipe.named_steps["tree"].__dict__["max_depth"]  # as if saved before it existed
+    for name in ("m.skops", "m.joblib"):
+        path = save_model(pipe, tmp_path / name)
+        with pytest.raises(
+            ValueError,
+            match=r"DecisionTreeClassifier lacks parameter\(s\) max_depth: the model was saved by another version",
+        ):
+            load_model(path, allow_pickle=True)

@@ -224,7 +224,9 @@ def load_model(path, *, allow_pickle=False):
             )
         import joblib
 
-        return joblib.load(path)
+        model = joblib.load(path)
+        _check_parameters(model, path)
+        return model
     import skops.io
 
     data = _verified_bytes(path)
@@ -253,7 +255,38 @@ def load_model(path, *, allow_pickle=False):
             ModelVersionWarning,
             stacklevel=2,
         )
-    return skops.io.loads(data, trusted=untrusted)
+    model = skops.io.loads(data, trusted=untrusted)
+    _check_parameters(model, path)
+    return model
+
+
+def _check_parameters(model, path: Path) -> None:
+    """Refuse a model whose estimators lack parameters the installed code expects.
+
+    A model saved by an older tunnelsense has no attribute for a parameter added
+    since; it would fail deep inside ``predict``.  Say so when it is loaded instead.
+    """
+    from sklearn.base import BaseEstimator
+
+    stack = [model]
+    while stack:
+        est = stack.pop()
+        if not isinstance(est, BaseEstimator):
+            continue
+        names = est._get_param_names()
+        missing = [n for n in names if not hasattr(est, n)]
+        if missing:
+            raise ValueError(
+                f"{path}: its {type(est).__name__} lacks parameter(s) "
+                f"{', '.join(missing)}: the model was saved by another version of "
+                "tunnelsense; train it again"
+            )
+        for name in names:
+            value = getattr(est, name)
+            if isinstance(value, BaseEstimator):
+                stack.append(value)
+            elif name == "steps" and isinstance(value, list):
+                stack.extend(step for _, step in value)
 
 
 def describe_model(path) -> dict:
