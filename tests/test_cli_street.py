@@ -1,25 +1,18 @@
-"""``train|detect|evaluate street`` through the street module's own sub-parsers."""
+"""``tunnelsense train|detect|evaluate street`` end to end."""
 
-import argparse
 import json
 
 import pandas as pd
 import pytest
 
-from tunnelsense import _cli_street
+from tunnelsense import io
+from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans
-
-io = pytest.importorskip("tunnelsense.io")
 
 
 def run_cli(argv):
-    p = argparse.ArgumentParser(prog="tunnelsense")
-    sub = p.add_subparsers(dest="command")
-    verbs = {v: sub.add_parser(v).add_subparsers(dest="kind", required=True)
-             for v in ("train", "detect", "evaluate")}
-    _cli_street.register(verbs)
-    args = p.parse_args(argv)
-    return args.func(args)
+    """The real command line: errors go through its one handler."""
+    return main(argv)
 
 
 @pytest.fixture(scope="module")
@@ -57,14 +50,14 @@ def test_train_detect_evaluate(rundirs, tmp_path, capsys):
 
 def test_errors_are_reported_not_raised(rundirs, tmp_path, capsys):
     assert run_cli(["detect", "street", "--model", str(tmp_path / "none.joblib"),
-                    rundirs[0], "--out", str(tmp_path / "o.csv")]) == 2
+                    rundirs[0], "--out", str(tmp_path / "o.csv")]) == 1
     assert "model file not found" in capsys.readouterr().err
     bad = tmp_path / "bad.csv"
     bad.write_text("a,b\n1,2\n")
-    assert run_cli(["evaluate", "street", rundirs[0], str(bad)]) == 2
+    assert run_cli(["evaluate", "street", rundirs[0], str(bad)]) == 1
     assert "lacks column" in capsys.readouterr().err
     assert run_cli(["train", "street", rundirs[0], "--model", str(tmp_path / "m"),
-                    "--search"]) == 2
+                    "--search"]) == 1
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +112,7 @@ def test_resume_after_truncation_equals_uninterrupted(long_run, tmp_path):
     # resuming another run's file is refused, not mixed
     out.write_bytes(data.replace(b",parked,", b",passing,", 1)[: len(data) // 2])
     assert run_cli(["detect", "street", "--model", str(model), str(path), "--out",
-                    str(out), "--resume", "--quiet"]) == 2
+                    str(out), "--resume", "--quiet"]) == 1
 
 
 def test_killed_detect_leaves_valid_rows_and_resumes(long_run, tmp_path):

@@ -17,7 +17,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 from tunnelsense._cli_common import load_cli_model
@@ -78,9 +77,7 @@ def _cmd_train(args) -> int:
     if args.search:
         n_groups = len(set(groups))
         if n_groups < 2:
-            print("error: --search needs at least two runs (folds are runs)",
-                  file=sys.stderr)
-            return 2
+            raise ValueError("--search needs at least two runs (folds are runs)")
         search = GridSearchCV(pipe, _SEARCH_GRID, cv=GroupKFold(min(n_groups, 5)),
                               scoring=make_street_scorer("parked", "f1"),
                               error_score="raise")
@@ -214,17 +211,6 @@ def _cmd_evaluate(args) -> int:
     return 0
 
 
-def _guard(func):
-    def run(args):
-        try:
-            return func(args)
-        except (FileNotFoundError, ValueError, TypeError) as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
-
-    return run
-
-
 def register(verbs) -> None:
     """Add the ``street`` commands to the ``train``, ``detect`` and ``evaluate`` verbs.
 
@@ -241,7 +227,7 @@ def register(verbs) -> None:
                    help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
-    p.set_defaults(func=_guard(_cmd_train))
+    p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
     p.add_argument("rundir", metavar="RUNDIR", help="a laser run folder")
@@ -257,7 +243,7 @@ def register(verbs) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")
-    p.set_defaults(func=_guard(_cmd_detect))
+    p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser("street", help="score an object table")
     p.add_argument("rundir", metavar="RUNDIR", help="the run folder (its gt.csv)")
@@ -265,4 +251,4 @@ def register(verbs) -> None:
     p.add_argument("--json", action="store_true", help="print JSON")
     p.add_argument("--min-iou", type=float, default=0.5,
                    help="scan-interval IoU of a match (default 0.5)")
-    p.set_defaults(func=_guard(_cmd_evaluate))
+    p.set_defaults(func=_cmd_evaluate)
