@@ -80,6 +80,27 @@ def test_fit_predict_score_and_persist(tours, tmp_path):
     assert pictures[0][1].shape == (*Xt[0].image.shape, 3)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_frames_without_keypoints_give_no_detections(tours, dtype):
+    """Dark stretches, a tunnel exit, a lens cap: no keypoint in the band is no error."""
+    from tunnelsense import FrameSequence
+    from tunnelsense._streaming import StreamingPipeline
+
+    X, y, _ = to_xy(tours[:2])
+    pipe = make_indicator_pipeline(**SMALL).fit(X, y)
+    images = np.stack([r.image for r in tours[2].frames]).astype(dtype)
+    images[40:45] = 0  # black frames inside the tour
+    frames = FrameSequence.from_array(images, tour="dark")
+    batch = pipe.predict(frames)
+    assert all(len(batch[i].payload["cluster_boxes"]) == 0 for i in range(40, 45))
+    streamed = list(StreamingPipeline(pipe).run(frames))
+    assert [r.key for r in streamed] == [r.key for r in frames]
+    for a, b in zip(batch, streamed, strict=True):
+        assert np.array_equal(a.payload["detections"], b.payload["detections"])
+    black = pipe.predict(FrameSequence.from_array(np.zeros((3, 48, 64), dtype)))
+    assert [len(r.payload["detections"]) for r in black] == [0, 0, 0]
+
+
 def test_grid_search_by_tour(tours):
     X, y, groups = to_xy(tours)
     search = GridSearchCV(

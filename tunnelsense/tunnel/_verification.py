@@ -108,6 +108,8 @@ def patch_histograms(
     if lut is None:
         lut = bin_lut(image.dtype, bins, intensity_range, binning)
     ph, pw = _patch_shape(patch_size)
+    if n == 0:  # a frame with no keypoint in the band (dark stretch, tunnel exit)
+        return np.zeros((0, bins), dtype=np.float32)
     h, w = image.shape
     ri = np.clip(rows[:, None] + (np.arange(ph, dtype=np.intp) - ph // 2), 0, h - 1)
     ci = np.clip(cols[:, None] + (np.arange(pw, dtype=np.intp) - pw // 2), 0, w - 1)
