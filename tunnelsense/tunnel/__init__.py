@@ -33,6 +33,7 @@ from tunnelsense.tunnel._verification import (
     fit_kmeans,
     patch_histograms,
     rank_positive_centers,
+    verify_histograms,
 )
 
 __all__ = [
@@ -53,6 +54,7 @@ __all__ = [
     "pearson_r",
     "straightness",
     "rank_positive_centers",
+    "verify_histograms",
     "region_boxes",
     "sample_keypoints",
 ]

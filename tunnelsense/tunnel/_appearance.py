@@ -29,7 +29,7 @@ from sklearn.utils.validation import (
 )
 
 from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import is_record_input
+from tunnelsense.tunnel._common import bin_lut, frame_image, is_record_input
 
 __all__ = [
     "WeightedAdaBoost",
@@ -98,13 +98,6 @@ def match_centres(boxes, gt_boxes) -> np.ndarray:
     return np.where(inside.any(1), inside.argmax(1), -1)
 
 
-def _bin_lut(dtype, bins, intensity_range):
-    top = int(np.iinfo(dtype).max) + 1
-    lo, hi = (0, top) if intensity_range is None else map(int, intensity_range)
-    values = np.arange(top, dtype=np.int64)
-    return np.clip(((values - lo) * bins) // (hi - lo), 0, bins - 1).astype(np.intp)
-
-
 def box_histograms(
     image, boxes, *, bins=32, intensity_range=None, margin=0.0, lut=None
 ) -> np.ndarray:
@@ -141,7 +134,7 @@ def box_histograms(
     array([[0.5, 0.5]])
     """
     if lut is None:
-        lut = _bin_lut(image.dtype, bins, intensity_range)
+        lut = bin_lut(image.dtype, bins, intensity_range)
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     h, w = image.shape
     out = np.empty((len(boxes), bins))
@@ -538,27 +531,14 @@ class WeightedAdaBoost(ClassifierMixin, TransformerMixin, BaseEstimator):
             )
 
     def _frame_histograms(self, records):
-        luts = {}
         kw = dict(bins=self.bins, margin=float(self.margin))
         for i, r in enumerate(records):
             boxes = boxes_of(r, i, "WeightedAdaBoost")
             if len(boxes) == 0:
                 yield r, boxes, np.empty((0, self.bins))
                 continue
-            image = r.image
-            if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype not in (
-                np.uint8,
-                np.uint16,
-            ):
-                raise ValueError(
-                    f"X[{i}] ({r.tour!r}, frame {r.frame}): the image must be a 2-D "
-                    "uint8 or uint16 array"
-                )
-            lut = luts.get(image.dtype)
-            if lut is None:
-                lut = luts[image.dtype] = _bin_lut(
-                    image.dtype, self.bins, self.intensity_range
-                )
+            image = frame_image(r, i)
+            lut = bin_lut(image.dtype, self.bins, self.intensity_range)
             yield r, boxes, box_histograms(image, boxes, lut=lut, **kw)
 
     # ------------------------------------------------------------------ API

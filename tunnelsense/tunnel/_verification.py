@@ -26,7 +26,13 @@ from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_dat
 from threadpoolctl import threadpool_limits
 
 from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import is_record_input, keypoints_of, points_in_boxes
+from tunnelsense.tunnel._common import (
+    bin_lut,
+    frame_image,
+    is_record_input,
+    keypoints_of,
+    points_in_boxes,
+)
 
 __all__ = [
     "KMeansHistogramVerifier",
@@ -37,36 +43,11 @@ __all__ = [
 ]
 
 
-def _intensity_range(dtype, intensity_range):
-    if intensity_range is not None:
-        lo, hi = intensity_range
-        return int(lo), int(hi)
-    return 0, int(np.iinfo(dtype).max) + 1
-
-
-def bin_lut(dtype, bins, intensity_range=None, binning="hard"):
-    """Lookup tables from every pixel value of ``dtype`` to its histogram bin(s).
-
-    ``binning="hard"``: one table, the bin of every value.  ``binning="linear"``: a
-    pair ``(lower_bin, upper_weight)``: a value at bin coordinate ``x`` (bin centres
-    at integers) gives weight ``1 - w`` to bin ``floor(x)`` and ``w`` to the next,
-    clipped at the ends.
-    """
-    lo, hi = _intensity_range(dtype, intensity_range)
-    values = np.arange(int(np.iinfo(dtype).max) + 1, dtype=np.float64)
-    if binning == "hard":
-        q = np.floor((values - lo) * bins / (hi - lo))
-        return np.clip(q, 0, bins - 1).astype(np.intp)
-    x = np.clip((values + 0.5 - lo) * bins / (hi - lo) - 0.5, 0, bins - 1)
-    b0 = np.minimum(np.floor(x), bins - 2 if bins > 1 else 0)
-    return b0.astype(np.intp), (x - b0).astype(np.float32)
-
-
 def patch_histograms(
     image, rows, cols, *, patch_size=(7, 3), bins=32, intensity_range=None,
     binning="hard", lut=None,
 ) -> np.ndarray:
-    """Normalized intensity histograms of the square patches centred on keypoints.
+    """Normalized intensity histograms of the patches centred on keypoints.
 
     Parameters
     ----------
@@ -225,11 +206,22 @@ def verify_histograms(H, centers, negative_centers, *, max_distance, margin=None
     [True, False]
     """
     centers = np.asarray(centers, dtype=np.float64)
-    d_pos = _nearest_distance(H, centers, (centers * centers).sum(1))
+    neg = np.asarray(negative_centers, dtype=np.float64)
+    return _verify(
+        H, centers, (centers * centers).sum(1), neg, (neg * neg).sum(1),
+        max_distance, margin,
+    )
+
+
+def _verify(H, centers, centers_sq, negative, negative_sq, max_distance, margin):
+    H = np.asarray(H, dtype=np.float64)
+    d_pos = _nearest_distance(H, centers, centers_sq)
     keep = d_pos <= max_distance
-    if margin is not None:
-        neg = np.asarray(negative_centers, dtype=np.float64)
-        keep &= d_pos <= _nearest_distance(H, neg, (neg * neg).sum(1)) + margin
+    if margin is not None and keep.any():
+        # only the rows the paper's test kept need the 400 negative centres
+        rows = np.flatnonzero(keep)
+        d_neg = _nearest_distance(H[rows], negative, negative_sq)
+        keep[rows] = d_pos[rows] <= d_neg + margin
     return keep
 
 
@@ -451,20 +443,8 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         """Yield (record, keypoints, histograms) per frame."""
         for i, r in enumerate(records):
             kp = keypoints_of(r, i + index_offset, "KMeansHistogramVerifier")
-            image = r.image
-            if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype not in (
-                np.uint8,
-                np.uint16,
-            ):
-                raise ValueError(
-                    f"X[{i}] ({r.tour!r}, frame {r.frame}): the image must be a 2-D "
-                    "uint8 or uint16 array"
-                )
-            lut = luts.get(image.dtype)
-            if lut is None:
-                lut = luts[image.dtype] = bin_lut(
-                    image.dtype, self.bins, self.intensity_range, self.binning
-                )
+            image = frame_image(r, i + index_offset)
+            lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
             H = patch_histograms(
                 image, kp[:, 0], kp[:, 1], patch_size=self.patch_size, bins=self.bins,
                 lut=lut,
@@ -562,12 +542,11 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
 
     def _verified(self, H):
         """Boolean mask of the verified rows of ``H`` (see :func:`verify_histograms`)."""
-        d_pos = _nearest_distance(H, self.centers_, self._centers_sq)
-        keep = d_pos <= float(self.max_distance)
-        if self.margin is not None:
-            d_neg = _nearest_distance(H, self.negative_centers_, self._negative_sq)
-            keep &= d_pos <= d_neg + float(self.margin)
-        return keep
+        margin = None if self.margin is None else float(self.margin)
+        return _verify(
+            H, self.centers_, self._centers_sq, self.negative_centers_,
+            self._negative_sq, float(self.max_distance), margin,
+        )
 
     def predict(self, X):
         """1 for verified histograms, else 0.
