@@ -172,6 +172,10 @@ def main():
         "Hungarian linking": {"tracks__assignment": "hungarian"},
         "paper's stages 3-5 (keypoint rectangle, margin 0, max_gap 3)": {
             "clusters__box": "keypoints", "appearance__margin": 0.0, "tracks__max_gap": 3},
+        "paper's stages 2-5 (also the paper's verifier: 10 centres, 0.14, no margin)": {
+            "clusters__box": "keypoints", "appearance__margin": 0.0, "tracks__max_gap": 3,
+            "verifier__n_centers": 10, "verifier__max_distance": 0.14,
+            "verifier__margin": None},
     }
     for name, params in variants.items():
         evaluate(name, params)

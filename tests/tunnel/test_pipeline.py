@@ -128,9 +128,14 @@ def test_pipeline_defaults_and_paper_settings():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
     assert (p["clusters__box"], p["tracks__max_gap"]) == ("region", 6)
-    paper = make_indicator_pipeline(box="keypoints", max_gap=3, max_distance=0.14).get_params()
+    paper = make_indicator_pipeline(
+        box="keypoints", appearance__margin=0, max_gap=3, max_distance=0.14,
+        verifier__margin=None, n_centers=10,
+    ).get_params()
     assert (paper["clusters__box"], paper["tracks__max_gap"]) == ("keypoints", 3)
     assert paper["verifier__max_distance"] == 0.14
+    assert (paper["verifier__margin"], paper["verifier__n_centers"]) == (None, 10)
+    assert paper["appearance__margin"] == 0
 
 
 def test_verifier_settings_reach_the_step():
