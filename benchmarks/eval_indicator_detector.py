@@ -20,7 +20,7 @@ scenario: "light", "heavy", and "curved", which is another camera (focal length
 5. issue 4's keypoint-verifier figures on the test tours (indicators taller than
    14 px keeping a verified keypoint, negative keypoints removed) for the stages
    fitted on the training tour, and the trade-off curve over ``max_distance`` for
-   ``n_centers`` 10 (default) and 20.
+   ``n_centers`` None (all centres, the default) and 20.
 
 Usage::
 
