@@ -376,7 +376,8 @@ def _cmd_detect(args) -> int:
                 yield r
 
         frames = keep_images(frames)
-    released = stream_detect(model, frames, progress=_progress(total, "detecting"))
+    progress = None if args.quiet else _progress(total, "detecting")
+    released = stream_detect(model, frames, progress=progress)
     if args.draw is not None:
         import cv2
 
@@ -519,6 +520,7 @@ def register(verbs) -> None:
         help="continue an interrupted run: keep the lines of --out (and its "
         ".clusters.csv) and append the rest",
     )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(

@@ -293,3 +293,9 @@ def test_rewriting_a_shorter_tour_removes_stale_frames(tour, tmp_path):
         "000002.png",
     ]
     assert len(read_tour(tmp_path / "s")) == 2
+
+
+def test_a_single_non_video_file_is_not_a_tour(tmp_path):
+    (tmp_path / "notes.txt").write_text("hello")
+    with pytest.raises(ValueError, match="notes.txt: a single file of this kind is not a tour"):
+        open_tour(tmp_path / "notes.txt")

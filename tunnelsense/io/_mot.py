@@ -560,6 +560,11 @@ def open_tour(source) -> Tour:
             return read_tour(source)
         return read_image_folder(source)
     if source.is_file():
+        if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):
+            raise ValueError(
+                f"{source}: a single file of this kind is not a tour (expected a "
+                "MOTChallenge folder, an image folder or a video file)"
+            )
         return read_video(source)
     raise FileNotFoundError(
         f"{source}: not found (expected a MOTChallenge folder, an image folder or a "
