@@ -9,7 +9,8 @@ protocol of ``eval_indicator_detector.py``, whose tour cache
 (``$TMPDIR/tunnelsense-eval``) it shares.  ``--seed 0`` (default) gives the
 development tours, on which settings were chosen; other seeds check them.  It
 prints the trade-off curves of the paper's rule (10 centres, ``margin=None``) and
-of the default (all centres, ``margin``) over ``max_distance`` and ``margin``.
+of the default (all centres, ``margin``) over ``max_distance`` and ``margin``;
+``--ranges`` adds histograms over a band of intensities (``intensity_range``).
 Simulating the tours takes about a minute each the first time.
 
 Speed: the stages are fitted on a simulated "light" tour; a second simulated tour of
@@ -156,14 +157,30 @@ def cached_tour(n, scenario, seed):
     return t
 
 
-#: (label, n_centers, margin, max_distance values) of the validation curves.
+#: (label, fit parameters of the verifier, margin, max_distance values) of the
+#: validation curves.
 CURVES = [
-    ("paper's rule, 10 centres", 10, None, (0.14, 0.25, 0.3, 0.32, 0.35)),
-    ("all centres, margin 0.03", None, 0.03, (0.32,)),
-    ("all centres, margin 0.04 (default)", None, 0.04, (0.25, 0.3, 0.32, 0.4)),
-    ("all centres, margin 0.05", None, 0.05, (0.32,)),
-    ("all centres, margin 0.06", None, 0.06, (0.32,)),
-    ("30 best centres, margin 0.04", 30, 0.04, (0.32,)),
+    ("paper's rule, 10 centres", {"n_centers": 10}, None, (0.14, 0.25, 0.3, 0.32, 0.35)),
+    ("all centres, margin 0.03", {}, 0.03, (0.32,)),
+    ("all centres, margin 0.04 (default)", {}, 0.04, (0.25, 0.3, 0.32, 0.4)),
+    ("all centres, margin 0.05", {}, 0.05, (0.32,)),
+    ("all centres, margin 0.06", {}, 0.06, (0.32,)),
+    ("30 best centres, margin 0.04", {"n_centers": 30}, 0.04, (0.32,)),
+]
+
+#: ``--ranges``: histograms over a band around the indicator intensities only
+#: (``intensity_range``, values outside clipped into the end bins), margin rule.
+RANGE_CURVES = [
+    ("range 128-224, 16 bins, margin 0.04",
+     {"intensity_range": (128, 224), "bins": 16}, 0.04, (0.25, 0.32)),
+    ("range 128-224, 16 bins, margin 0.05",
+     {"intensity_range": (128, 224), "bins": 16}, 0.05, (0.25,)),
+    ("range 128-224, 32 bins, margin 0.04",
+     {"intensity_range": (128, 224), "bins": 32}, 0.04, (0.25, 0.32)),
+    ("range 144-208, 32 bins, margin 0.04",
+     {"intensity_range": (144, 208), "bins": 32}, 0.04, (0.25, 0.32)),
+    ("range 112-240, 32 bins, margin 0.04",
+     {"intensity_range": (112, 240), "bins": 32}, 0.04, (0.25, 0.32)),
 ]
 
 
@@ -182,12 +199,14 @@ def validation(args):
           + f" {'all: kept':>10} {'> 20 px':>8} {'removed':>8}")
     for rs in range(args.val_seeds):
         fitted = {}
-        for label, nc, margin, mds in CURVES:
-            if nc not in fitted:
-                fitted[nc] = KMeansHistogramVerifier(n_centers=nc, random_state=rs).fit(Xk, y)
+        for label, params, margin, mds in CURVES + (RANGE_CURVES if args.ranges else []):
+            key = tuple(sorted(params.items()))
+            if key not in fitted:
+                fitted[key] = KMeansHistogramVerifier(
+                    random_state=rs, **params).fit(Xk, y)
             for md in mds:
                 # margin and max_distance only act in transform: the centres stay
-                v = copy.deepcopy(fitted[nc]).set_params(margin=margin, max_distance=md)
+                v = copy.deepcopy(fitted[key]).set_params(margin=margin, max_distance=md)
                 figs = [detection_figures(sampler, v, t) for t in tests]
                 tot = {k: sum(f[k] for f in figs) for k in figs[0]}
                 cells = " ".join(
@@ -213,6 +232,8 @@ def main():
     parser.add_argument("--test-frames", type=int, default=1500)
     parser.add_argument("--val-seeds", type=int, default=1)
     parser.add_argument("--no-speed", dest="speed", action="store_false")
+    parser.add_argument("--ranges", action="store_true",
+                        help="also the intensity_range curves (RANGE_CURVES)")
     args = parser.parse_args()
     if args.speed:
         speed(args)
