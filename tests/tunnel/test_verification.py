@@ -233,6 +233,28 @@ def test_frame_mode_fit_also_verifies_histograms():
     assert verifier.transform(H).shape == (len(kp), verifier.n_centers_)
 
 
+def test_frame_mode_bins_over_a_band_of_intensities():
+    """``intensity_range`` on 8-bit frames (the measured band option): frame mode
+    describes each keypoint by the clipped band histogram, values outside the band
+    falling into the end bins."""
+    X, y = scene(3)
+    sampler = IntensityKeypointSampler().fit(X, y)
+    Xk = sampler.transform(X)
+    verifier = KMeansHistogramVerifier(
+        intensity_range=(128, 224), bins=16, max_distance=0.25, random_state=0
+    ).fit(Xk, y)
+    assert verifier.n_features_in_ == 16 and verifier.centers_.shape[1] == 16
+    r = Xk[0]
+    kp = r.payload["keypoints"]
+    H = patch_histograms(r.image, kp[:, 0], kp[:, 1], bins=16, intensity_range=(128, 224))
+    # the wall (about 95-115) lies below the band: it lands in the first bin only
+    wall = patch_histograms(r.image, np.array([2]), np.array([2]), bins=16,
+                            intensity_range=(128, 224))
+    assert wall[0, 0] == pytest.approx(1.0)
+    kept = verifier.transform([r])[0].payload["keypoints"]
+    assert np.array_equal(kp[verifier.predict(H) == 1], kept)
+
+
 def test_frame_mode_needs_y_and_keypoints():
     X, y = scene(0, n_frames=2)
     with pytest.raises(ValueError, match="requires y"):
