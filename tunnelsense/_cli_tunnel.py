@@ -94,20 +94,12 @@ def read_hypotheses(results, tour_name) -> tuple[pd.DataFrame, bool]:
         the rows are the detections of the results file, all labelled indicator.
     """
     from tunnelsense.io import read_mot_results
+    from tunnelsense.metrics import HYPOTHESIS_COLUMNS
 
     companion = _clusters_path(results)
     if companion.is_file():
         h = pd.read_csv(companion)
-        missing = {
-            "frame",
-            "track_id",
-            "bb_left",
-            "bb_top",
-            "bb_width",
-            "bb_height",
-            "indicator",
-            "trajectory_positive",
-        } - set(h.columns)
+        missing = set(HYPOTHESIS_COLUMNS) - {"tour"} - set(h.columns)
         if missing:
             raise ValueError(f"{companion}: missing columns {sorted(missing)}")
         h.insert(0, "tour", tour_name)
