@@ -10,6 +10,7 @@ from tunnelsense.tunnel import (
     IntensityKeypointSampler,
     KMeansHistogramVerifier,
     fit_kmeans,
+    keypoint_descriptors,
     patch_histograms,
     rank_positive_centers,
 )
@@ -223,11 +224,14 @@ def test_frame_mode_keeps_indicators_and_drops_lamp_halos(global_random_seed):
 
 def test_frame_mode_fit_also_verifies_histograms():
     sampler, verifier = _fit_stages(7)
-    assert verifier.n_features_in_ == 32 and verifier.n_frames_fit_ == 6
+    # 32 bins of the 7 x 3 patch, then 32 of the 25 x 13 context
+    assert verifier.n_features_in_ == 64 and verifier.n_frames_fit_ == 6
     X, _ = scene(8, n_frames=1)
     r = sampler.transform(X)[0]
     kp = r.payload["keypoints"]
-    H = patch_histograms(r.image, kp[:, 0], kp[:, 1])
+    H = keypoint_descriptors(r.image, kp[:, 0], kp[:, 1])
+    assert np.array_equal(H[:, :32], patch_histograms(r.image, kp[:, 0], kp[:, 1]))
+    assert np.allclose(H[:, 32:].sum(1), 1.5)  # context_weight
     kept = verifier.transform([r])[0].payload["keypoints"]
     assert np.array_equal(kp[verifier.predict(H) == 1], kept)
     assert verifier.transform(H).shape == (len(kp), verifier.n_centers_)
@@ -241,7 +245,8 @@ def test_frame_mode_bins_over_a_band_of_intensities():
     sampler = IntensityKeypointSampler().fit(X, y)
     Xk = sampler.transform(X)
     verifier = KMeansHistogramVerifier(
-        intensity_range=(128, 224), bins=16, max_distance=0.25, random_state=0
+        intensity_range=(128, 224), bins=16, context_size=None, max_distance=0.25,
+        random_state=0,
     ).fit(Xk, y)
     assert verifier.n_features_in_ == 16 and verifier.centers_.shape[1] == 16
     r = Xk[0]
@@ -253,6 +258,55 @@ def test_frame_mode_bins_over_a_band_of_intensities():
     assert wall[0, 0] == pytest.approx(1.0)
     kept = verifier.transform([r])[0].payload["keypoints"]
     assert np.array_equal(kp[verifier.predict(H) == 1], kept)
+
+
+def plates_and_surface(seed, n_frames=6, size=(240, 320)):
+    """Small indicator plates (16-24 px tall) on a cool wall, and below them an
+    extended warm surface (road warmed behind a vehicle) of the plates' intensity:
+    the 7 x 3 patches inside both have the same histogram."""
+    rng = np.random.default_rng(seed)
+    h, w = size
+    images, boxes = [], []
+    for _ in range(n_frames):
+        image = rng.normal(100, 4, size)
+        image[160:, :] = rng.normal(176, 3, (h - 160, w))
+        frame_boxes = []
+        for k in range(3):
+            bh = int(rng.integers(16, 25))
+            bw = max(bh // 3, 6)
+            top, left = int(rng.integers(10, 150 - bh)), 20 + 100 * k + int(rng.integers(0, 60))
+            image[top : top + bh, left : left + bw] = rng.normal(176, 3, (bh, bw))
+            frame_boxes.append([left, top, bw, bh])
+        images.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
+        boxes.append(np.array(frame_boxes, dtype=float))
+    return FrameSequence.from_array(np.stack(images), tour=f"plates-{seed}"), boxes
+
+
+@pytest.mark.parametrize("context_size", [None, (25, 13)])
+def test_context_histogram_tells_plates_from_an_extended_surface(
+    context_size, global_random_seed
+):
+    """Without the context histogram the surface's keypoints cannot be told from
+    the plates' (the paper's descriptor); with it they are removed."""
+    X, y = plates_and_surface(global_random_seed)
+    sampler = IntensityKeypointSampler().fit(X, y)
+    verifier = KMeansHistogramVerifier(
+        context_size=context_size, random_state=global_random_seed
+    ).fit(sampler.transform(X), y)
+    X, y = plates_and_surface(global_random_seed + 1000)
+    hit = n_boxes = surface = surface_kept = 0
+    for r, b in zip(verifier.transform(sampler.transform(X)), y, strict=True):
+        s, k = r.payload["sampled_keypoints"], r.payload["keypoints"]
+        for box in b:
+            n_boxes += 1
+            hit += points_in_boxes(k[:, 0], k[:, 1], box[None]).any()
+        surface += (s[:, 0] >= 175).sum()  # well inside the surface
+        surface_kept += (k[:, 0] >= 175).sum()
+    assert hit >= 0.9 * n_boxes
+    if context_size is None:
+        assert surface_kept >= 0.2 * surface
+    else:
+        assert surface_kept <= 0.02 * surface
 
 
 def test_frame_mode_needs_y_and_keypoints():

@@ -31,6 +31,7 @@ from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import (
     KMeansHistogramVerifier,
     fit_kmeans,
+    keypoint_descriptors,
     patch_histograms,
     rank_positive_centers,
     verify_histograms,
@@ -48,6 +49,7 @@ __all__ = [
     "cluster_boxes",
     "fit_kmeans",
     "indicator_band",
+    "keypoint_descriptors",
     "make_indicator_pipeline",
     "mst_partition",
     "patch_histograms",

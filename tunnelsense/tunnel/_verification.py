@@ -37,6 +37,7 @@ from tunnelsense.tunnel._common import (
 __all__ = [
     "KMeansHistogramVerifier",
     "fit_kmeans",
+    "keypoint_descriptors",
     "patch_histograms",
     "rank_positive_centers",
     "verify_histograms",
@@ -109,6 +110,72 @@ def patch_histograms(
     return (counts * (1.0 / (ph * pw))).astype(np.float32)
 
 
+def keypoint_descriptors(
+    image, rows, cols, *, patch_size=(7, 3), context_size=(25, 13), context_weight=1.5,
+    bins=32, intensity_range=None, binning="hard", lut=None,
+) -> np.ndarray:
+    """The verifier's keypoint descriptors: patch histogram, then context histogram.
+
+    The normalized histogram of the small patch on each keypoint
+    (:func:`patch_histograms` with ``patch_size``), followed, unless ``context_size``
+    is None, by the histogram of a larger patch centred on the same keypoint (same
+    bins) multiplied by ``context_weight``.  The context tells a bounded plate on a
+    cooler wall (an indicator) from an extended warm surface whose small patches look
+    the same (road warmed behind a vehicle, a vehicle's body).
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+        The frame.
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    patch_size : int or (int, int), default=(7, 3)
+        ``(height, width)`` of the small patch (px).
+    context_size : int, (int, int) or None, default=(25, 13)
+        ``(height, width)`` of the context patch (px); None for the small patch's
+        histogram alone (the paper's descriptor).
+    context_weight : float, default=1.5
+        Factor of the context histogram (its rows sum to ``context_weight``).
+    bins : int, default=32
+        Bins of each histogram.
+    intensity_range : (int, int) or None, default=None
+        See :func:`patch_histograms`.
+    binning : {"hard", "linear"}, default="hard"
+        See :func:`patch_histograms`.
+    lut : ndarray, tuple or None, default=None
+        Precomputed value-to-bin tables (:func:`bin_lut`).
+
+    Returns
+    -------
+    descriptors : ndarray of shape (n, bins) or (n, 2 * bins), float32
+
+    Examples
+    --------
+    A keypoint on a 4-px plate in a wall, and one on an extended surface of the
+    same intensity: the same patch histogram, different context histograms.
+
+    >>> import numpy as np
+    >>> img = np.full((40, 40), 60, np.uint8)
+    >>> img[5:25, 8:12] = 176   # a plate
+    >>> img[:, 25:] = 176       # an extended warm surface
+    >>> d = keypoint_descriptors(img, np.array([15, 15]), np.array([10, 32]),
+    ...                          patch_size=(7, 3), context_size=(9, 9),
+    ...                          context_weight=1.0, bins=4)
+    >>> d.round(2)
+    array([[0.  , 0.  , 1.  , 0.  , 0.56, 0.  , 0.44, 0.  ],
+           [0.  , 0.  , 1.  , 0.  , 0.  , 0.  , 1.  , 0.  ]], dtype=float32)
+    """
+    if lut is None:
+        lut = bin_lut(np.asarray(image).dtype, bins, intensity_range, binning)
+    kw = dict(bins=bins, lut=lut)
+    H = patch_histograms(image, rows, cols, patch_size=patch_size, **kw)
+    if context_size is None:
+        return H
+    C = patch_histograms(image, rows, cols, patch_size=context_size, **kw)
+    C *= np.float32(context_weight)
+    return np.hstack([H, C])
+
+
 def _patch_shape(patch_size):
     if isinstance(patch_size, numbers.Integral):
         return int(patch_size), int(patch_size)
@@ -122,7 +189,8 @@ def fit_kmeans(
 ) -> np.ndarray:
     """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
 
-    * ``n_samples <= n_clusters``: the distinct rows are the centres.
+    * at most ``n_clusters`` distinct rows (checked for up to ``max_full_samples``
+      rows): the distinct rows are the centres.
     * ``n_samples <= max_full_samples``: :class:`~sklearn.cluster.KMeans` (Lloyd,
       k-means++, one init).
     * otherwise: :class:`~sklearn.cluster.MiniBatchKMeans` fed by ``partial_fit``
@@ -148,7 +216,7 @@ def fit_kmeans(
 
 def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng):
     n = len(X)
-    if n <= max(n_clusters, 1) * 4:
+    if n <= max(max_full_samples, 4 * n_clusters):
         distinct = np.unique(X, axis=0)
         if len(distinct) <= n_clusters:
             return distinct.astype(np.float64)
@@ -371,6 +439,8 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "patch_size": [Interval(numbers.Integral, 1, None, closed="left"), tuple],
+        "context_size": [Interval(numbers.Integral, 1, None, closed="left"), tuple, None],
+        "context_weight": [Interval(numbers.Real, 0, None, closed="neither")],
         "bins": [Interval(numbers.Integral, 1, None, closed="left")],
         "intensity_range": [tuple, list, None],
         "binning": [StrOptions({"hard", "linear"})],
@@ -390,13 +460,15 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         self,
         *,
         patch_size=(7, 3),
+        context_size=(25, 13),
+        context_weight=1.5,
         bins=32,
         intensity_range=None,
         binning="hard",
         n_positive_clusters=40,
         n_negative_clusters=400,
         n_centers=None,
-        max_distance=0.32,
+        max_distance=0.4,
         margin=0.04,
         batch_size=4096,
         n_steps=300,
@@ -405,6 +477,8 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         random_state=None,
     ):
         self.patch_size = patch_size
+        self.context_size = context_size
+        self.context_weight = context_weight
         self.bins = bins
         self.intensity_range = intensity_range
         self.binning = binning
@@ -426,15 +500,18 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ helpers
     def _check_range(self):
-        ps = self.patch_size
-        if not isinstance(ps, numbers.Integral) and (
-            len(ps) != 2
-            or not all(isinstance(v, numbers.Integral) and v >= 1 for v in ps)
-        ):
-            raise ValueError(
-                "patch_size must be a positive int or a pair (height, width) of "
-                f"positive ints; got {ps!r}"
-            )
+        for name in ("patch_size", "context_size"):
+            ps = getattr(self, name)
+            if ps is None or isinstance(ps, numbers.Integral):
+                continue
+            if len(ps) != 2 or not all(
+                isinstance(v, numbers.Integral) and v >= 1 for v in ps
+            ):
+                raise ValueError(
+                    f"{name} must be a positive int or a pair (height, width) of "
+                    f"positive ints{' or None' if name == 'context_size' else ''}; "
+                    f"got {ps!r}"
+                )
         if self.intensity_range is None:
             return
         r = tuple(self.intensity_range)
@@ -450,11 +527,16 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
             kp = keypoints_of(r, i + index_offset, "KMeansHistogramVerifier")
             image = frame_image(r, i + index_offset)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
-            H = patch_histograms(
-                image, kp[:, 0], kp[:, 1], patch_size=self.patch_size, bins=self.bins,
-                lut=lut,
+            H = keypoint_descriptors(
+                image, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
+                context_size=self.context_size, context_weight=self.context_weight,
+                bins=self.bins, lut=lut,
             )
             yield r, kp, H
+
+    @property
+    def _n_descriptor(self):
+        return self.bins * (1 if self.context_size is None else 2)
 
     def _fit_centers(self, positive, negative):
         n_pos, n_neg = len(positive), len(negative)
@@ -517,9 +599,9 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
                 inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
                 pos.append(H[inside])
                 neg.append(H[~inside])
-            empty = np.empty((0, self.bins), np.float32)
+            empty = np.empty((0, self._n_descriptor), np.float32)
             self._fit_centers(np.concatenate(pos or [empty]), np.concatenate(neg or [empty]))
-            self.n_features_in_ = int(self.bins)
+            self.n_features_in_ = int(self._n_descriptor)
             self.n_frames_fit_ = len(records)
             return self
         X, y = validate_data(
