@@ -8,9 +8,10 @@ camera) tours of seeds ``--seed + 11, 12, 13`` (``--test-frames`` frames each), 
 protocol of ``eval_indicator_detector.py``, whose tour cache
 (``$TMPDIR/tunnelsense-eval``) it shares.  ``--seed 0`` (default) gives the
 development tours, on which settings were chosen; other seeds check them.  It
-prints the trade-off curves of the paper's rule (10 centres, ``margin=None``) and
-of the default (all centres, ``margin``) over ``max_distance`` and ``margin``;
-``--ranges`` adds histograms over a band of intensities (``intensity_range``).
+prints the trade-off curves of the paper's rule (the 7x3 patch histogram alone,
+10 centres, ``margin=None``) and of the default (7x3 patch histogram and 25x13
+context histogram, all centres, ``margin``) over ``max_distance``, ``margin`` and
+the context's weight and size; ``--ranges`` adds histograms over a band of intensities (``intensity_range``).
 Simulating the tours takes about a minute each the first time.
 
 Speed: the stages are fitted on a simulated "light" tour; a second simulated tour of
@@ -159,28 +160,35 @@ def cached_tour(n, scenario, seed):
 
 #: (label, fit parameters of the verifier, margin, max_distance values) of the
 #: validation curves.
+ONE_PATCH = {"context_size": None}
 CURVES = [
-    ("paper's rule, 10 centres", {"n_centers": 10}, None, (0.14, 0.25, 0.3, 0.32, 0.35)),
-    ("all centres, margin 0.03", {}, 0.03, (0.32,)),
-    ("all centres, margin 0.04 (default)", {}, 0.04, (0.25, 0.3, 0.32, 0.4)),
-    ("all centres, margin 0.05", {}, 0.05, (0.32,)),
-    ("all centres, margin 0.06", {}, 0.06, (0.32,)),
-    ("30 best centres, margin 0.04", {"n_centers": 30}, 0.04, (0.32,)),
+    ("paper's rule: 7x3 patch, 10 centres", {"n_centers": 10, **ONE_PATCH}, None,
+     (0.14, 0.25, 0.32)),
+    ("7x3 patch, all centres, margin 0.04", ONE_PATCH, 0.04, (0.25, 0.32)),
+    ("default: + 25x13 context x1.5", {}, 0.04, (0.32, 0.4, 0.5)),
+    ("default, margin 0.03", {}, 0.03, (0.4,)),
+    ("default, margin 0.06", {}, 0.06, (0.4,)),
+    ("context weight 1", {"context_weight": 1.0}, 0.04, (0.32, 0.4)),
+    ("context weight 2", {"context_weight": 2.0}, 0.04, (0.4, 0.5)),
+    ("context 19x9", {"context_size": (19, 9)}, 0.04, (0.4,)),
+    ("context 31x15", {"context_size": (31, 15)}, 0.04, (0.4,)),
+    ("25x13 patch alone", {"patch_size": (25, 13), **ONE_PATCH}, 0.04, (0.4,)),
 ]
 
-#: ``--ranges``: histograms over a band around the indicator intensities only
-#: (``intensity_range``, values outside clipped into the end bins), margin rule.
+#: ``--ranges``: histograms of the 7x3 patch over a band around the indicator
+#: intensities only (``intensity_range``, values outside clipped into the end bins),
+#: margin rule.
 RANGE_CURVES = [
     ("range 128-224, 16 bins, margin 0.04",
-     {"intensity_range": (128, 224), "bins": 16}, 0.04, (0.25, 0.32)),
+     {"intensity_range": (128, 224), "bins": 16, **ONE_PATCH}, 0.04, (0.25, 0.32)),
     ("range 128-224, 16 bins, margin 0.05",
-     {"intensity_range": (128, 224), "bins": 16}, 0.05, (0.25,)),
+     {"intensity_range": (128, 224), "bins": 16, **ONE_PATCH}, 0.05, (0.25,)),
     ("range 128-224, 32 bins, margin 0.04",
-     {"intensity_range": (128, 224), "bins": 32}, 0.04, (0.25, 0.32)),
+     {"intensity_range": (128, 224), "bins": 32, **ONE_PATCH}, 0.04, (0.25, 0.32)),
     ("range 144-208, 32 bins, margin 0.04",
-     {"intensity_range": (144, 208), "bins": 32}, 0.04, (0.25, 0.32)),
+     {"intensity_range": (144, 208), "bins": 32, **ONE_PATCH}, 0.04, (0.25, 0.32)),
     ("range 112-240, 32 bins, margin 0.04",
-     {"intensity_range": (112, 240), "bins": 32}, 0.04, (0.25, 0.32)),
+     {"intensity_range": (112, 240), "bins": 32, **ONE_PATCH}, 0.04, (0.25, 0.32)),
 ]
 
 

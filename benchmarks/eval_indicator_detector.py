@@ -57,7 +57,7 @@ CACHE = Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "tunnelsense-eva
 
 #: Grid of the search; the first value of each is the default (ties go to it).
 #: max_distance values of the verifier's trade-off curve.
-CURVE = (0.14, 0.2, 0.25, 0.28, 0.3, 0.32, 0.35, 0.4)
+CURVE = (0.14, 0.2, 0.25, 0.28, 0.3, 0.32, 0.35, 0.4, 0.5)
 
 SEARCH_GRID = {
     "motion__min_r": [0.95, 0.9, 0.98],
@@ -175,7 +175,9 @@ def main():
         "paper's stages 2-5 (also the paper's verifier: 10 centres, 0.14, no margin)": {
             "clusters__box": "keypoints", "appearance__margin": 0.0, "tracks__max_gap": 3,
             "verifier__n_centers": 10, "verifier__max_distance": 0.14,
-            "verifier__margin": None},
+            "verifier__margin": None, "verifier__context_size": None},
+        "verifier without the context histogram (7 x 3 patch only, max_distance 0.32)": {
+            "verifier__context_size": None, "verifier__max_distance": 0.32},
     }
     for name, params in variants.items():
         evaluate(name, params)

@@ -8,8 +8,10 @@ Stages 1-3 of the FIR indicator detector on a simulated frame:
   7 px down) and keeps the points whose intensity lies in [160, 190]: the keypoints
   (Fig. 2b);
 * :class:`~tunnelsense.tunnel.KMeansHistogramVerifier`, fitted on another simulated
-  tour, keeps the keypoints whose patch histogram lies near one of its 10 positive
-  centres: **red circles** pass, **blue marks** fail (Fig. 3);
+  tour, keeps the keypoints whose descriptor (the histogram of the 7 x 3 patch on
+  the keypoint, then that of the 25 x 13 patch around it) lies near a positive
+  centre and not farther from it than from the negative centres: **red circles**
+  pass, **blue marks** fail (Fig. 3);
 * :class:`~tunnelsense.tunnel.MSTClusterer` cuts the minimum spanning tree of the
   verified keypoints at 40 px; each cluster's smallest bounding rectangle is a
   detection hypothesis (**yellow**, Figs. 3c-d).  Ground-truth indicator boxes are

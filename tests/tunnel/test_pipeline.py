@@ -130,11 +130,12 @@ def test_pipeline_defaults_and_paper_settings():
     assert (p["clusters__box"], p["tracks__max_gap"]) == ("region", 6)
     paper = make_indicator_pipeline(
         box="keypoints", appearance__margin=0, max_gap=3, max_distance=0.14,
-        verifier__margin=None, n_centers=10,
+        verifier__margin=None, n_centers=10, context_size=None,
     ).get_params()
     assert (paper["clusters__box"], paper["tracks__max_gap"]) == ("keypoints", 3)
     assert paper["verifier__max_distance"] == 0.14
     assert (paper["verifier__margin"], paper["verifier__n_centers"]) == (None, 10)
+    assert paper["verifier__context_size"] is None  # the 7 x 3 patch histogram alone
     assert paper["appearance__margin"] == 0
 
 
