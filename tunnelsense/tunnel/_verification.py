@@ -84,30 +84,47 @@ def patch_histograms(
     >>> patch_histograms(img, np.array([10]), np.array([10]), patch_size=4, bins=4)
     array([[0.5, 0. , 0. , 0.5]], dtype=float32)
     """
-    rows = np.asarray(rows, dtype=np.intp)
-    cols = np.asarray(cols, dtype=np.intp)
-    n = len(rows)
     if lut is None:
         lut = bin_lut(image.dtype, bins, intensity_range, binning)
-    ph, pw = _patch_shape(patch_size)
+    values = _patches(image, rows, cols, *_patch_shape(patch_size))
+    return _histograms(values, bins, lut)
+
+
+def _patches(image, rows, cols, ph, pw):
+    """Pixel values of the ``ph x pw`` patches on the keypoints, (n, ph, pw)."""
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    h, w = image.shape
+    ri = rows[:, None] + (np.arange(ph, dtype=np.intp) - ph // 2)
+    ci = cols[:, None] + (np.arange(pw, dtype=np.intp) - pw // 2)
+    # clipping repeats the edge pixels; np.clip costs more than this on small arrays
+    np.maximum(ri, 0, out=ri)
+    np.minimum(ri, h - 1, out=ri)
+    np.maximum(ci, 0, out=ci)
+    np.minimum(ci, w - 1, out=ci)
+    flat = (ri * w)[:, :, None] + ci[:, None, :]
+    return np.ravel(image).take(flat)
+
+
+def _histograms(values, bins, lut):
+    """Normalized histograms of patches of pixel values (n, ...) -> (n, bins)."""
+    n = len(values)
     if n == 0:  # a frame with no keypoint in the band (dark stretch, tunnel exit)
         return np.zeros((0, bins), dtype=np.float32)
-    h, w = image.shape
-    ri = np.clip(rows[:, None] + (np.arange(ph, dtype=np.intp) - ph // 2), 0, h - 1)
-    ci = np.clip(cols[:, None] + (np.arange(pw, dtype=np.intp) - pw // 2), 0, w - 1)
-    values = image[ri[:, :, None], ci[:, None, :]].reshape(n, -1)
+    values = values.reshape(n, -1)
     base = (np.arange(n, dtype=np.intp) * bins)[:, None]
     if isinstance(lut, tuple):
         lower, weight = lut
-        q = (lower[values] + base).ravel()
-        wu = weight[values].ravel()
+        q = (lower.take(values) + base).ravel()
+        wu = weight.take(values).ravel()
         counts = np.bincount(q, weights=1.0 - wu, minlength=n * bins)
         counts += np.bincount(q + 1, weights=wu, minlength=n * bins + 1)[: n * bins]
     else:
-        q = (lut[values] + base).ravel()
-        counts = np.bincount(q, minlength=n * bins)
+        q = lut.take(values)
+        q += base
+        counts = np.bincount(q.ravel(), minlength=n * bins)
     counts = counts.reshape(n, bins)
-    return (counts * (1.0 / (ph * pw))).astype(np.float32)
+    return (counts * (1.0 / values.shape[1])).astype(np.float32)
 
 
 def keypoint_descriptors(
@@ -167,13 +184,22 @@ def keypoint_descriptors(
     """
     if lut is None:
         lut = bin_lut(np.asarray(image).dtype, bins, intensity_range, binning)
-    kw = dict(bins=bins, lut=lut)
-    H = patch_histograms(image, rows, cols, patch_size=patch_size, **kw)
+    ph, pw = _patch_shape(patch_size)
     if context_size is None:
-        return H
-    C = patch_histograms(image, rows, cols, patch_size=context_size, **kw)
-    C *= np.float32(context_weight)
-    return np.hstack([H, C])
+        return _histograms(_patches(image, rows, cols, ph, pw), bins, lut)
+    ch, cw = _patch_shape(context_size)
+    top, left = ch // 2 - ph // 2, cw // 2 - pw // 2
+    context = _patches(image, rows, cols, ch, cw)
+    if top >= 0 and left >= 0 and top + ph <= ch and left + pw <= cw:
+        # the patch lies inside the context: one gather serves both
+        patch = context[:, top : top + ph, left : left + pw]
+    else:
+        patch = _patches(image, rows, cols, ph, pw)
+    out = np.empty((len(context), 2 * bins), dtype=np.float32)
+    out[:, :bins] = _histograms(patch, bins, lut)
+    out[:, bins:] = _histograms(context, bins, lut)
+    out[:, bins:] *= np.float32(context_weight)
+    return out
 
 
 def _patch_shape(patch_size):
