@@ -380,3 +380,27 @@ def test_on_simulated_tours_not_used_for_fitting(global_random_seed):
     assert fig14[1] / fig14[0] >= 0.95
     assert fig30[1] / fig30[0] >= 0.95
     assert 1 - fig14[3] / fig14[2] >= 0.85
+
+
+@pytest.mark.parametrize("binning", ["hard", "linear"])
+@pytest.mark.parametrize("context_size", [(25, 13), (6, 2), 4, (3, 9)])
+def test_keypoint_descriptors_are_the_two_patch_histograms(
+    context_size, binning, global_random_seed
+):
+    """One shared gather (patch inside the context) or two (it is not) give the
+    histograms of the two patches, at the frame's edges too."""
+    rng = np.random.default_rng(global_random_seed)
+    image = rng.integers(0, 256, (40, 30), dtype=np.uint8)
+    rows = np.r_[0, 39, rng.integers(0, 40, 20)]
+    cols = np.r_[29, 0, rng.integers(0, 30, 20)]
+    D = keypoint_descriptors(image, rows, cols, patch_size=(7, 3),
+                             context_size=context_size, context_weight=1.5,
+                             bins=16, binning=binning)
+    kw = dict(bins=16, binning=binning)
+    assert np.allclose(D[:, :16], patch_histograms(image, rows, cols, patch_size=(7, 3), **kw))
+    assert np.allclose(
+        D[:, 16:], 1.5 * patch_histograms(image, rows, cols, patch_size=context_size, **kw)
+    )
+    alone = keypoint_descriptors(image, rows, cols, context_size=None, bins=16)
+    assert np.array_equal(alone, patch_histograms(image, rows, cols, bins=16))
+    assert keypoint_descriptors(image, rows[:0], cols[:0]).shape == (0, 64)
