@@ -176,8 +176,9 @@ def main():
             "clusters__box": "keypoints", "appearance__margin": 0.0, "tracks__max_gap": 3,
             "verifier__n_centers": 10, "verifier__max_distance": 0.14,
             "verifier__margin": None, "verifier__context_size": None},
-        "verifier without the context histogram (7 x 3 patch only, max_distance 0.32)": {
-            "verifier__context_size": None, "verifier__max_distance": 0.32},
+        "verifier with the context histogram (the verifier's own defaults: 25 x 13, "
+        "weight 1.5, max_distance 0.4)": {
+            "verifier__context_size": (25, 13), "verifier__max_distance": 0.4},
     }
     for name, params in variants.items():
         evaluate(name, params)

@@ -128,6 +128,10 @@ def test_pipeline_defaults_and_paper_settings():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
     assert (p["clusters__box"], p["tracks__max_gap"]) == ("region", 6)
+    # the detector's verifier: the 7 x 3 patch histogram alone (no context)
+    assert (p["verifier__context_size"], p["verifier__max_distance"]) == (None, 0.32)
+    # without a verifier step the verifier's settings are not applied
+    assert make_indicator_pipeline(verifier=False).named_steps["verifier"] == "passthrough"
     paper = make_indicator_pipeline(
         box="keypoints", appearance__margin=0, max_gap=3, max_distance=0.14,
         verifier__margin=None, n_centers=10, context_size=None,

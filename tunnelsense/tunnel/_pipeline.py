@@ -30,6 +30,12 @@ PIPELINE_DEFAULTS = {
     # a 14-20 px indicator is about one grid step wide: the grid can miss it for a
     # few frames (0.2 s at 30 fps) as it moves; bridge such gaps
     "tracks__max_gap": 6,
+    # the appearance machine learns its negatives from the clusters the verifier
+    # lets through; with the context histogram a one-tour training set left too
+    # few (369 negative clusters against 3,851) and false alarms rose on the other
+    # camera, so the detector verifies keypoints by the 7 x 3 patch histogram alone
+    "verifier__context_size": None,
+    "verifier__max_distance": 0.32,
 }
 
 #: Step names of :func:`make_indicator_pipeline`, in order.
@@ -41,8 +47,12 @@ def make_indicator_pipeline(*, verifier=True, **params):
 
     The steps keep their own (the paper's) defaults except for
     :data:`PIPELINE_DEFAULTS`: cluster rectangles refined to the in-band region
-    around the keypoints (``clusters__box="region"``) and trajectories bridging gaps
-    of up to 6 frames (``tracks__max_gap=6``).
+    around the keypoints (``clusters__box="region"``), trajectories bridging gaps
+    of up to 6 frames (``tracks__max_gap=6``), and keypoints verified by the 7 x 3
+    patch histogram alone (``verifier__context_size=None``,
+    ``verifier__max_distance=0.32``): the appearance machine learns its negatives
+    from the clusters the verifier lets through, and the context histogram leaves
+    too few of them in a one-tour training set (``docs/tunnel-detector.md``).
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),
@@ -83,7 +93,10 @@ def make_indicator_pipeline(*, verifier=True, **params):
         ("tracks", TrajectoryLinker()),
         ("motion", PCCVerifier()),
     ]
-    pipe = Pipeline(steps).set_params(**PIPELINE_DEFAULTS)
+    pipe = Pipeline(steps).set_params(**{
+        k: v for k, v in PIPELINE_DEFAULTS.items()
+        if verifier or not k.startswith("verifier__")
+    })
     owners: dict = {}
     for name, step in steps:
         if step == "passthrough":
