@@ -375,9 +375,9 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         6 px wide) with the wall around it, so a plate keypoint's context mixes the
         plate with the cooler wall while an extended surface's is plateau.  On
         simulated tours not used for fitting the context raised the negatives
-        removed from 68.5-88.6 % to 91.6-99.0 % (four development seeds) and from
-        80.0 % to 95.9 % (a fresh seed), with 98.6-99.3 % of the indicators kept
-        (``docs/tunnel-stages.md``).
+        removed from 68.5-88.6 % to 91.6-99.0 % (four development seeds, 98.6-99.3 %
+        of the indicators kept) and, on two fresh seeds, from 80.1 % and 78.8 % to
+        95.9 % and 99.2 % (99.3 % and 97.7 % kept; ``docs/tunnel-stages.md``).
     context_weight : float, default=1.5
         Factor of the context histogram (its rows sum to ``context_weight``), i.e.
         its weight in the Euclidean distances.  Weights 1 and 2 were measured too:
