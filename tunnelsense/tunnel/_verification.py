@@ -1,16 +1,18 @@
 """Keypoint verification (section 3.2): a mixture of patch-histogram centres.
 
-Each keypoint is described by the normalized intensity histogram of the square patch
-around it.  Training clusters the histograms of positive keypoints (inside indicator
-boxes, k=40) and of negative ones (k=400) with k-means, scores every positive centre
-by its mean Euclidean distance to the negative centres (the paper's ``Eu``, eq. 3) and
-keeps the ``n_centers`` best (the paper's 10).  A keypoint is verified when its
-histogram lies within ``max_distance`` (the paper's 0.14 for its histograms) of its
-nearest kept centre.  Our defaults keep every positive centre and add a
-nearest-centre test with both mixtures the paper's model already holds: the
-histogram must also be at most ``margin`` farther from its nearest kept centre than
-from its nearest negative centre (``n_centers=10, margin=None, max_distance=0.14``
-is the paper's rule).
+The paper describes each keypoint by the normalized intensity histogram of the patch
+around it; our default descriptor appends the histogram of a larger context patch
+(:func:`keypoint_descriptors`).  Training clusters the descriptors of positive
+keypoints (inside indicator boxes, k=40) and of negative ones (k=400) with k-means,
+scores every positive centre by its mean Euclidean distance to the negative centres
+(the paper's ``Eu``, eq. 3) and keeps the ``n_centers`` best (the paper's 10).  A
+keypoint is verified when its descriptor lies within ``max_distance`` (the paper's
+0.14 for its histograms) of its nearest kept centre.  Our defaults keep every
+positive centre and add a nearest-centre test with both mixtures the paper's model
+already holds: the descriptor must also be at most ``margin`` farther from its
+nearest kept centre than from its nearest negative centre
+(``context_size=None, n_centers=10, margin=None, max_distance=0.14`` is the paper's
+rule).
 """
 
 from __future__ import annotations
@@ -120,7 +122,7 @@ def _histograms(values, bins, lut):
         counts = np.bincount(q, weights=1.0 - wu, minlength=n * bins)
         counts += np.bincount(q + 1, weights=wu, minlength=n * bins + 1)[: n * bins]
     else:
-        q = lut.take(values)
+        q = lut.take(values).astype(np.intp, copy=False)
         q += base
         counts = np.bincount(q.ravel(), minlength=n * bins)
     counts = counts.reshape(n, bins)
@@ -187,7 +189,9 @@ def keypoint_descriptors(
     ph, pw = _patch_shape(patch_size)
     if context_size is None:
         return _histograms(_patches(image, rows, cols, ph, pw), bins, lut)
-    ch, cw = _patch_shape(context_size)
+    ch, cw = _patch_shape(context_size, "context_size")
+    if not (np.isfinite(context_weight) and context_weight > 0):
+        raise ValueError(f"context_weight must be positive; got {context_weight!r}")
     top, left = ch // 2 - ph // 2, cw // 2 - pw // 2
     context = _patches(image, rows, cols, ch, cw)
     if top >= 0 and left >= 0 and top + ph <= ch and left + pw <= cw:
@@ -202,11 +206,14 @@ def keypoint_descriptors(
     return out
 
 
-def _patch_shape(patch_size):
+def _patch_shape(patch_size, name="patch_size"):
     if isinstance(patch_size, numbers.Integral):
-        return int(patch_size), int(patch_size)
-    ph, pw = patch_size
-    return int(ph), int(pw)
+        ph = pw = int(patch_size)
+    else:
+        ph, pw = (int(v) for v in patch_size)
+    if ph < 1 or pw < 1:
+        raise ValueError(f"{name} must be positive; got {patch_size!r}")
+    return ph, pw
 
 
 def fit_kmeans(
@@ -215,8 +222,8 @@ def fit_kmeans(
 ) -> np.ndarray:
     """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
 
-    * at most ``n_clusters`` distinct rows (checked for up to ``max_full_samples``
-      rows): the distinct rows are the centres.
+    * at most ``n_clusters`` distinct rows (looked for when ``n_samples`` is at most
+      ``max(max_full_samples, 4 * n_clusters)``): the distinct rows are the centres.
     * ``n_samples <= max_full_samples``: :class:`~sklearn.cluster.KMeans` (Lloyd,
       k-means++, one init).
     * otherwise: :class:`~sklearn.cluster.MiniBatchKMeans` fed by ``partial_fit``
@@ -320,7 +327,7 @@ def _verify(H, centers, centers_sq, negative, negative_sq, max_distance, margin)
 
 
 class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
-    """Verify keypoints by their patch histogram: k-means centres of positives.
+    """Verify keypoints by their patch histograms: k-means centres of positives.
 
     Stage 2 of the FIR indicator detector (section 3.2 of the paper).  One class, two
     modes, chosen by the input:
@@ -719,6 +726,14 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         check_is_fitted(self)
         if is_record_input(X):
             records, _ = check_frames(X)
+            if self._n_descriptor != self.n_features_in_:
+                raise ValueError(
+                    f"KMeansHistogramVerifier was fitted on descriptors of "
+                    f"{self.n_features_in_} values, but its settings (bins={self.bins}, "
+                    f"context_size={self.context_size!r}) describe keypoints by "
+                    f"{self._n_descriptor}; fit it again after changing bins or "
+                    "context_size"
+                )
             out = []
             for r, kp, H in self._frame_histograms(records, {}):
                 keep = self._verified(H)
