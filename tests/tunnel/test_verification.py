@@ -461,3 +461,17 @@ def test_keypoint_descriptors_are_the_two_patch_histograms(
     alone = keypoint_descriptors(image, rows, cols, context_size=None, bins=16)
     assert np.array_equal(alone, patch_histograms(image, rows, cols, bins=16))
     assert keypoint_descriptors(image, rows[:0], cols[:0]).shape == (0, 64)
+
+
+@pytest.mark.parametrize("n, max_full", [(60, 20_000), (3000, 500)])
+def test_fit_kmeans_sample_indices_equal_the_copied_rows(n, max_full, global_random_seed):
+    """Full and mini-batch paths: clustering rows by index gives the centres of the
+    copied rows, for the same random state."""
+    rng = np.random.default_rng(global_random_seed)
+    X = rng.random((n, 8))
+    idx = np.flatnonzero(rng.random(n) < 0.6)
+    kw = dict(max_full_samples=max_full, batch_size=64, n_steps=20,
+              random_state=global_random_seed)
+    a = fit_kmeans(X, 10, sample_indices=idx, **kw)
+    b = fit_kmeans(X[idx], 10, **kw)
+    assert np.array_equal(a, b)

@@ -218,7 +218,7 @@ def _patch_shape(patch_size, name="patch_size"):
 
 def fit_kmeans(
     X, n_clusters, *, batch_size=4096, n_steps=300, max_full_samples=20_000,
-    random_state=None,
+    random_state=None, sample_indices=None,
 ) -> np.ndarray:
     """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
 
@@ -237,6 +237,20 @@ def fit_kmeans(
     machine scikit-learn's OpenMP threads spin-wait (a 512-row ``partial_fit`` took
     165 ms with two threads beside other jobs, 1 ms with one).
 
+    Parameters
+    ----------
+    X : ndarray of shape (n_rows, n_features)
+        The rows (histograms).
+    n_clusters : int
+        k.
+    batch_size, n_steps, max_full_samples : int
+        See above.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initialisation and the batches.
+    sample_indices : ndarray of int or None, default=None
+        Cluster only these rows of ``X`` (``None``: all), without copying them out of
+        a large ``X``: the result equals ``fit_kmeans(X[sample_indices], ...)``.
+
     Returns
     -------
     centers : ndarray of shape (n_centers, n_features), float64
@@ -244,12 +258,17 @@ def fit_kmeans(
     """
     with threadpool_limits(limits=1, user_api="openmp"):
         return _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
-                           check_random_state(random_state))
+                           check_random_state(random_state), sample_indices)
 
 
-def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng):
-    n = len(X)
+def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng,
+                sample_indices=None):
+    if sample_indices is not None:
+        sample_indices = np.asarray(sample_indices, dtype=np.intp)
+    n = len(X) if sample_indices is None else len(sample_indices)
     if n <= max(max_full_samples, 4 * n_clusters):
+        if sample_indices is not None:  # a small set: copy it
+            X, sample_indices = X[sample_indices], None
         distinct = np.unique(X, axis=0)
         if len(distinct) <= n_clusters:
             return distinct.astype(np.float64)
@@ -265,9 +284,13 @@ def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng):
         reassignment_ratio=0.01,
     )
     first = max(batch, 3 * n_clusters)
-    km.partial_fit(X[np.sort(rng.choice(n, min(first, n), replace=False))])
+
+    def take(idx):
+        return X[idx] if sample_indices is None else X[sample_indices[idx]]
+
+    km.partial_fit(take(np.sort(rng.choice(n, min(first, n), replace=False))))
     for _ in range(int(n_steps) - 1):
-        km.partial_fit(X[np.sort(rng.randint(0, n, batch))])
+        km.partial_fit(take(np.sort(rng.randint(0, n, batch))))
     return km.cluster_centers_.astype(np.float64)
 
 
@@ -594,8 +617,11 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
     def _n_descriptor(self):
         return self.bins * (1 if self.context_size is None else 2)
 
-    def _fit_centers(self, positive, negative):
-        n_pos, n_neg = len(positive), len(negative)
+    def _fit_centers(self, positive, negative, positive_rows=None, negative_rows=None):
+        """k-means of both sets; ``*_rows`` (index arrays) select them from one
+        array given as both ``positive`` and ``negative`` (no copy of the data)."""
+        n_pos = len(positive) if positive_rows is None else len(positive_rows)
+        n_neg = len(negative) if negative_rows is None else len(negative_rows)
         if n_pos == 0 or n_neg == 0:
             which = "positive" if n_pos == 0 else "negative"
             raise ValueError(
@@ -609,10 +635,12 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
             max_full_samples=self.max_full_samples,
         )
         self.positive_centers_ = fit_kmeans(
-            positive, self.n_positive_clusters, random_state=rng, **kw
+            positive, self.n_positive_clusters, random_state=rng,
+            sample_indices=positive_rows, **kw
         )
         self.negative_centers_ = fit_kmeans(
-            negative, self.n_negative_clusters, random_state=rng, **kw
+            negative, self.n_negative_clusters, random_state=rng,
+            sample_indices=negative_rows, **kw
         )
         self.center_scores_ = rank_positive_centers(
             self.positive_centers_, self.negative_centers_
@@ -665,7 +693,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         )
         y = column_or_1d(y)
         positive = y == self.pos_label
-        self._fit_centers(X[positive], X[~positive])
+        self._fit_centers(X, X, np.flatnonzero(positive), np.flatnonzero(~positive))
         return self
 
     def distances(self, X):
