@@ -90,9 +90,28 @@ def test_indicator_band_matches_numpy():
     image = rng.integers(0, 256, (50, 50)).astype(np.uint8)
     boxes = np.array([[3.5, 2, 10, 7], [40, 45, 20, 20]])
     pixels = np.concatenate([image[2:9, 4:14].ravel(), image[45:50, 40:50].ravel()])
-    low, high = indicator_band([image], [boxes], n_sigma=2)
+    low, high = indicator_band([image], [boxes], n_sigma=2, estimator="mean")
     assert low == pytest.approx(pixels.mean() - 2 * pixels.std())
     assert high == pytest.approx(pixels.mean() + 2 * pixels.std())
+
+
+def test_median_band_ignores_the_wall_in_the_boxes(global_random_seed):
+    """Boxes drawn a pixel around the plates (a rim of wall, as hand-drawn or
+    simulated boxes are; 20 % of the box): the robust estimate stays near the
+    plate's 3-sigma band [160, 190] (about [152, 194]), the plain moments widen it
+    to about [68, 252]."""
+    X, y = labelled_frames(global_random_seed, mean=175, sd=5)
+    loose = [b + np.array([[-1, -1, 2, 2]]) for b in y]  # 14 x 32 around 12 x 30
+    median = IntensityKeypointSampler(band="learned").fit(X, loose)
+    mean = IntensityKeypointSampler(band="learned", band_estimator="mean").fit(X, loose)
+    assert 148 < median.low_ < 160 and 190 < median.high_ < 198
+    assert mean.low_ < 100 and mean.high_ > 230
+
+
+def test_grouped_median_is_not_quantized():
+    # levels spread over [v - 0.5, v + 0.5]: the median 175, the MAD 0.5 (not 0 or 1)
+    assert indicator_band([np.array([[174, 175, 175, 176]], np.uint8)],
+                          [np.array([[0, 0, 4, 1.]])], n_sigma=1 / 1.4826) == (174.5, 175.5)
 
 
 def test_errors_are_clear():

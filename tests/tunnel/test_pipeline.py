@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from tunnelsense import to_xy
+from tunnelsense import FrameSequence, to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.tunnel import (
@@ -124,6 +124,32 @@ def test_grid_search_by_tour(tours):
     assert len(search.predict(X[:10])) == 10
 
 
+def _other_gain(X, gain, offset):
+    """The same frames seen by a camera with another gain and offset."""
+    images = np.stack([
+        np.clip(np.rint(gain * r.image.astype(np.float32) + offset), 0, 255).astype(np.uint8)
+        for r in X
+    ])
+    return FrameSequence.from_array(images, tour=X[0].tour)
+
+
+def test_a_camera_with_another_gain(tours):
+    """Indicators at 160-190 move to 197-233 under gain 1.2 and offset 5: the
+    pipeline learns its keypoint band from the training tours and still finds the
+    indicator; the paper's fixed band [160, 190] finds none."""
+    X, y, _ = to_xy(tours[:2])
+    Xt, yt, _ = to_xy(tours[2:])
+    X, Xt = _other_gain(X, 1.2, 5), _other_gain(Xt, 1.2, 5)
+    learned = make_indicator_pipeline(**SMALL).fit(X, y)
+    low, high = learned.named_steps["keypoints"].low_, learned.named_steps["keypoints"].high_
+    assert 185 < low < 200 and 225 < high < 240
+    s = indicator_scores(learned.predict(Xt), yt)
+    assert s["trajectory"]["detected"] == s["trajectory"]["indicators"] == 1
+    assert s["cluster"]["detection_rate"] >= 0.9
+    fixed = make_indicator_pipeline(**SMALL, keypoints__band="fixed").fit(X, y)
+    assert indicator_scores(fixed.predict(Xt), yt)["trajectory"]["detected"] == 0
+
+
 def test_pipeline_defaults_and_paper_settings():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
@@ -132,10 +158,12 @@ def test_pipeline_defaults_and_paper_settings():
     assert (p["verifier__context_size"], p["verifier__max_distance"]) == (None, 0.32)
     # without a verifier step the verifier's settings are not applied
     assert make_indicator_pipeline(verifier=False).named_steps["verifier"] == "passthrough"
+    assert p["keypoints__band"] == "learned"
     paper = make_indicator_pipeline(
         box="keypoints", appearance__margin=0, max_gap=3, max_distance=0.14,
-        verifier__margin=None, n_centers=10, context_size=None,
+        verifier__margin=None, n_centers=10, context_size=None, keypoints__band="fixed",
     ).get_params()
+    assert (paper["keypoints__band"], paper["keypoints__low"]) == ("fixed", 160)
     assert (paper["clusters__box"], paper["tracks__max_gap"]) == ("keypoints", 3)
     assert paper["verifier__max_distance"] == 0.14
     assert (paper["verifier__margin"], paper["verifier__n_centers"]) == (None, 10)

@@ -86,11 +86,17 @@ def sample_keypoints(
     return out
 
 
-def indicator_band(images, boxes, n_sigma=3.0):
-    """The intensity band ``mean +/- n_sigma * sd`` of the pixels inside indicator boxes.
+def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
+    """The intensity band ``centre +/- n_sigma * sd`` of the pixels inside indicator boxes.
 
     The paper's 3-sigma rule: indicator intensities are assumed Gaussian, and the band
-    keeps all but about 0.3 % of them.
+    keeps all but about 0.3 % of them.  A box holds more than the sign's plate: its
+    soft edges and a rim of the cooler wall.  ``estimator="median"`` (default)
+    estimates the plate's Gaussian robustly, by the median and ``1.4826`` times the
+    median absolute deviation, so that those pixels do not widen the band;
+    ``"mean"`` uses the plain mean and standard deviation of all box pixels.  On
+    simulated tours (boxes drawn around the signs) the median gave about
+    [155, 191], the mean about [130, 209], against the paper's [160, 190].
 
     Parameters
     ----------
@@ -101,6 +107,8 @@ def indicator_band(images, boxes, n_sigma=3.0):
         pixels ``left <= col < left + width``, ``top <= row < top + height``.
     n_sigma : float, default=3.0
         Half-width of the band in standard deviations.
+    estimator : {"median", "mean"}, default="median"
+        How the centre and the standard deviation are estimated (see above).
 
     Returns
     -------
@@ -113,12 +121,23 @@ def indicator_band(images, boxes, n_sigma=3.0):
     >>> import numpy as np
     >>> img = np.full((10, 10), 100, np.uint8)
     >>> img[2:6, 2:4] = [[170], [180], [170], [180]]
-    >>> indicator_band([img], [np.array([[2, 2, 2, 4.]])])
+    >>> indicator_band([img], [np.array([[2, 2, 2, 4.]])], estimator="mean")
     (160.0, 190.0)
+
+    A plate of mean 175 and sd 5 in a box that also holds a column of the wall (100):
+
+    >>> rng = np.random.default_rng(0)
+    >>> img = np.full((20, 20), 100, np.uint8)
+    >>> img[2:14, 2:8] = rng.normal(175, 5, (12, 6)).round()
+    >>> box = [np.array([[2, 2, 7, 12.]])]
+    >>> [round(v) for v in indicator_band([img], box, estimator="mean")]
+    [84, 245]
+    >>> [round(v) for v in indicator_band([img], box)]
+    [157, 192]
     """
-    total = 0.0
-    total_sq = 0.0
-    count = 0
+    if estimator not in ("median", "mean"):
+        raise ValueError(f"estimator must be 'median' or 'mean'; got {estimator!r}")
+    counts = None
     for image, frame_boxes in zip(images, boxes, strict=True):
         h, w = image.shape
         for left, top, width, height in np.asarray(frame_boxes).reshape(-1, 4):
@@ -128,18 +147,49 @@ def indicator_band(images, boxes, n_sigma=3.0):
             r1 = min(int(np.ceil(top + height)), h)
             if c1 <= c0 or r1 <= r0:
                 continue
-            patch = image[r0:r1, c0:c1].astype(np.float64)
-            total += patch.sum()
-            total_sq += np.square(patch).sum()
-            count += patch.size
-    if count == 0:
+            c = np.bincount(
+                image[r0:r1, c0:c1].ravel(), minlength=int(np.iinfo(image.dtype).max) + 1
+            )
+            counts = c if counts is None else counts + c
+    if counts is None or counts.sum() == 0:
         raise ValueError(
             "y holds no indicator box covering any pixel: cannot learn the intensity "
             "band (use band='fixed' or pass labelled frames)"
         )
-    mean = total / count
-    sd = np.sqrt(max(total_sq / count - mean * mean, 0.0))
-    return float(mean - n_sigma * sd), float(mean + n_sigma * sd)
+    values = np.arange(len(counts), dtype=np.float64)
+    n = counts.sum()
+    if estimator == "mean":
+        centre = float(counts @ values) / n
+        sd = np.sqrt(max(float(counts @ (values - centre) ** 2) / n, 0.0))
+    else:
+        centre, mad = _grouped_median_mad(counts)
+        sd = 1.4826 * mad
+    return (round(float(centre - n_sigma * sd), 6), round(float(centre + n_sigma * sd), 6))
+
+
+def _grouped_median_mad(counts):
+    """Median and median absolute deviation of integer grey levels, each level ``v``
+    spread uniformly over ``[v - 0.5, v + 0.5]`` (grouped data), so that neither is
+    quantized to whole grey levels."""
+    counts = counts.astype(np.float64)
+    n = counts.sum()
+    cum = np.cumsum(counts)
+    k = int(np.searchsorted(cum, n / 2))  # the level holding the median
+    below = cum[k] - counts[k]
+    median = k - 0.5 + (n / 2 - below) / counts[k]
+    lo_edges = np.arange(len(counts)) - 0.5
+
+    def mass_within(d):  # share of the pixels within median +/- d
+        overlap = np.clip(
+            np.minimum(lo_edges + 1, median + d) - np.maximum(lo_edges, median - d), 0, 1
+        )
+        return float(counts @ overlap) / n
+
+    lo, hi = 0.0, float(len(counts))
+    for _ in range(60):  # bisection: mass_within is non-decreasing in d
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if mass_within(mid) < 0.5 else (lo, mid)
+    return float(median), (lo + hi) / 2
 
 
 class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
@@ -168,10 +218,16 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         Upper end of the intensity band (inclusive), in the frame's own units.
     band : {"fixed", "learned"}, default="fixed"
         ``"fixed"`` uses ``[low, high]``.  ``"learned"`` sets the band in ``fit`` by
-        the paper's 3-sigma rule: the mean plus or minus ``n_sigma`` standard
-        deviations of the intensities of all pixels inside the indicator boxes ``y``.
+        the paper's 3-sigma rule: the centre plus or minus ``n_sigma`` standard
+        deviations of the intensities of the pixels inside the indicator boxes ``y``
+        (:func:`indicator_band`).
     n_sigma : float, default=3.0
         Half-width of a learned band, in standard deviations.
+    band_estimator : {"median", "mean"}, default="median"
+        How a learned band estimates the indicators' Gaussian: robustly (median and
+        1.4826 x MAD), so that the soft edges and the rim of wall inside the boxes do
+        not widen it, or by the plain mean and standard deviation of all box pixels.
+        On simulated tours: about [155, 191] against [130, 209].
     row_stride : int, default=7
         Grid spacing down the frame (px).
     col_stride : int, default=6
@@ -214,6 +270,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         "high": [Interval(numbers.Real, None, None, closed="neither")],
         "band": [StrOptions({"fixed", "learned"})],
         "n_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "band_estimator": [StrOptions({"median", "mean"})],
         "row_stride": [Interval(numbers.Integral, 1, None, closed="left")],
         "col_stride": [Interval(numbers.Integral, 1, None, closed="left")],
         "row_offset": [Interval(numbers.Integral, 0, None, closed="left")],
@@ -227,6 +284,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         *,
         band="fixed",
         n_sigma=3.0,
+        band_estimator="median",
         row_stride=7,
         col_stride=6,
         row_offset=0,
@@ -236,6 +294,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self.high = high
         self.band = band
         self.n_sigma = n_sigma
+        self.band_estimator = band_estimator
         self.row_stride = row_stride
         self.col_stride = col_stride
         self.row_offset = row_offset
@@ -276,7 +335,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 _check_image(r.image, i, r) for i, r in enumerate(records) if len(boxes[i])
             ]
             self.low_, self.high_ = indicator_band(
-                images, [b for b in boxes if len(b)], self.n_sigma
+                images, [b for b in boxes if len(b)], self.n_sigma,
+                estimator=self.band_estimator,
             )
         else:
             if self.low > self.high:

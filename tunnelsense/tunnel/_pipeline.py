@@ -24,6 +24,10 @@ __all__ = [
 #: own (paper) defaults; every one can be overridden (``box="keypoints"``,
 #: ``max_gap=3`` give the paper's).  See ``docs/tunnel-detector.md``.
 PIPELINE_DEFAULTS = {
+    # the keypoint band by the paper's 3-sigma rule on the labelled indicators of the
+    # training tours (robust estimate), not the paper's camera's outcome [160, 190]:
+    # a camera with another gain puts its indicators elsewhere
+    "keypoints__band": "learned",
     # the cluster rectangle is the in-band region around the keypoints, not the
     # grid-quantized rectangle of the keypoints: stable centre and scale
     "clusters__box": "region",
@@ -46,7 +50,10 @@ def make_indicator_pipeline(*, verifier=True, **params):
     """The six FIR stages (sections 3.1-3.7) as a :class:`~sklearn.pipeline.Pipeline`.
 
     The steps keep their own (the paper's) defaults except for
-    :data:`PIPELINE_DEFAULTS`: cluster rectangles refined to the in-band region
+    :data:`PIPELINE_DEFAULTS`: the keypoint band learned from the training tours by
+    the paper's 3-sigma rule (``keypoints__band="learned"``; the fixed [160, 190] is
+    that rule's outcome on the paper's camera), cluster rectangles refined to the
+    in-band region
     around the keypoints (``clusters__box="region"``), trajectories bridging gaps
     of up to 6 frames (``tracks__max_gap=6``), and keypoints verified by the 7 x 3
     patch histogram alone (``verifier__context_size=None``,
