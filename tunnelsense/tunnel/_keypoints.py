@@ -138,7 +138,13 @@ def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
     if estimator not in ("median", "mean"):
         raise ValueError(f"estimator must be 'median' or 'mean'; got {estimator!r}")
     counts = None
-    for image, frame_boxes in zip(images, boxes, strict=True):
+    for i, (image, frame_boxes) in enumerate(zip(images, boxes, strict=True)):
+        image = np.asarray(image)
+        if image.ndim != 2 or image.dtype not in (np.uint8, np.uint16):
+            raise ValueError(
+                f"indicator_band: image {i} must be a 2-D uint8 or uint16 array; got "
+                f"{image.dtype} of shape {image.shape}"
+            )
         h, w = image.shape
         for left, top, width, height in np.asarray(frame_boxes).reshape(-1, 4):
             c0 = max(int(np.ceil(left)), 0)
@@ -150,11 +156,19 @@ def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
             c = np.bincount(
                 image[r0:r1, c0:c1].ravel(), minlength=int(np.iinfo(image.dtype).max) + 1
             )
-            counts = c if counts is None else counts + c
+            if counts is None:
+                counts = c
+            else:  # 8- and 16-bit frames together: the longer histogram
+                if len(c) > len(counts):
+                    counts, c = c, counts
+                counts[: len(c)] += c
     if counts is None or counts.sum() == 0:
         raise ValueError(
             "y holds no indicator box covering any pixel: cannot learn the intensity "
-            "band (use band='fixed' or pass labelled frames)"
+            "band. Every training set (and every cross-validation training fold) "
+            "needs labelled indicators; or set band='fixed' with the camera's band "
+            "(keypoints__band='fixed', keypoints__low, keypoints__high in "
+            "make_indicator_pipeline)"
         )
     values = np.arange(len(counts), dtype=np.float64)
     n = counts.sum()
@@ -177,6 +191,9 @@ def _grouped_median_mad(counts):
     k = int(np.searchsorted(cum, n / 2))  # the level holding the median
     below = cum[k] - counts[k]
     median = k - 0.5 + (n / 2 - below) / counts[k]
+    if cum[k] == n / 2:  # exactly half at or below level k: mid-gap to the next level
+        nxt = k + 1 + int(np.flatnonzero(counts[k + 1 :] > 0)[0])
+        median = (k + 0.5 + nxt - 0.5) / 2
     lo_edges = np.arange(len(counts)) - 0.5
 
     def mass_within(d):  # share of the pixels within median +/- d
