@@ -170,6 +170,11 @@ def test_info_shows_the_model_card(models, capsys):
     assert card["summary"]["tours"][0]["frames"] == 120
     assert card["summary"]["parameters"]["motion__min_r"] == 0.95
     assert set(card["summary"]["training_scores"]) == {"cluster", "trajectory"}
+    # the band learned from the training tour (the pipeline's default), near the
+    # simulated indicators' [160, 190]
+    low, high = card["summary"]["keypoint_band"]
+    assert card["summary"]["parameters"]["keypoints__band"] == "learned"
+    assert 145 < low < 165 and 185 < high < 205
 
 
 def test_pickle_posing_as_skops_is_refused(models, tour_dirs, tmp_path, capsys):

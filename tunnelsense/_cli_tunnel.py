@@ -181,6 +181,11 @@ def _training_summary(tours, model, X, y, search=None) -> dict:
             for t in tours
         ],
         "parameters": params,
+        # the band in use (learned from the training tours by default)
+        "keypoint_band": [
+            round(float(model.named_steps["keypoints"].low_), 2),
+            round(float(model.named_steps["keypoints"].high_), 2),
+        ],
         "training_scores": indicator_scores(model.predict(X), y),
     }
     if search is not None:
@@ -232,6 +237,8 @@ def _cmd_train(args) -> int:
         )
     else:
         model.fit(X, y)
+    kp = model.named_steps["keypoints"]
+    print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
     summary = _training_summary(tours, model, X, y, search)
     out.parent.mkdir(parents=True, exist_ok=True)
     save_model(model, out, summary=summary)
