@@ -29,6 +29,8 @@ import zipfile
 from datetime import UTC, datetime
 from pathlib import Path
 
+from tunnelsense.exceptions import ModelVersionWarning, UntrustedModelError
+
 __all__ = [
     "ModelVersionWarning",
     "UntrustedModelError",
@@ -49,14 +51,6 @@ TRUSTED_MODULES = (
     "builtins.",
     "collections.",
 )
-
-
-class UntrustedModelError(ValueError):
-    """A model file was refused: not ours, tampered, truncated, or untrusted types."""
-
-
-class ModelVersionWarning(UserWarning):
-    """A model was trained under other library versions than those installed."""
 
 
 def _versions() -> dict:
