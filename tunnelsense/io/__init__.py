@@ -20,6 +20,7 @@ from tunnelsense.io._laser import (
     write_run_gt,
 )
 from tunnelsense.io._model import (
+    TRUSTED_TYPES,
     ModelVersionWarning,
     UntrustedModelError,
     describe_model,
@@ -41,6 +42,7 @@ from tunnelsense.io._mot import (
 
 __all__ = [
     "MOT_RESULT_COLUMNS",
+    "TRUSTED_TYPES",
     "ModelVersionWarning",
     "UntrustedModelError",
     "describe_model",

@@ -1,15 +1,23 @@
-"""Shipping fitted models: a safe format (skops) with versions and a checksum.
+"""Shipping fitted models: a safe format (skops) with versions, checksum and signature.
 
 Pickles (``joblib.dump``) run code when they are loaded, so a pickle from an untrusted
 source can do anything.  A ``.skops`` file written by :func:`save_model` cannot: it is
-read by `skops <https://skops.readthedocs.io>`_, which rebuilds objects only from an
-allow-list of types.  tunnelsense adds to it:
+read by `skops <https://skops.readthedocs.io>`_, which rebuilds objects only from
+types it is told to trust.  :func:`load_model` trusts skops' own reviewed defaults
+(built-in containers, NumPy arrays and dtypes, scikit-learn's estimators) and, beyond
+them, only the exact names in :data:`TRUSTED_TYPES`: tunnelsense's estimator
+classes.  Any other type named in the file (``builtins.exec``, ``os.system``,
+``subprocess.Popen``, a function, a class of another package) refuses the whole file
+before anything in it is built.  tunnelsense adds to the skops file:
 
 * a metadata member ``tunnelsense.json`` with the versions of tunnelsense,
   scikit-learn, NumPy, SciPy and Python the model was trained under, and a training
   summary (tours, parameters, scores);
 * a SHA-256 checksum of every byte of the file, kept in the zip comment, so that a
-  tampered or truncated file is refused before anything in it is read.
+  corrupted or truncated file is refused before anything in it is read;
+* optionally an HMAC-SHA256 signature with a fleet's secret key (``key=``), so that
+  a vehicle can refuse a model it did not sign: the checksum alone is no proof of
+  origin, since anyone who edits a file can compute it again.
 
 The file stays a valid skops file: ``skops.io.load`` reads it too.
 
@@ -21,6 +29,7 @@ code and less trust.
 from __future__ import annotations
 
 import hashlib
+import hmac
 import io
 import json
 import platform
@@ -29,9 +38,16 @@ import zipfile
 from datetime import UTC, datetime
 from pathlib import Path
 
-from tunnelsense.exceptions import ModelVersionWarning, UntrustedModelError
+from tunnelsense.exceptions import (
+    InputFormatError,
+    ModelVersionWarning,
+    UntrustedModelError,
+)
+from tunnelsense.io._output import atomic_write, check_output
 
 __all__ = [
+    "KEY_ENV",
+    "TRUSTED_TYPES",
     "ModelVersionWarning",
     "UntrustedModelError",
     "describe_model",
@@ -41,15 +57,28 @@ __all__ = [
 
 _METADATA = "tunnelsense.json"
 _COMMENT_PREFIX = b"tunnelsense-sha256:"
+_SIGNATURE_PREFIX = b"tunnelsense-hmac-sha256:"
 _DIGEST_LEN = 64
-#: Modules whose types a safe model file may contain.
-TRUSTED_MODULES = (
-    "tunnelsense.",
-    "sklearn.",
-    "numpy.",
-    "scipy.",
-    "builtins.",
-    "collections.",
+_PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
+
+#: Environment variable holding the fleet's signing key (the command line reads it).
+KEY_ENV = "TUNNELSENSE_MODEL_KEY"
+
+#: The exact type names, beyond skops' own trusted defaults, that a model file may
+#: hold: tunnelsense's estimators, and scikit-learn's tree structure (a decision tree
+#: in a user's pipeline; its ``__setstate__`` checks the arrays it is given).  No
+#: prefix matching, nothing callable.
+TRUSTED_TYPES = frozenset(
+    [
+        "sklearn.tree._tree.Tree",
+        "tunnelsense.tunnel._keypoints.IntensityKeypointSampler",
+        "tunnelsense.tunnel._verification.KMeansHistogramVerifier",
+        "tunnelsense.tunnel._clustering.MSTClusterer",
+        "tunnelsense.tunnel._appearance.WeightedAdaBoost",
+        "tunnelsense.tunnel._tracking.TrajectoryLinker",
+        "tunnelsense.tunnel._motion.PCCVerifier",
+        "tunnelsense.street._detector.ScanClusterer",
+    ]
 )
 
 
@@ -82,12 +111,38 @@ def _json_safe(value):
     return repr(value)
 
 
-def save_model(model, path, *, summary=None) -> Path:
+def _as_key(key):
+    """A signing key as bytes (a str is taken as UTF-8); None stays None."""
+    if key is None:
+        return None
+    if isinstance(key, str):
+        key = key.encode("utf-8")
+    if not isinstance(key, bytes | bytearray) or len(key) < 16:
+        raise ValueError(
+            "key must be a secret of at least 16 bytes (str or bytes); got "
+            + (f"{len(key)} bytes" if isinstance(key, bytes | bytearray) else
+               type(key).__name__)
+        )
+    return bytes(key)
+
+
+def _model_format(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in (*_PICKLE_SUFFIXES, ".skops"):
+        raise ValueError(
+            f"{path}: unknown model format {suffix or '(no extension)'!r}; use .skops "
+            "(safe) or .joblib (pickle)"
+        )
+    return suffix
+
+
+def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
     """Save a fitted model for shipping.
 
     The format follows the file's extension: ``.skops`` writes the safe format (no code
     runs on load; versions, summary and checksum inside); ``.joblib`` / ``.pkl`` write
-    a plain joblib pickle.
+    a plain joblib pickle.  The file is written under a temporary name and renamed
+    when complete, so an interrupted save never leaves half a model.
 
     Parameters
     ----------
@@ -98,10 +153,21 @@ def save_model(model, path, *, summary=None) -> Path:
     summary : dict, default=None
         Training summary to store (tours, parameters, scores); JSON-able values, other
         objects are stored as their ``repr``.
+    key : str or bytes, default=None
+        A secret of at least 16 bytes: sign the ``.skops`` file with HMAC-SHA256, so
+        that :func:`load_model` with the same key can tell it was written by a holder
+        of the key.
+    overwrite : bool, default=False
+        Whether to replace an existing file.
 
     Returns
     -------
     path : Path
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists and ``overwrite`` is false.
 
     Examples
     --------
@@ -115,17 +181,34 @@ def save_model(model, path, *, summary=None) -> Path:
     [1]
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix in (".joblib", ".pkl", ".pickle"):
+    suffix = _model_format(path)
+    key = _as_key(key)
+    check_output(path, overwrite=overwrite, what="model file")
+    if suffix in _PICKLE_SUFFIXES:
+        if key is not None:
+            raise ValueError(f"{path}: only .skops files can be signed")
         import joblib
 
-        joblib.dump(model, path)
+        with atomic_write(path) as f:
+            joblib.dump(model, f)
         return path
-    if suffix != ".skops":
-        raise ValueError(
-            f"{path}: unknown model format {suffix or '(no extension)'!r}; use .skops "
-            "(safe) or .joblib (pickle)"
-        )
+    data = _skops_bytes(model, summary, signed=key is not None)
+    if key is not None:
+        start = len(data) - 2 * _DIGEST_LEN - len(_COMMENT_PREFIX)
+        data[start:start + _DIGEST_LEN] = _hmac(key, data[: start]).encode()
+    body = len(data) - _DIGEST_LEN
+    data[body:] = hashlib.sha256(data[:body]).hexdigest().encode()
+    with atomic_write(path) as f:
+        f.write(bytes(data))
+    return path
+
+
+def _hmac(key: bytes, data) -> str:
+    return hmac.new(key, data, hashlib.sha256).hexdigest()
+
+
+def _skops_bytes(model, summary, *, signed) -> bytearray:
+    """The skops file with metadata and a zip comment of zeros to fill in."""
     import skops.io
 
     payload = skops.io.dumps(model, compression=zipfile.ZIP_DEFLATED)
@@ -134,21 +217,25 @@ def save_model(model, path, *, summary=None) -> Path:
         "file_format_version": 1,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "model": type(model).__name__,
+        "signed": signed,
         "versions": _versions(),
         "summary": _json_safe(summary or {}),
     }
     buffer = io.BytesIO(payload)
     with zipfile.ZipFile(buffer, "a", compression=zipfile.ZIP_DEFLATED) as zf:
         zf.writestr(_METADATA, json.dumps(metadata, indent=2, sort_keys=True))
-        zf.comment = _COMMENT_PREFIX + b"0" * _DIGEST_LEN
-    data = bytearray(buffer.getvalue())
-    body = len(data) - _DIGEST_LEN
-    data[body:] = hashlib.sha256(data[:body]).hexdigest().encode()
-    path.write_bytes(bytes(data))
-    return path
+        comment = _COMMENT_PREFIX + b"0" * _DIGEST_LEN
+        if signed:
+            comment = _SIGNATURE_PREFIX + b"0" * _DIGEST_LEN + comment
+        zf.comment = comment
+    return bytearray(buffer.getvalue())
 
 
-def _verified_bytes(path: Path) -> bytes:
+def _verified_bytes(path: Path, key=None) -> tuple[bytes, bool]:
+    """The file's bytes after the checksum (and, with a key, signature) check.
+
+    Returns the bytes and whether the file carries a signature.
+    """
     if not path.is_file():
         raise FileNotFoundError(f"{path}: model file not found")
     data = path.read_bytes()
@@ -166,29 +253,54 @@ def _verified_bytes(path: Path) -> bytes:
         )
     body = len(data) - _DIGEST_LEN
     digest = hashlib.sha256(data[:body]).hexdigest().encode()
-    if digest != data[body:]:
+    if not hmac.compare_digest(digest, data[body:]):
         raise UntrustedModelError(
             f"{path}: checksum mismatch, the file was changed after it was written "
             "(tampered or corrupted); refusing to load it"
         )
-    return data
+    end = len(data) - len(tail)
+    start = end - _DIGEST_LEN
+    signed = data[start - len(_SIGNATURE_PREFIX) : start] == _SIGNATURE_PREFIX
+    if key is not None:
+        if not signed:
+            raise UntrustedModelError(
+                f"{path}: the model is not signed, and a signing key was given; "
+                "refusing a model this key did not sign"
+            )
+        expected = _hmac(key, data[:start]).encode()
+        if not hmac.compare_digest(expected, data[start:end]):
+            raise UntrustedModelError(
+                f"{path}: signature mismatch: the model was not signed with this key, "
+                "or was changed after it was signed; refusing to load it"
+            )
+    return data, signed
 
 
 def _read_metadata(path: Path, data: bytes) -> dict:
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
-            return json.loads(zf.read(_METADATA))
-    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as exc:
+            metadata = json.loads(zf.read(_METADATA))
+    except (zipfile.BadZipFile, KeyError, ValueError, OSError, EOFError) as exc:
         raise UntrustedModelError(f"{path}: malformed model file ({exc})") from None
+    if not isinstance(metadata, dict) or not isinstance(
+        metadata.get("versions", {}), dict
+    ):
+        raise UntrustedModelError(
+            f"{path}: malformed model file ({_METADATA} is not a JSON object with "
+            "a 'versions' object)"
+        )
+    return metadata
 
 
-def load_model(path, *, allow_pickle=False):
+def load_model(path, *, allow_pickle=False, key=None):
     """Load a model written by :func:`save_model`.
 
-    A ``.skops`` file is verified before anything in it is read: its checksum must
-    match (else it was tampered with or truncated) and it may only hold types from
-    scikit-learn, NumPy, SciPy, tunnelsense and Python's builtins.  A model trained
-    under other library versions loads with a :class:`ModelVersionWarning`.
+    A ``.skops`` file is verified before anything in it is built: its checksum must
+    match (else it was corrupted, truncated or edited), with ``key`` its signature
+    must match (else someone without the key wrote or changed it), and every type it
+    names must be one of skops' trusted defaults or in :data:`TRUSTED_TYPES` (else it
+    could run code).  A model trained under other library versions loads with a
+    :class:`~tunnelsense.exceptions.ModelVersionWarning`.
 
     Parameters
     ----------
@@ -197,6 +309,8 @@ def load_model(path, *, allow_pickle=False):
     allow_pickle : bool, default=False
         Pickles run code when loaded; load one only with ``allow_pickle=True``, and
         only from a source you trust.
+    key : str or bytes, default=None
+        The signing key: refuse a ``.skops`` file not signed with it.
 
     Returns
     -------
@@ -205,16 +319,22 @@ def load_model(path, *, allow_pickle=False):
     Raises
     ------
     UntrustedModelError
-        The file is not a tunnelsense model file, its checksum does not match, or it
-        holds types outside the trusted modules.
+        The file is not a tunnelsense model file, its checksum or signature does not
+        match, or it names a type outside the trusted ones.
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix in (".joblib", ".pkl", ".pickle"):
+    suffix = _model_format(path)
+    key = _as_key(key)
+    if suffix in _PICKLE_SUFFIXES:
         if not allow_pickle:
             raise UntrustedModelError(
                 f"{path}: a pickle runs code when loaded; pass allow_pickle=True only if "
                 "you trust its source, or ship models in the safe .skops format"
+            )
+        if key is not None:
+            raise UntrustedModelError(
+                f"{path}: a pickle cannot be signed; a signing key was given, so only "
+                "signed .skops models are accepted"
             )
         import joblib
 
@@ -223,17 +343,41 @@ def load_model(path, *, allow_pickle=False):
         return model
     import skops.io
 
-    data = _verified_bytes(path)
+    data, _ = _verified_bytes(path, key)
     metadata = _read_metadata(path, data)
+    untrusted = _trusted_types_of(path, data)
+    _warn_versions(path, metadata)
+    try:
+        model = skops.io.loads(data, trusted=untrusted)
+    except Exception as exc:  # a schema skops cannot build: refuse the file
+        raise UntrustedModelError(
+            f"{path}: malformed model file ({type(exc).__name__}: {exc})"
+        ) from None
+    _check_parameters(model, path)
+    return model
+
+
+def _trusted_types_of(path: Path, data: bytes) -> list[str]:
+    """The types beyond skops' defaults the file names; refuse any not trusted.
+
+    Nothing is built: skops reads the schema only.
+    """
+    import skops.io
+
     try:
         untrusted = skops.io.get_untrusted_types(data=data)
     except Exception as exc:  # skops raises various errors on malformed schemas
         raise UntrustedModelError(f"{path}: malformed model file ({exc})") from None
-    refused = [t for t in untrusted if not t.startswith(TRUSTED_MODULES)]
+    refused = sorted(t for t in untrusted if t not in TRUSTED_TYPES)
     if refused:
         raise UntrustedModelError(
-            f"{path}: holds types outside the trusted modules: {', '.join(refused)}"
+            f"{path}: names types that are not trusted (they could run code when "
+            f"loaded): {', '.join(refused)}; refusing to load it"
         )
+    return sorted(untrusted)
+
+
+def _warn_versions(path: Path, metadata: dict) -> None:
     current = _versions()
     stored = metadata.get("versions", {})
     differ = {
@@ -247,11 +391,8 @@ def load_model(path, *, allow_pickle=False):
             + ", ".join(f"{k} {a} (now {b})" for k, (a, b) in differ.items())
             + "; check its predictions before use",
             ModelVersionWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    model = skops.io.loads(data, trusted=untrusted)
-    _check_parameters(model, path)
-    return model
 
 
 def _check_parameters(model, path: Path) -> None:
@@ -270,7 +411,7 @@ def _check_parameters(model, path: Path) -> None:
         names = est._get_param_names()
         missing = [n for n in names if not hasattr(est, n)]
         if missing:
-            raise ValueError(
+            raise InputFormatError(
                 f"{path}: its {type(est).__name__} lacks parameter(s) "
                 f"{', '.join(missing)}: the model was saved by another version of "
                 "tunnelsense; train it again"
@@ -286,12 +427,16 @@ def _check_parameters(model, path: Path) -> None:
 def describe_model(path) -> dict:
     """What a model file holds (versions, training summary, pipeline steps).
 
-    For a ``.skops`` file this reads the metadata only (after the checksum check),
-    never the model; a pickle is not opened at all.
+    For a ``.skops`` file this reads the metadata only (after the checksum check and
+    the check of the types it names), never builds the model; a pickle is not opened
+    at all.  ``signed`` says whether the
+    file carries a signature (checking it needs the key: :func:`load_model`).
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix in (".joblib", ".pkl", ".pickle"):
+    suffix = _model_format(path)
+    if suffix in _PICKLE_SUFFIXES:
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: model file not found")
         return {
             "kind": "model",
             "format": "pickle",
@@ -299,12 +444,14 @@ def describe_model(path) -> dict:
             "bytes": path.stat().st_size,
             "note": "pickles run code when loaded; not opened",
         }
-    data = _verified_bytes(path)
+    data, signed = _verified_bytes(path)
     metadata = _read_metadata(path, data)
+    _trusted_types_of(path, data)
     return {
         "kind": "model",
         "format": "skops",
         "path": str(path),
         "bytes": len(data),
         **metadata,
+        "signed": signed,
     }
