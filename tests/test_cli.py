@@ -160,11 +160,18 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
             tmp_path / "m.skops", last_step="cluster", command="train street"
         )
     save_model(other, tmp_path / "m.joblib")
-    assert (
+    from tunnelsense.exceptions import UntrustedModelError
+
+    with pytest.raises(UntrustedModelError, match="pass --trust-pickle"):
         load_cli_model(tmp_path / "m.joblib", last_step="scale", command="x")
+    assert (
+        load_cli_model(
+            tmp_path / "m.joblib", last_step="scale", command="x", trust_pickle=True
+        )
         is not None
     )
-    assert "is a pickle, which runs code" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--trust-pickle" in err and "can run any code" in err
     with pytest.raises(FileNotFoundError, match="model file not found"):
         load_cli_model(tmp_path / "none.skops", last_step="cluster", command="x")
 

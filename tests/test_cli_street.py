@@ -33,7 +33,11 @@ def test_train_detect_evaluate(rundirs, tmp_path, capsys):
     out = tmp_path / "objects.csv"
     draw = tmp_path / "draw"
     assert run_cli(["detect", "street", "--model", str(model), rundirs[1],
-                    "--out", str(out), "--draw", str(draw)]) == 0
+                    "--out", str(out), "--draw", str(draw)]) == 1
+    assert "--trust-pickle" in capsys.readouterr().err
+    assert not out.exists()
+    assert run_cli(["detect", "street", "--model", str(model), rundirs[1],
+                    "--out", str(out), "--draw", str(draw), "--trust-pickle"]) == 0
     obj = pd.read_csv(out)
     assert {"id", "first_scan", "last_scan", "label", "mean_depth"} <= set(obj.columns)
     assert set(obj.label) <= {"parked", "passing"}
@@ -92,7 +96,7 @@ def test_detect_joblib_equals_skops(long_run, tmp_path, capsys):
     joblib.dump(load_model(model), pickle)
     out = tmp_path / "o.csv"
     assert run_cli(["detect", "street", "--model", str(pickle), str(path), "--out",
-                    str(out), "--quiet"]) == 0
+                    str(out), "--quiet", "--trust-pickle"]) == 0
     assert "pickle" in capsys.readouterr().err
     assert out.read_bytes() == full.read_bytes()
     rows = pd.read_csv(full)

@@ -152,7 +152,8 @@ def test_skops_and_joblib_in_a_fresh_process(tour_dirs, models, batch_records, t
     for ext, path in models.items():
         outs[ext] = tmp_path / f"{ext}.txt"
         proc = subprocess.run(
-            [*CLI, "detect", "tunnel", "--model", str(path), str(tour_dirs[1]), "--out", str(outs[ext])],
+            [*CLI, "detect", "tunnel", "--model", str(path), str(tour_dirs[1]), "--out", str(outs[ext]),
+             *(["--trust-pickle"] if ext == "joblib" else [])],
             capture_output=True, text=True, check=True,
         )
         assert ("pickle" in proc.stderr) is (ext == "joblib")
@@ -241,7 +242,11 @@ def test_errors(tour_dirs, tmp_path):
     joblib.dump({"not": "a model"}, tmp_path / "bad.joblib")
     with pytest.raises(ValueError, match="not a model"):
         run(["detect", "tunnel", "--model", str(tmp_path / "bad.joblib"), str(tour_dirs[0]),
+             "--out", str(tmp_path / "r.txt"), "--trust-pickle"])
+    with pytest.raises(ValueError, match="pass --trust-pickle"):
+        run(["detect", "tunnel", "--model", str(tmp_path / "bad.joblib"), str(tour_dirs[0]),
              "--out", str(tmp_path / "r.txt")])
+    assert not (tmp_path / "r.txt").exists()
     with pytest.raises(FileNotFoundError, match="results file"):
         run(["evaluate", "tunnel", str(tour_dirs[0]), str(tmp_path / "none.txt")])
     with pytest.raises(ValueError, match="at least 2 tours"):

@@ -137,7 +137,8 @@ def test_writer_resume_refuses_another_runs_file(tmp_path):
         ValueError, match=r"line 3 differs from this run's \('3,4' vs '9,9'\)"
     ):
         w.write("9,9")
-    w._file.close()
+    w._abandon()
+    assert path.read_text() == "a,b\n1,2\n3,4\n"  # nothing touched
     with pytest.raises(ValueError, match="first line is not the header"):
         ResultsWriter(path, header="x,y", resume=True)
     w = ResultsWriter(path, header="a,b", resume=True)
@@ -153,3 +154,85 @@ def test_writer_resume_of_a_file_without_a_complete_line_starts_afresh(tmp_path)
         assert w.resumed_lines == 0
         w.write("1,2")
     assert path.read_text() == "a,b\n1,2\n"
+
+
+def test_writer_refuses_to_overwrite_unless_asked(tmp_path):
+    from tunnelsense.exceptions import OutputExistsError
+
+    path = tmp_path / "out.csv"
+    path.write_text("precious\n")
+    with pytest.raises(OutputExistsError, match="out.csv: exists"):
+        ResultsWriter(path, header="a,b")
+    assert path.read_text() == "precious\n"
+    # overwrite: the old file stays whole until the new one is complete
+    w = ResultsWriter(path, header="a,b", overwrite=True)
+    w.write("1,2")
+    w.flush()
+    assert path.read_text() == "precious\n"
+    w.close()
+    assert path.read_text() == "a,b\n1,2\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_writer_replacing_a_file_keeps_it_when_the_run_fails(tmp_path):
+    path = tmp_path / "out.csv"
+    path.write_text("precious\n")
+    with pytest.raises(RuntimeError), ResultsWriter(path, overwrite=True) as w:
+        w.write("1,2")
+        raise RuntimeError("the source is corrupt")
+    assert path.read_text() == "precious\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_writer_resume_checks_an_unrelated_file_before_touching_it(tmp_path):
+    path = tmp_path / "gt.txt"
+    original = b"1,1,10,20,5,9,1,1,1.0\n2,1,10,20,5,9,1,1,1.0\npartial"
+    path.write_bytes(original)
+    pattern = r"\d+,-?\d+(,[^,]+){5},-1,-1,-1"
+    with pytest.raises(ValueError, match="line 1 .* is not a line this command writes"):
+        ResultsWriter(path, resume=True, line_pattern=pattern)
+    assert path.read_bytes() == original
+    csv = tmp_path / "other.csv"
+    csv.write_bytes(b"x,y\n1,2\npart")
+    with pytest.raises(ValueError, match="first line is not the header"):
+        ResultsWriter(csv, header="a,b", resume=True)
+    assert csv.read_bytes() == b"x,y\n1,2\npart"
+
+
+@pytest.mark.parametrize("where", ["/dev/null", "/dev/shm/tunnelsense-results.txt"])
+def test_writer_never_writes_into_device_folders(where):
+    import os
+
+    for kwargs in ({}, {"overwrite": True}, {"resume": True}):
+        with pytest.raises(ValueError, match="device folder"):
+            ResultsWriter(where, **kwargs)
+    assert not os.path.exists("/dev/shm/tunnelsense-results.txt")
+
+
+def test_writer_errors_name_the_file(tmp_path):
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OSError, match=r"file/r.txt: cannot write \(Not a directory"):
+        ResultsWriter(tmp_path / "file" / "r.txt")
+
+
+def test_writer_error_when_the_disk_is_full_names_the_file(tmp_path):
+    """A file-size limit stands in for a full disk: the same error (EFBIG/ENOSPC)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))\n"
+        "from tunnelsense._streaming import ResultsWriter\n"
+        "try:\n"
+        "    with ResultsWriter(sys.argv[1], header='a,b') as w:\n"
+        "        for i in range(10000):\n"
+        "            w.write(f'{i},{i}')\n"
+        "            w.flush()\n"
+        "except OSError as exc:\n"
+        "    print(exc)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "r.csv")],
+                         capture_output=True, text=True, check=True).stdout
+    assert "r.csv: cannot write (File too large)" in out

@@ -67,6 +67,11 @@ def _cmd_simulate(args) -> int:
     from tunnelsense.io import write_run, write_tour
 
     out = Path(args.outdir)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
+        raise FileExistsError(
+            f"{out}: exists and is not an empty folder; refusing to write over it "
+            "(pass --force to replace its files)"
+        )
     start = time.perf_counter()
     if args.kind == "tunnel":
         tour = make_tunnel_tour(
@@ -113,8 +118,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "source",
-        help="MOTChallenge folder, image folder, video file or "
-        "laser run folder (scans.npz + gt.csv)",
+        help="MOTChallenge folder, image folder, video file, "
+        "laser run folder (scans.npz + gt.csv), or model file (.skops, .joblib)",
     )
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_info)
@@ -143,6 +148,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=STREET_SCENARIOS[0] if STREET_SCENARIOS else None,
         choices=STREET_SCENARIOS or None,
     )
+    for k in (t, s):
+        k.add_argument(
+            "--force",
+            action="store_true",
+            help="write into OUTDIR even if it exists and holds files",
+        )
     p.set_defaults(func=_cmd_simulate)
 
     _register_methods(sub)

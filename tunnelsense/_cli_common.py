@@ -1,20 +1,77 @@
-"""Pieces shared by the detectors' command-line modules."""
+"""Pieces shared by the detectors' command-line modules: models in, outputs out."""
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
-__all__ = ["load_cli_model"]
+__all__ = [
+    "add_model_arguments",
+    "add_output_arguments",
+    "check_draw_dir",
+    "input_files",
+    "load_cli_model",
+    "signing_key",
+]
 
 _PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
 
 
-def load_cli_model(path, *, last_step, command):
+def add_model_arguments(parser, *, help_model) -> None:
+    """``--model``, ``--trust-pickle`` and ``--key-file`` of a command that loads one."""
+    parser.add_argument("--model", required=True, help=help_model)
+    parser.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="allow a .joblib/.pkl model: pickles run code when loaded, so only for "
+        "a file from a source you trust",
+    )
+    _add_key_argument(parser, "refuse a .skops model not signed with the key in FILE")
+
+
+def _add_key_argument(parser, text) -> None:
+    parser.add_argument(
+        "--key-file",
+        metavar="FILE",
+        help=f"{text} (default: the environment variable TUNNELSENSE_MODEL_KEY, if "
+        "set)",
+    )
+
+
+def add_output_arguments(parser, *, signs=False) -> None:
+    """``--force`` (and ``--key-file`` for a command that writes a model)."""
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing output file (never one of the command's inputs)",
+    )
+    if signs:
+        _add_key_argument(parser, "sign the .skops model with the key in FILE")
+
+
+def signing_key(args):
+    """The fleet's signing key: ``--key-file``, else ``TUNNELSENSE_MODEL_KEY``."""
+    from tunnelsense.io._model import KEY_ENV
+
+    path = getattr(args, "key_file", None)
+    if path:
+        try:
+            key = Path(path).read_bytes().strip()
+        except OSError as exc:
+            raise OSError(exc.errno, f"--key-file {path}: {exc.strerror}") from None
+        if not key:
+            raise ValueError(f"--key-file {path}: the file is empty")
+        return key
+    return os.environ.get(KEY_ENV) or None
+
+
+def load_cli_model(path, *, last_step, command, trust_pickle=False, key=None):
     """Load a model named on the command line and check which detector it is.
 
-    The user names the file, so a ``.joblib`` pickle is loaded, with a note that
-    pickles run code; ``.skops`` files are verified by :func:`tunnelsense.io.load_model`.
+    A ``.skops`` file is verified by :func:`tunnelsense.io.load_model` (checksum,
+    trusted types, and the signature when a key is given).  A ``.joblib`` pickle runs
+    code when loaded, so it is refused unless ``trust_pickle``.
 
     Parameters
     ----------
@@ -24,22 +81,59 @@ def load_cli_model(path, *, last_step, command):
         Name of the last pipeline step the detector's models have.
     command : str
         The training command, for the error message (e.g. ``"train tunnel"``).
+    trust_pickle : bool, default=False
+        Load a pickle (``--trust-pickle``).
+    key : bytes or None, default=None
+        The signing key the model must be signed with.
     """
+    from tunnelsense.exceptions import UntrustedModelError
     from tunnelsense.io import load_model
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: model file not found")
     if path.suffix.lower() in _PICKLE_SUFFIXES:
+        if not trust_pickle:
+            raise UntrustedModelError(
+                f"--model {path}: a pickle runs code when loaded; pass --trust-pickle "
+                "only if you trust its source, or ship .skops models"
+            )
         print(
-            f"note: {path} is a pickle, which runs code when loaded; load pickles only "
-            "from sources you trust (ship .skops files)",
+            f"note: loading the pickle {path} (--trust-pickle): it can run any code",
             file=sys.stderr,
         )
-        model = load_model(path, allow_pickle=True)
+        model = load_model(path, allow_pickle=True, key=key)
     else:
-        model = load_model(path)
+        model = load_model(path, key=key)
     steps = getattr(model, "steps", None)
     if not steps or steps[-1][0] != last_step:
         raise ValueError(f"{path}: not a model written by 'tunnelsense {command}'")
     return model
+
+
+def input_files(source) -> list[Path]:
+    """The files (and folders) a command reads from a tour, video or laser run.
+
+    An output is never written over any of them, even with ``--force``.
+    """
+    source = Path(source)
+    if not source.is_dir():
+        return [source]
+    known = [source / n for n in ("seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv")]
+    present = [p for p in known if p.exists()]
+    return present or [source]  # a plain image folder: every file in it
+
+
+def check_draw_dir(path, *, force) -> Path:
+    """A folder for pictures: new or empty, or ``--force`` to draw over its files."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"--draw {path}: exists and is not a folder")
+    if path.is_dir() and any(path.iterdir()) and not force:
+        from tunnelsense.exceptions import OutputExistsError
+
+        raise OutputExistsError(
+            f"--draw {path}: the folder is not empty; refusing to draw over its files "
+            "(pass --force)"
+        )
+    return path

@@ -19,7 +19,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tunnelsense._cli_common import load_cli_model
+from tunnelsense._cli_common import (
+    add_model_arguments,
+    add_output_arguments,
+    check_draw_dir,
+    input_files,
+    load_cli_model,
+    signing_key,
+)
 
 __all__ = ["register"]
 
@@ -65,9 +72,14 @@ def _cmd_train(args) -> int:
     from tunnelsense.metrics import make_street_scorer
     from tunnelsense.street import make_parking_pipeline
 
+    from tunnelsense.io._output import check_output
+
     if Path(args.model).suffix.lower() not in (".skops", ".joblib"):
         raise ValueError(f"--model {args.model}: expected a .skops (safe) or .joblib "
                          "(pickle) file name")
+    inputs = [f for d in args.rundirs for f in input_files(d)]
+    check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
+    key = signing_key(args)
     runs = _read_runs(args.rundirs)
     X, y, groups = to_xy(runs)
     X = [r for run in runs for r in _with_speed(run)]
@@ -92,14 +104,14 @@ def _cmd_train(args) -> int:
         pipe.fit(X, y)
     summary["parameters"] = {k: v for k, v in pipe.get_params(deep=True).items()
                              if "__" in k}
-    Path(args.model).parent.mkdir(parents=True, exist_ok=True)
-    save_model(pipe, args.model, summary=summary)
-    print(f"saved {args.model}")
+    save_model(pipe, args.model, summary=summary, key=key, overwrite=args.force)
+    print(f"saved {args.model}" + (" (signed)" if key is not None else ""))
     return 0
 
 
-def _load_model(path):
-    return load_cli_model(path, last_step="cluster", command="train street")
+def _load_model(args):
+    return load_cli_model(args.model, last_step="cluster", command="train street",
+                          trust_pickle=args.trust_pickle, key=signing_key(args))
 
 
 #: Columns written by ``detect street`` (the object table without ``run``).
@@ -122,7 +134,14 @@ def _cmd_detect(args) -> int:
     from tunnelsense._streaming import ResultsWriter
     from tunnelsense.io import open_run_stream
 
-    model = _load_model(args.model)
+    from tunnelsense.io._output import check_output
+
+    out = Path(args.out)
+    check_output(out, overwrite=args.force or args.resume,
+                 inputs=[args.model, *input_files(args.rundir)], what="--out")
+    if args.draw:
+        check_draw_dir(args.draw, force=args.force)
+    model = _load_model(args)
     source = open_run_stream(args.rundir, chunk_scans=1024)
     speed = _speed_of(source)
     step = model.steps[-1][1] if hasattr(model, "steps") else model
@@ -132,12 +151,12 @@ def _cmd_detect(args) -> int:
                         f"{type(step).__name__} cannot stream (no start_stream)")
     state = step.start_stream()
     keep = None if args.all_objects else set(RUN_LABELS)
-    out = Path(args.out)
     counts = {}
     progress = Progress(source.n_scans, f"{source.name}: detecting",
                         enabled=not args.quiet)
     done = 0
-    with ResultsWriter(out, header=",".join(DETECT_COLUMNS), resume=args.resume) as w:
+    with ResultsWriter(out, header=",".join(DETECT_COLUMNS), resume=args.resume,
+                       overwrite=args.force) as w:
 
         def feed(chunk):
             if head is not None and chunk:
@@ -227,12 +246,13 @@ def register(verbs) -> None:
                    help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
+    add_output_arguments(p, signs=True)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
     p.add_argument("rundir", metavar="RUNDIR", help="a laser run folder")
-    p.add_argument("--model", required=True,
-                   help="a model saved by train street (.skops, or a .joblib pickle)")
+    add_model_arguments(p, help_model="a model saved by train street (.skops, or a "
+                        ".joblib pickle with --trust-pickle)")
     p.add_argument("--out", required=True, metavar="OBJECTS.csv",
                    help="object table to write")
     p.add_argument("--all-objects", action="store_true",
@@ -240,6 +260,7 @@ def register(verbs) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted OBJECTS.csv (rows are replayed and "
                         "checked, not duplicated)")
+    add_output_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")

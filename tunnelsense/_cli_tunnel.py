@@ -14,7 +14,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tunnelsense._cli_common import load_cli_model
+from tunnelsense._cli_common import (
+    add_model_arguments,
+    add_output_arguments,
+    check_draw_dir,
+    input_files,
+    load_cli_model,
+    signing_key,
+)
 
 __all__ = [
     "CLUSTERS_HEADER",
@@ -206,6 +213,8 @@ def _cmd_train(args) -> int:
     from tunnelsense.metrics import make_tunnel_scorer
     from tunnelsense.tunnel import make_indicator_pipeline
 
+    from tunnelsense.io._output import check_output
+
     start = time.perf_counter()
     out = Path(args.model)
     if out.suffix.lower() not in (".skops", ".joblib", ".pkl", ".pickle"):
@@ -213,6 +222,9 @@ def _cmd_train(args) -> int:
             f"--model {out}: the extension chooses the format: .skops (safe, no code "
             "runs on load) or .joblib (pickle)"
         )
+    inputs = [f for d in args.seqdirs for f in input_files(d)]
+    check_output(out, overwrite=args.force, inputs=inputs, what="--model")
+    key = signing_key(args)
     tours = [read_tour(d) for d in args.seqdirs]
     X, y, groups = to_xy(tours)
     n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
@@ -240,15 +252,26 @@ def _cmd_train(args) -> int:
     kp = model.named_steps["keypoints"]
     print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
     summary = _training_summary(tours, model, X, y, search)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    save_model(model, out, summary=summary)
+    save_model(model, out, summary=summary, key=key, overwrite=args.force)
     kind = "safe skops" if out.suffix.lower() == ".skops" else "pickle"
+    if key is not None:
+        kind += ", signed"
     print(f"wrote {out} ({kind}; {time.perf_counter() - start:.1f} s)")
     return 0
 
 
-def _load_model(path):
-    return load_cli_model(path, last_step="motion", command="train tunnel")
+def _load_model(args):
+    return load_cli_model(
+        args.model,
+        last_step="motion",
+        command="train tunnel",
+        trust_pickle=args.trust_pickle,
+        key=signing_key(args),
+    )
+
+
+#: A line of a MOTChallenge results file as ``detect tunnel`` writes it.
+RESULT_LINE = r"\d+,-?\d+(?:,[^,]+){5},-1,-1,-1"
 
 
 #: Header of the ``*.clusters.csv`` companion of a results file.
@@ -351,14 +374,23 @@ def _cmd_detect(args) -> int:
 
     from tunnelsense._streaming import ResultsWriter
 
+    from tunnelsense.io._output import check_output
+
     start = time.perf_counter()
-    model = _load_model(args.model)
-    frames, total = open_frames(args.source)
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    results = ResultsWriter(out, resume=args.resume)
+    inputs = [args.model, *input_files(args.source)]
+    for path in (out, _clusters_path(out)):
+        check_output(path, overwrite=args.force or args.resume, inputs=inputs,
+                     what="--out")
+    if args.draw is not None:
+        check_draw_dir(args.draw, force=args.force)
+    model = _load_model(args)
+    frames, total = open_frames(args.source)
+    results = ResultsWriter(out, resume=args.resume, overwrite=args.force,
+                            line_pattern=RESULT_LINE)
     clusters = ResultsWriter(
-        _clusters_path(out), header=CLUSTERS_HEADER, resume=args.resume
+        _clusters_path(out), header=CLUSTERS_HEADER, resume=args.resume,
+        overwrite=args.force,
     )
     if args.resume and (results.resumed_lines or clusters.resumed_lines):
         print(
@@ -502,13 +534,13 @@ def register(verbs) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--jobs", type=int, default=1, help="parallel fits for --search")
+    add_output_arguments(p, signs=True)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("tunnel", help="find indicators in a tour or video")
-    p.add_argument(
-        "--model",
-        required=True,
-        help="model written by 'train tunnel' (.skops or .joblib)",
+    add_model_arguments(
+        p, help_model="model written by 'train tunnel' (.skops, or a .joblib pickle "
+        "with --trust-pickle)"
     )
     p.add_argument("source", help="MOTChallenge folder, image folder or video file")
     p.add_argument("--out", required=True, help="MOTChallenge results file to write")
@@ -519,6 +551,7 @@ def register(verbs) -> None:
         help="continue an interrupted run: keep the lines of --out (and its "
         ".clusters.csv) and append the rest",
     )
+    add_output_arguments(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_detect)
 
