@@ -93,6 +93,11 @@ def _clusters_path(results) -> Path:
 def read_hypotheses(results, tour_name) -> tuple[pd.DataFrame, bool]:
     """The hypotheses behind a results file: every cluster when its companion exists.
 
+    The companion ``*.clusters.csv`` is read strictly (``indicator`` and
+    ``trajectory_positive`` must be ``True`` or ``False``) and must agree with the
+    results file: its positive-trajectory rows are exactly the detections of the
+    results file, else it is stale (another run's) and refused.
+
     Returns
     -------
     hypotheses : DataFrame (see :data:`tunnelsense.metrics.HYPOTHESIS_COLUMNS`)
@@ -101,33 +106,93 @@ def read_hypotheses(results, tour_name) -> tuple[pd.DataFrame, bool]:
         the rows are the detections of the results file, all labelled indicator.
     """
     from tunnelsense.io import read_mot_results
-    from tunnelsense.metrics import HYPOTHESIS_COLUMNS
 
-    companion = _clusters_path(results)
-    if companion.is_file():
-        h = pd.read_csv(companion)
-        missing = set(HYPOTHESIS_COLUMNS) - {"tour"} - set(h.columns)
-        if missing:
-            raise ValueError(f"{companion}: missing columns {sorted(missing)}")
-        h.insert(0, "tour", tour_name)
-        h["indicator"] = h["indicator"].astype(bool)
-        h["trajectory_positive"] = h["trajectory_positive"].astype(bool)
-        return h, True
     res = read_mot_results(results)
-    h = pd.DataFrame(
+    detections = pd.DataFrame(
         {
             "tour": tour_name,
             "frame": res["frame"].astype(np.int64),
             "track_id": res["id"].astype(np.int64),
-            "bb_left": res["bb_left"],
-            "bb_top": res["bb_top"],
-            "bb_width": res["bb_width"],
-            "bb_height": res["bb_height"],
+            "bb_left": res["bb_left"].astype(np.float64),
+            "bb_top": res["bb_top"].astype(np.float64),
+            "bb_width": res["bb_width"].astype(np.float64),
+            "bb_height": res["bb_height"].astype(np.float64),
             "indicator": True,
             "trajectory_positive": True,
         }
     )
-    return h, False
+    companion = _clusters_path(results)
+    if not companion.is_file():
+        return detections, False
+    h = _read_companion(companion)
+    h.insert(0, "tour", tour_name)
+    _check_companion(h, detections, companion, Path(results))
+    return h, True
+
+
+def _read_companion(path: Path) -> pd.DataFrame:
+    """A ``*.clusters.csv`` file, every field checked (the message names the line)."""
+    from tunnelsense.exceptions import InputFormatError
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputFormatError(f"{path}: not UTF-8 text") from None
+    lines = text.splitlines()
+    if not lines or lines[0].strip() != CLUSTERS_HEADER:
+        raise InputFormatError(
+            f"{path}: expected the header {CLUSTERS_HEADER!r} on line 1"
+        )
+    columns = CLUSTERS_HEADER.split(",")
+    rows = []
+    for n, line in enumerate(lines[1:], 2):
+        fields = line.split(",")
+        if len(fields) != len(columns):
+            raise InputFormatError(
+                f"{path}, line {n}: expected {len(columns)} fields, got {len(fields)}"
+            )
+        try:
+            frame, track = int(fields[0]), int(fields[1])
+            box = [float(v) for v in fields[2:6]]
+        except ValueError:
+            raise InputFormatError(
+                f"{path}, line {n}: frame and track_id must be integers and the box "
+                "numbers"
+            ) from None
+        flags = []
+        for name, v in zip(columns[6:], fields[6:], strict=True):
+            if v not in ("True", "False"):
+                raise InputFormatError(
+                    f"{path}, line {n}: {name} is {v!r}, expected True or False"
+                )
+            flags.append(v == "True")
+        if frame < 1 or not np.all(np.isfinite(box)):
+            raise InputFormatError(
+                f"{path}, line {n}: expected a frame >= 1 and a finite box"
+            )
+        rows.append((frame, track, *box, *flags))
+    return pd.DataFrame(
+        {c: pd.Series([r[i] for r in rows], dtype=d)
+         for i, (c, d) in enumerate(zip(columns, [np.int64] * 2 + [np.float64] * 4
+                                         + [bool] * 2, strict=True))}
+    )
+
+
+def _check_companion(h, detections, companion: Path, results: Path) -> None:
+    """Refuse a companion whose positive trajectories are not the results file."""
+    from tunnelsense.exceptions import InputFormatError
+
+    keys = ["frame", "track_id", "bb_left", "bb_top", "bb_width", "bb_height"]
+
+    def rows(table):
+        return sorted(map(tuple, table[keys].to_numpy(np.float64).round(6).tolist()))
+
+    if rows(h[h["trajectory_positive"]]) != rows(detections):
+        raise InputFormatError(
+            f"{companion}: does not match {results} (its positive trajectories are not "
+            "the detections of the results file); is it from another run? Delete it "
+            "to score the results file alone"
+        )
 
 
 def score_results(tour, results, *, min_height=14.0) -> dict:
@@ -136,15 +201,21 @@ def score_results(tour, results, *, min_height=14.0) -> dict:
 
     hyp, complete = read_hypotheses(results, tour.name)
     gt = tour.gt.assign(tour=tour.name)
-    return tunnel_scores(hyp, gt, min_height=min_height, complete=complete)
+    scores = tunnel_scores(hyp, gt, min_height=min_height, complete=complete)
+    return {**scores, "complete": complete}
+
+
+def _percent(rate) -> str:
+    """A rate as a percentage; ``None`` (0 of 0) as ``n/a``."""
+    return "n/a (0 of 0)" if rate is None else f"{100 * rate:.1f} %"
 
 
 def _format_report(scores, title=None) -> str:
     c, t = scores["cluster"], scores["trajectory"]
     far = (
-        "n/a"
-        if c["false_alarm_rate"] is None
-        else f"{100 * c['false_alarm_rate']:.1f} %"
+        "n/a (no .clusters.csv companion: the negatives are unknown)"
+        if not scores.get("complete", True)
+        else _percent(c["false_alarm_rate"])
     )
     lines = [] if title is None else [title]
     lines += [
@@ -153,13 +224,13 @@ def _format_report(scores, title=None) -> str:
         f"  correctly labelled  {c['correct']}",
         f"  miss detections     {c['misses']}",
         f"  false alarms        {c['false_alarms']}",
-        f"  detection rate      {100 * c['detection_rate']:.1f} %",
+        f"  detection rate      {_percent(c['detection_rate'])}",
         f"  false alarm rate    {far}",
         "trajectories",
         f"  indicators          {t['indicators']}",
         f"  detected            {t['detected']}",
         f"  false alarms        {t['false_alarms']}",
-        f"  detection rate      {100 * t['detection_rate']:.1f} %",
+        f"  detection rate      {_percent(t['detection_rate'])}",
     ]
     return "\n".join(lines)
 

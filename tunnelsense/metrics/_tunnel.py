@@ -231,7 +231,8 @@ def tunnel_scores(hypotheses, gt, *, min_height=14.0, complete=True) -> dict:
         ``{"cluster": {"total", "correct", "misses", "false_alarms",
         "detection_rate", "false_alarm_rate"}, "trajectory": {"indicators",
         "detected", "false_alarms", "detection_rate"}}`` (rates in [0, 1]; a rate
-        with a zero denominator is 1.0 for detection and 0.0 for false alarms).
+        with a zero denominator -- nothing to detect, no negative -- is ``None``:
+        0 of 0 is no evidence either way).
 
     Examples
     --------
@@ -269,8 +270,8 @@ def tunnel_scores(hypotheses, gt, *, min_height=14.0, complete=True) -> dict:
         "correct": correct,
         "misses": total - correct,
         "false_alarms": false_alarms,
-        "detection_rate": correct / total if total else 1.0,
-        "false_alarm_rate": (false_alarms / n_neg if n_neg else 0.0) if complete else None,
+        "detection_rate": correct / total if total else None,
+        "false_alarm_rate": false_alarms / n_neg if n_neg and complete else None,
     }
     # trajectory level
     big = gt[gt["bb_height"] >= min_height]
@@ -299,7 +300,7 @@ def tunnel_scores(hypotheses, gt, *, min_height=14.0, complete=True) -> dict:
         "indicators": n_ind,
         "detected": hit,
         "false_alarms": fa,
-        "detection_rate": hit / n_ind if n_ind else 1.0,
+        "detection_rate": hit / n_ind if n_ind else None,
     }
     return {"cluster": cluster, "trajectory": trajectory}
 
@@ -348,14 +349,17 @@ class _TunnelScorer:
     def __call__(self, estimator, X, y):
         s = indicator_scores(estimator.predict(X), y, min_height=self.min_height)
         c, t = s["cluster"], s["trajectory"]
+        # a fold with nothing to detect (or no negative) cannot lower the score
+        detection = 1.0 if c["detection_rate"] is None else c["detection_rate"]
+        false_alarm = 0.0 if c["false_alarm_rate"] is None else c["false_alarm_rate"]
         if self.metric == "youden":
-            return c["detection_rate"] - c["false_alarm_rate"]
+            return detection - false_alarm
         if self.metric == "cluster_detection_rate":
-            return c["detection_rate"]
+            return detection
         if self.metric == "cluster_false_alarm_rate":
-            return -c["false_alarm_rate"]
+            return -false_alarm
         if self.metric == "trajectory_detection_rate":
-            return t["detection_rate"]
+            return 1.0 if t["detection_rate"] is None else t["detection_rate"]
         return -float(t["false_alarms"])
 
 

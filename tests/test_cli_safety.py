@@ -1,0 +1,176 @@
+"""The command line never destroys a file and never prints a plausible wrong score."""
+
+import json
+import shutil
+
+import pytest
+
+from tunnelsense._cli import main
+from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+from tunnelsense.io import write_run, write_tour
+
+
+@pytest.fixture(scope="module")
+def tunnel(tmp_path_factory):
+    root = tmp_path_factory.mktemp("tunnel")
+    tours = []
+    for seed in (0, 1):
+        tour = make_tunnel_tour(120, random_state=seed, first_indicator_m=50.0)
+        tours.append(write_tour(tour, root / f"tour-{seed}"))
+    model = root / "model.skops"
+    assert main(["train", "tunnel", str(tours[0]), "--model", str(model)]) == 0
+    results = root / "results.txt"
+    assert main(["detect", "tunnel", "--model", str(model), str(tours[1]), "--out",
+                 str(results), "--quiet"]) == 0
+    return {"tours": tours, "model": model, "results": results}
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory):
+    root = tmp_path_factory.mktemp("street")
+    run = write_run(make_street_scans(600, random_state=2, name="run"), root / "run")
+    model = root / "model.skops"
+    assert main(["train", "street", str(run), "--model", str(model)]) == 0
+    return {"run": run, "model": model}
+
+
+def _snapshot(folder):
+    return {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("kind", ["tunnel", "street"])
+def test_detect_never_overwrites_without_force(kind, tunnel, street, tmp_path, capsys):
+    setup = tunnel if kind == "tunnel" else street
+    source = setup["tours"][1] if kind == "tunnel" else setup["run"]
+    out = tmp_path / "out.csv"
+    out.write_bytes(b"my precious notes\n")
+    argv = ["detect", kind, "--model", str(setup["model"]), str(source), "--out",
+            str(out), "--quiet"]
+    assert main(argv) == 1
+    assert "exists; refusing to overwrite" in capsys.readouterr().err
+    assert out.read_bytes() == b"my precious notes\n"
+    assert main([*argv, "--force"]) == 0
+    assert out.read_bytes() != b"my precious notes\n"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.parametrize("kind", ["tunnel", "street"])
+def test_detect_never_writes_over_its_inputs_even_with_force(kind, tunnel, street,
+                                                             capsys):
+    setup = tunnel if kind == "tunnel" else street
+    source = setup["tours"][1] if kind == "tunnel" else setup["run"]
+    targets = [setup["model"]] + (
+        [source / "gt" / "gt.txt", source / "seqinfo.ini", source / "img1" / "000001.png"]
+        if kind == "tunnel" else [source / "gt.csv", source / "scans.npz"]
+    )
+    before = {**_snapshot(source), setup["model"]: setup["model"].read_bytes()}
+    for target in targets:
+        for extra in ([], ["--force"], ["--resume"]):
+            assert main(["detect", kind, "--model", str(setup["model"]), str(source),
+                         "--out", str(target), "--quiet", *extra]) == 1
+            assert "input of this command" in capsys.readouterr().err
+    assert {**_snapshot(source), setup["model"]: setup["model"].read_bytes()} == before
+
+
+def test_resume_on_an_unrelated_file_touches_nothing(tunnel, tmp_path, capsys):
+    gt = tunnel["tours"][0] / "gt" / "gt.txt"
+    copy = tmp_path / "copy.txt"
+    data = gt.read_bytes() + b"1,2,3"  # a partial last line, which must stay too
+    copy.write_bytes(data)
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]),
+                 str(tunnel["tours"][1]), "--out", str(copy), "--resume",
+                 "--quiet"]) == 1
+    assert "not a line this command writes" in capsys.readouterr().err
+    assert copy.read_bytes() == data
+
+
+@pytest.mark.parametrize("kind", ["tunnel", "street"])
+def test_train_checks_its_output_before_fitting(kind, tunnel, street, tmp_path,
+                                                capsys):
+    source = tunnel["tours"][0] if kind == "tunnel" else street["run"]
+    model = tmp_path / "m.skops"
+    model.write_bytes(b"an older model")
+    assert main(["train", kind, str(source), "--model", str(model)]) == 1
+    captured = capsys.readouterr()
+    assert "exists; refusing to overwrite" in captured.err
+    assert "training on" not in captured.out  # refused before any work
+    assert model.read_bytes() == b"an older model"
+    assert main(["train", kind, str(source), "--model", str(model), "--force"]) == 0
+    assert model.read_bytes()[:2] == b"PK"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.skops"]
+
+
+def test_draw_folder_is_not_drawn_over(tunnel, tmp_path, capsys):
+    draw = tmp_path / "draw"
+    draw.mkdir()
+    (draw / "000001.png").write_bytes(b"a picture of mine")
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]),
+                 str(tunnel["tours"][1]), "--out", str(tmp_path / "r.txt"),
+                 "--draw", str(draw), "--quiet"]) == 1
+    assert "not empty" in capsys.readouterr().err
+    assert (draw / "000001.png").read_bytes() == b"a picture of mine"
+    assert not (tmp_path / "r.txt").exists()
+
+
+def test_simulate_never_writes_into_a_folder_with_files(tmp_path, capsys):
+    folder = tmp_path / "tour"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    assert main(["simulate", "tunnel", str(folder), "--frames", "5"]) == 1
+    assert "refusing to write over it" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt"]
+
+
+def _evaluate(tunnel, results, capsys):
+    code = main(["evaluate", "tunnel", str(tunnel["tours"][1]), str(results), "--json"])
+    captured = capsys.readouterr()
+    return code, captured
+
+
+def test_evaluate_refuses_a_bad_token_in_the_companion(tunnel, tmp_path, capsys):
+    results = tmp_path / "r.txt"
+    shutil.copy(tunnel["results"], results)
+    companion = tunnel["results"].with_name("results.clusters.csv").read_text()
+    lines = companion.splitlines()
+    row = next(i for i, line in enumerate(lines[1:], 1) if line.endswith(",False,False"))
+    lines[row] = lines[row][: -len(",False,False")] + ",no,False"
+    (tmp_path / "r.clusters.csv").write_text("\n".join(lines) + "\n")
+    code, captured = _evaluate(tunnel, results, capsys)
+    assert code == 1
+    assert f"r.clusters.csv, line {row + 1}: indicator is 'no'" in captured.err
+
+
+@pytest.mark.parametrize("companion", ["header-only", "stale"])
+def test_evaluate_refuses_a_companion_of_another_run(tunnel, tmp_path, capsys,
+                                                     companion):
+    results = tmp_path / "r.txt"
+    shutil.copy(tunnel["results"], results)
+    text = tunnel["results"].with_name("results.clusters.csv").read_text()
+    if companion == "header-only":
+        text = text.splitlines()[0] + "\n"
+    else:  # one detection less in the companion than in the results file
+        lines = text.splitlines()
+        row = next(i for i, line in enumerate(lines) if line.endswith(",True"))
+        text = "\n".join(lines[:row] + lines[row + 1 :]) + "\n"
+    (tmp_path / "r.clusters.csv").write_text(text)
+    code, captured = _evaluate(tunnel, results, capsys)
+    assert code == 1
+    assert "does not match" in captured.err and "another run" in captured.err
+
+
+def test_evaluate_says_n_a_for_0_of_0(tmp_path, capsys):
+    tour = make_tunnel_tour(30, random_state=0)
+    folder = write_tour(tour, tmp_path / "empty-tour")
+    gt = folder / "gt" / "gt.txt"  # a tour with no indicator
+    gt.write_text("".join(line for line in gt.read_text().splitlines(True)
+                          if line.split(",")[7] != "1"))
+    results = tmp_path / "r.txt"
+    results.write_text("")
+    assert main(["evaluate", "tunnel", str(folder), str(results), "--json"]) == 0
+    scores = json.loads(capsys.readouterr().out)
+    assert scores["trajectory"]["indicators"] == 0
+    assert scores["trajectory"]["detection_rate"] is None
+    assert scores["cluster"]["detection_rate"] is None
+    assert main(["evaluate", "tunnel", str(folder), str(results)]) == 0
+    text = capsys.readouterr().out
+    assert "100.0 %" not in text and "n/a (0 of 0)" in text
