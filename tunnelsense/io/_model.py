@@ -35,6 +35,7 @@ import json
 import platform
 import warnings
 import zipfile
+import zlib
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -280,14 +281,20 @@ def _read_metadata(path: Path, data: bytes) -> dict:
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
             metadata = json.loads(zf.read(_METADATA))
-    except (zipfile.BadZipFile, KeyError, ValueError, OSError, EOFError) as exc:
+    except (zipfile.BadZipFile, zlib.error, KeyError, ValueError, OSError, EOFError,
+            NotImplementedError, RuntimeError) as exc:  # what a broken zip raises
         raise UntrustedModelError(f"{path}: malformed model file ({exc})") from None
-    if not isinstance(metadata, dict) or not isinstance(
-        metadata.get("versions", {}), dict
+    versions = metadata.get("versions") if isinstance(metadata, dict) else None
+    if (
+        not isinstance(metadata, dict)
+        or metadata.get("file_format") != "tunnelsense-model"
+        or not isinstance(versions, dict)
+        or not all(isinstance(v, str) for v in versions.values())
     ):
         raise UntrustedModelError(
-            f"{path}: malformed model file ({_METADATA} is not a JSON object with "
-            "a 'versions' object)"
+            f"{path}: malformed model file ({_METADATA} is not the JSON object "
+            "tunnelsense writes: file_format 'tunnelsense-model' and a 'versions' "
+            "object of strings)"
         )
     return metadata
 
