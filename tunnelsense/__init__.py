@@ -15,6 +15,7 @@ from tunnelsense._records import (
     OBJECT_CLASSES,
     RUN_GT_COLUMNS,
     RUN_LABELS,
+    DecodedImage,
     FrameRecord,
     FrameSequence,
     ImageFile,
@@ -41,6 +42,7 @@ from tunnelsense.tunnel import (
 )
 
 __all__ = [
+    "DecodedImage",
     "FrameRecord",
     "ImageFile",
     "IntensityKeypointSampler",

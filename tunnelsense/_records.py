@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = [
+    "DecodedImage",
     "FrameRecord",
     "ImageFile",
     "VideoFrame",
@@ -134,6 +135,72 @@ class VideoFrame:
         from tunnelsense.io._images import read_video_frame
 
         return read_video_frame(self.path, self.index)
+
+
+def _origin(source):
+    return source
+
+
+class DecodedImage:
+    """A lazy image source decoded once, for the length of one pipeline pass.
+
+    The first stage that reads a frame (:class:`~tunnelsense.IntensityKeypointSampler`)
+    wraps the frame's lazy source (an :class:`ImageFile`, a :class:`VideoFrame`) in
+    one, with the decoded array; the later stages of the same pass read that array
+    instead of decoding the file again.  A stage that holds frames for later (the
+    online trajectory verifier) keeps :attr:`origin` instead, so memory does not grow
+    with the frames held.  It pickles as its origin: no pixels travel to other
+    processes.
+
+    Parameters
+    ----------
+    origin : lazy source
+        The object with a ``load()`` method the array was decoded from.
+    array : ndarray
+        The decoded image.
+    """
+
+    __slots__ = ("origin", "array")
+
+    def __init__(self, origin, array):
+        self.origin = origin
+        self.array = array
+
+    def load(self) -> np.ndarray:
+        return self.array
+
+    def __reduce__(self):
+        return (_origin, (self.origin,))
+
+    def __repr__(self):
+        return f"DecodedImage({self.origin!r})"
+
+
+def decode_once(record):
+    """The record with its image decoded: a lazy source becomes a :class:`DecodedImage`.
+
+    A record whose image is in memory (an array, or already decoded) is returned as
+    it is.
+    """
+    source = record.source
+    if isinstance(source, np.ndarray | DecodedImage):
+        return record
+    return FrameRecord(
+        record.tour, record.frame, DecodedImage(source, source.load()), record.payload
+    )
+
+
+def release_image(source):
+    """What a stage holding a frame for later keeps of its image source.
+
+    An in-memory array is dropped (``None``); a decoded lazy source gives back its
+    origin, which can decode the image again; a lazy source is kept.
+    """
+    if isinstance(source, np.ndarray):
+        return None
+    if isinstance(source, DecodedImage):
+        return source.origin
+    return source
 
 
 # --------------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense._records import FrameSequence, check_frames, decode_once
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
 
@@ -364,6 +364,25 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self.n_frames_fit_ = len(records)
         return self
 
+    def fit_transform(self, X, y=None):
+        """Fit, then detect the keypoints of every frame, decoding each frame once.
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord
+            The frames.
+        y : sequence of array-like of shape (k_i, 4), default=None
+            Per frame, the indicator boxes (see :meth:`fit`).
+
+        Returns
+        -------
+        X_new : FrameSequence
+            As :meth:`transform` gives it.
+        """
+        records, _ = check_frames(X, y)
+        records = FrameSequence([decode_once(r) for r in records])
+        return self.fit(records, y).transform(records)
+
     def transform(self, X):
         """Detect the keypoints of every frame.
 
@@ -388,6 +407,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         band = (self.low_, self.high_)
         out = []
         for i, r in enumerate(records):
+            r = decode_once(r)  # the later stages of this pass read the same array
             image = _check_image(r.image, i, r)
             out.append(
                 r.evolve(

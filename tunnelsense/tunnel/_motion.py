@@ -19,7 +19,12 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import FrameRecord, FrameSequence, check_frames
+from tunnelsense._records import (
+    FrameRecord,
+    FrameSequence,
+    check_frames,
+    release_image,
+)
 from tunnelsense.tunnel._appearance import boxes_of
 from tunnelsense.tunnel._tracking import tour_order
 
@@ -311,8 +316,8 @@ class _PCCStream:
     def push(self, record):
         boxes, app, tracks = _frame_payload(record, self._count)
         self._count += 1
-        source = record.source
-        if isinstance(source, np.ndarray):
+        source = release_image(record.source)
+        if source is None:
             source = _RELEASED
         kept = FrameRecord(record.tour, record.frame, source, record.payload)
         return self._emit(self._state.step(kept, record, boxes, app, tracks))

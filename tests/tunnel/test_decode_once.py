@@ -1,0 +1,73 @@
+"""Each frame is decoded once per pass through the pipeline, in batch and streaming."""
+
+import pickle
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from tunnelsense import DecodedImage, make_indicator_pipeline, to_xy
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.datasets import make_tunnel_tour
+from tunnelsense.io import open_tour, write_tour
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    train = make_tunnel_tour(150, random_state=0, first_indicator_m=40.0)
+    X, y, _ = to_xy([train])
+    model = make_indicator_pipeline(random_state=0).fit(X, y)
+    tour = make_tunnel_tour(90, random_state=1, first_indicator_m=40.0, name="t")
+    folder = write_tour(tour, tmp_path_factory.mktemp("tour") / "t")
+    return model, folder, tour
+
+
+@pytest.fixture
+def decodes(monkeypatch):
+    """Count the decodes of every frame file."""
+    import tunnelsense.io._images as images
+
+    counts = Counter()
+    read = images.read_image
+
+    def counting(path):
+        counts[str(path)] += 1
+        return read(path)
+
+    monkeypatch.setattr(images, "read_image", counting)
+    return counts
+
+
+def test_streaming_decodes_each_frame_once(fitted, decodes):
+    model, folder, tour = fitted
+    frames = open_tour(folder).frames
+    out = list(StreamingPipeline(model).run(frames))
+    assert len(out) == len(frames) == len(decodes)
+    assert set(decodes.values()) == {1}
+    # the held frames were released to their file: nothing decoded is kept
+    assert not any(isinstance(r.source, DecodedImage) for r in out)
+    expected = model.predict(to_xy([tour])[0])
+    assert [r.payload["detections"].tolist() for r in out] == [
+        r.payload["detections"].tolist() for r in expected
+    ]
+
+
+def test_batch_predict_and_fit_decode_each_frame_once(fitted, decodes):
+    model, folder, _ = fitted
+    tour = open_tour(folder)
+    model.predict(tour.frames)
+    assert len(decodes) == len(tour) and set(decodes.values()) == {1}
+    decodes.clear()
+    X, y, _ = to_xy([tour])
+    make_indicator_pipeline(random_state=0).fit(X, y)
+    assert len(decodes) == len(tour) and set(decodes.values()) == {1}
+
+
+def test_decoded_image_pickles_as_its_origin(fitted):
+    _, folder, _ = fitted
+    record = open_tour(folder).frames[0]
+    decoded = DecodedImage(record.source, record.image)
+    back = pickle.loads(pickle.dumps(decoded))
+    assert type(back) is type(record.source) and back.path == record.source.path
+    assert len(pickle.dumps(decoded)) < 1000  # no pixels
+    assert np.array_equal(back.load(), decoded.load())
