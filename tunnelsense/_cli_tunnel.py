@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 
@@ -413,7 +414,7 @@ def open_frames(source):
     return iter(tour.frames), len(tour)
 
 
-def stream_detect(model, frames, *, progress=None):
+def stream_detect(model, frames, *, progress=None, n_threads=0):
     """Run a fitted indicator pipeline online; yield the frames as they are final.
 
     Parameters
@@ -423,6 +424,8 @@ def stream_detect(model, frames, *, progress=None):
     frames : iterable of FrameRecord
         In frame order within each tour.
     progress : Progress or None
+    n_threads : int, default=0
+        Reader threads decoding the next frames while this one is detected (0: none).
 
     Yields
     ------
@@ -430,9 +433,11 @@ def stream_detect(model, frames, *, progress=None):
         As ``model.predict`` gives them, in input order, each as soon as every
         trajectory through it has ended (in-memory images are released).
     """
-    from tunnelsense._streaming import StreamingPipeline
+    from tunnelsense._streaming import StreamingPipeline, decode_ahead
 
     stream = StreamingPipeline(model)
+    if n_threads > 0:
+        frames = decode_ahead(frames, n_threads=n_threads)
     for k, record in enumerate(frames, 1):
         yield from stream.push(record)
         if progress is not None:
@@ -479,7 +484,7 @@ def _cmd_detect(args) -> int:
 
         frames = keep_images(frames)
     progress = None if args.quiet else _progress(total, "detecting")
-    released = stream_detect(model, frames, progress=progress)
+    released = stream_detect(model, frames, progress=progress, n_threads=args.jobs)
     if args.draw is not None:
         import cv2
 
@@ -623,6 +628,13 @@ def register(verbs) -> None:
         ".clusters.csv) and append the rest",
     )
     add_output_arguments(p)
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="reader threads that decode the next frames while the detector works "
+        "(0: decode in the detector's thread; default: the number of CPUs)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_detect)
 

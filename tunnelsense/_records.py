@@ -589,13 +589,18 @@ class Tour:
 
 
 def _boxes_per_frame(gt, frame_numbers, classes, min_height=0.0):
+    # plain arrays: a pandas groupby copies the frame's attrs (a reader's line
+    # numbers) once per group
     cols = ["bb_left", "bb_top", "bb_width", "bb_height"]
-    keep = gt["class"].isin(list(classes)) & (gt["bb_height"] >= min_height)
-    sel = gt.loc[keep, ["frame", *cols]]
-    by_frame = {
-        int(f): g[cols].to_numpy(dtype=np.float64)
-        for f, g in sel.groupby("frame", sort=False)
-    }
+    keep = (np.isin(gt["class"].to_numpy(), list(classes))
+            & (gt["bb_height"].to_numpy() >= min_height))
+    frames = gt["frame"].to_numpy()[keep].astype(np.int64)
+    boxes = gt[cols].to_numpy(dtype=np.float64)[keep]
+    order = np.argsort(frames, kind="stable")
+    frames, boxes = frames[order], boxes[order]
+    starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]]) if len(frames) else []
+    ends = [*starts[1:], len(frames)]
+    by_frame = {int(frames[a]): boxes[a:b] for a, b in zip(starts, ends, strict=True)}
     empty = np.empty((0, 4), dtype=np.float64)
     return [by_frame.get(int(f), empty) for f in frame_numbers]
 

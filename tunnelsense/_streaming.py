@@ -28,7 +28,7 @@ from collections.abc import Iterable, Iterator
 
 from sklearn.utils.validation import check_is_fitted
 
-__all__ = ["ResultsWriter", "StreamingPipeline", "start_stream"]
+__all__ = ["ResultsWriter", "StreamingPipeline", "decode_ahead", "start_stream"]
 
 
 class _StatelessStream:
@@ -145,6 +145,46 @@ class StreamingPipeline:
         for record in records:
             yield from self.push(record)
         yield from self.close()
+
+
+def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
+    """Yield the records with their images decoded, decoding ahead in threads.
+
+    OpenCV releases the interpreter lock while it decodes, so reader threads decode
+    the next frames while the detector works on this one.  Records come out in input
+    order, each with a :class:`~tunnelsense.DecodedImage` source (in-memory images
+    pass unchanged); at most ``ahead`` decoded frames wait, so memory stays bounded.
+
+    Parameters
+    ----------
+    records : iterable of FrameRecord
+    n_threads : int, default=1
+        Reader threads; 0 decodes in the calling thread, as the records are taken.
+    ahead : int, default=8
+        Frames decoded ahead at most.
+
+    Yields
+    ------
+    record : FrameRecord
+    """
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    from tunnelsense._records import decode_once
+
+    if n_threads < 1:
+        for record in records:
+            yield decode_once(record)
+        return
+    with ThreadPoolExecutor(max_workers=n_threads,
+                            thread_name_prefix="decode") as pool:
+        pending = deque()
+        for record in records:
+            pending.append(pool.submit(decode_once, record))
+            if len(pending) >= ahead:
+                yield pending.popleft().result()
+        while pending:
+            yield pending.popleft().result()
 
 
 class ResultsWriter:
