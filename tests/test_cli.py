@@ -77,7 +77,8 @@ def test_simulate_then_info(tmp_path, capsys):
     assert out.out.startswith(
         f"wrote {tmp_path / 't'}: 12 frames, scenario light, seed 3"
     )
-    assert "rendering frames: 12/12" in out.err and "writing frames: 12/12" in out.err
+    assert "rendering frames: 100%" in out.err and "12/12" in out.err
+    assert "writing frames: 100%" in out.err
     assert main(["info", str(tmp_path / "t"), "--json"]) == 0
     facts = json.loads(capsys.readouterr().out)
     assert facts["kind"] == "tunnel" and facts["frames"] == 12

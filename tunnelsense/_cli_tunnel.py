@@ -23,6 +23,7 @@ from tunnelsense._cli_common import (
     load_cli_model,
     signing_key,
 )
+from tunnelsense._fitting import fit_pipeline
 
 __all__ = [
     "CLUSTERS_HEADER",
@@ -48,10 +49,10 @@ SEARCH_GRID = {
 }
 
 
-def _progress(total, desc):
+def _progress(total, desc, **kwargs):
     from tunnelsense._progress import Progress
 
-    return Progress(total, desc)
+    return Progress(total, desc, **kwargs)
 
 
 def _chunks(n, size=256):
@@ -239,8 +240,11 @@ def _format_report(scores, title=None) -> str:
 # --------------------------------------------------------------------------------------
 # commands
 # --------------------------------------------------------------------------------------
-def _training_summary(tours, model, X, y, search=None) -> dict:
-    """Tours, parameters and scores stored in a model file (``tunnelsense info``)."""
+def _training_summary(tours, model, output, y, search=None) -> dict:
+    """Tours, parameters and scores stored in a model file (``tunnelsense info``).
+
+    ``output`` is the fitted model's output on the training frames.
+    """
     from tunnelsense.metrics import indicator_scores
 
     params = {
@@ -265,7 +269,7 @@ def _training_summary(tours, model, X, y, search=None) -> dict:
             round(float(model.named_steps["keypoints"].low_), 2),
             round(float(model.named_steps["keypoints"].high_), 2),
         ],
-        "training_scores": indicator_scores(model.predict(X), y),
+        "training_scores": indicator_scores(output, y),
     }
     if search is not None:
         summary["search"] = {
@@ -277,15 +281,45 @@ def _training_summary(tours, model, X, y, search=None) -> dict:
     return summary
 
 
+def _decoded(X, n_threads, *, quiet):
+    """The training frames decoded once, in ``n_threads`` reader threads.
+
+    Every stage of a fit, and every fold of a search run in this process, then reads
+    the decoded images; the memory is that of the training tours' pixels.
+    """
+    from tunnelsense import FrameSequence
+    from tunnelsense._streaming import decode_ahead
+
+    progress = _progress(len(X), "decoding frames", enabled=not quiet)
+    out = []
+    for record in decode_ahead(X, n_threads=max(n_threads, 1), ahead=64):
+        out.append(record)
+        progress.update(len(out))
+    return FrameSequence(out)
+
+
+class _StepBar:
+    """Progress of a pipeline fit, one step at a time (``fit_pipeline``)."""
+
+    def __init__(self):
+        self._bar = None
+
+    def __call__(self, name, k, n):
+        if self._bar is None:
+            self._bar = _progress(n, "fitting", unit="step")
+        self._bar.update(k)
+        if name is not None:
+            self._bar._bar.set_postfix_str(name)
+
+
 def _cmd_train(args) -> int:
     from sklearn.model_selection import GridSearchCV, GroupKFold
 
     from tunnelsense import to_xy
     from tunnelsense.io import read_tour, save_model
+    from tunnelsense.io._output import check_output
     from tunnelsense.metrics import make_tunnel_scorer
     from tunnelsense.tunnel import make_indicator_pipeline
-
-    from tunnelsense.io._output import check_output
 
     start = time.perf_counter()
     out = Path(args.model)
@@ -298,14 +332,15 @@ def _cmd_train(args) -> int:
     check_output(out, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
     tours = [read_tour(d) for d in args.seqdirs]
+    if args.search and len(tours) < 2:
+        raise ValueError("--search needs at least 2 tours (folds are whole tours)")
     X, y, groups = to_xy(tours)
     n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
     print(f"training on {len(tours)} tour(s), {len(X)} frames, {n_ind} indicators")
-    model = make_indicator_pipeline(random_state=args.seed)
+    X = _decoded(X, args.jobs, quiet=args.quiet)
+    model = make_indicator_pipeline(random_state=args.seed, verifier__n_jobs=args.jobs)
     search = None
     if args.search:
-        if len(tours) < 2:
-            raise ValueError("--search needs at least 2 tours (folds are whole tours)")
         search = GridSearchCV(
             model,
             SEARCH_GRID,
@@ -313,17 +348,24 @@ def _cmd_train(args) -> int:
             scoring=make_tunnel_scorer("youden"),
             error_score="raise",
             n_jobs=args.jobs,
+            verbose=0 if args.quiet else 2,
         )
+        n_candidates = int(np.prod([len(v) for v in SEARCH_GRID.values()]))
+        n_fits = n_candidates * min(len(tours), 3)
+        print(f"searching {n_candidates} settings x {min(len(tours), 3)} folds = "
+              f"{n_fits} fits on {args.jobs} job(s), then the best on all tours")
         search.fit(X, y, groups=groups)
         model = search.best_estimator_
         print(
             f"best parameters: {search.best_params_} (score {search.best_score_:.4f})"
         )
+        output = model.predict(X)
     else:
-        model.fit(X, y)
+        model, output = fit_pipeline(model, X, y,
+                                     progress=None if args.quiet else _StepBar())
     kp = model.named_steps["keypoints"]
     print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
-    summary = _training_summary(tours, model, X, y, search)
+    summary = _training_summary(tours, model, output, y, search)
     save_model(model, out, summary=summary, key=key, overwrite=args.force)
     kind = "safe skops" if out.suffix.lower() == ".skops" else "pickle"
     if key is not None:
@@ -449,7 +491,6 @@ def _cmd_detect(args) -> int:
     import sys
 
     from tunnelsense._streaming import ResultsWriter
-
     from tunnelsense.io._output import check_output
 
     start = time.perf_counter()
@@ -609,7 +650,14 @@ def register(verbs) -> None:
         help="grid-search the thresholds with GroupKFold over the tours (>= 2 tours)",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=1, help="parallel fits for --search")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="threads decoding the frames, and parallel fits of --search (default: "
+        "the number of CPUs)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress")
     add_output_arguments(p, signs=True)
     p.set_defaults(func=_cmd_train)
 

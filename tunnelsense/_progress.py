@@ -1,9 +1,13 @@
-"""A dependency-free progress bar for long command-line work (written to stderr)."""
+"""Progress of long command-line work, on stderr, through tqdm.
+
+tqdm is the progress bar most Python users know (a bar on a terminal, rate and time
+left); this adapter gives it the ``update(done)`` calls of our long jobs, which count
+work done so far rather than steps.
+"""
 
 from __future__ import annotations
 
 import sys
-import time
 
 __all__ = ["Progress"]
 
@@ -11,58 +15,51 @@ __all__ = ["Progress"]
 class Progress:
     """Report ``done / total`` of a long job on stderr.
 
-    On a terminal the line is redrawn in place at most every 0.2 s; in a log (CI, a
-    pipe) a line is written at every tenth of the work, so logs stay short.
-
     Parameters
     ----------
     total : int
-        Units of work (frames, scans).
+        Units of work (frames, scans, fits).
     desc : str
         What is being done, e.g. ``"rendering frames"``.
     stream : file, default=sys.stderr
     enabled : bool, default=True
+    unit : str, default="it"
+        Name of a unit of work, for the rate.
     """
 
-    def __init__(self, total, desc, *, stream=None, enabled=True):
+    def __init__(self, total, desc, *, stream=None, enabled=True, unit="it"):
+        from tqdm import tqdm
+
         self.total = max(int(total), 1)
-        self.desc = desc
-        self.stream = sys.stderr if stream is None else stream
-        self.enabled = enabled
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.start = time.perf_counter()
-        self._last_draw = 0.0
-        self._last_tenth = -1
+        self._bar = tqdm(
+            total=self.total,
+            desc=desc,
+            file=sys.stderr if stream is None else stream,
+            disable=not enabled,
+            unit=unit,
+            mininterval=0.2,
+            dynamic_ncols=True,
+            leave=True,
+        )
+        self._done = 0
 
     def __call__(self, done, total=None):
         self.update(done)
 
     def update(self, done):
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        fraction = min(done / self.total, 1.0)
-        if self.tty:
-            if now - self._last_draw < 0.2 and done < self.total:
-                return
-            self._last_draw = now
-            width = 30
-            bar = "#" * int(fraction * width)
-            self.stream.write(
-                f"\r{self.desc}: [{bar:<{width}}] {done}/{self.total} {self._rate(done, now)}"
-            )
-            if done >= self.total:
-                self.stream.write("\n")
-        else:
-            tenth = int(fraction * 10)
-            if tenth == self._last_tenth:
-                return
-            self._last_tenth = tenth
-            self.stream.write(
-                f"{self.desc}: {done}/{self.total} ({fraction:.0%}) {self._rate(done, now)}\n"
-            )
-        self.stream.flush()
+        """Set the work done so far; the bar closes when it reaches ``total``."""
+        done = min(int(done), self.total)
+        if done > self._done:
+            self._bar.update(done - self._done)
+            self._done = done
+        if done >= self.total:
+            self.close()
 
-    def _rate(self, done, now):
-        elapsed = now - self.start
-        return f"{done / elapsed:.0f}/s" if elapsed > 0 and done else ""
+    def close(self):
+        self._bar.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

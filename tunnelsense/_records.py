@@ -598,8 +598,8 @@ def _boxes_per_frame(gt, frame_numbers, classes, min_height=0.0):
     boxes = gt[cols].to_numpy(dtype=np.float64)[keep]
     order = np.argsort(frames, kind="stable")
     frames, boxes = frames[order], boxes[order]
-    starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]]) if len(frames) else []
-    ends = [*starts[1:], len(frames)]
+    starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]])[: len(frames)]
+    ends = np.r_[starts[1:], len(frames)][: len(starts)]
     by_frame = {int(frames[a]): boxes[a:b] for a, b in zip(starts, ends, strict=True)}
     empty = np.empty((0, 4), dtype=np.float64)
     return [by_frame.get(int(f), empty) for f in frame_numbers]

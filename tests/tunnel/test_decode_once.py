@@ -71,3 +71,31 @@ def test_decoded_image_pickles_as_its_origin(fitted):
     assert type(back) is type(record.source) and back.path == record.source.path
     assert len(pickle.dumps(decoded)) < 1000  # no pixels
     assert np.array_equal(back.load(), decoded.load())
+
+
+def test_fit_pipeline_equals_pipeline_fit(fitted):
+    from tunnelsense._fitting import fit_pipeline
+
+    _, folder, tour = fitted
+    X, y, _ = to_xy([tour])
+    reference = make_indicator_pipeline(random_state=3, verifier__n_jobs=2).fit(X, y)
+    steps = []
+    model, out = fit_pipeline(make_indicator_pipeline(random_state=3, verifier__n_jobs=2),
+                              X, y, progress=lambda name, k, n: steps.append(name))
+    assert steps == [*model.named_steps, None]
+    assert np.array_equal(model.named_steps["verifier"].negative_centers_,
+                          reference.named_steps["verifier"].negative_centers_)
+    expected = reference.predict(X)
+    for a, b, c in zip(out, model.predict(X), expected, strict=True):
+        assert a.payload["detections"].tolist() == c.payload["detections"].tolist()
+        assert b.payload["detections"].tolist() == c.payload["detections"].tolist()
+
+
+def test_kmeans_threads_change_centres_by_rounding_only(global_random_seed):
+    from tunnelsense.tunnel._verification import fit_kmeans
+
+    rng = np.random.default_rng(global_random_seed)
+    X = rng.random((30_000, 8))
+    one = fit_kmeans(X, 50, n_steps=20, random_state=global_random_seed)
+    two = fit_kmeans(X, 50, n_steps=20, random_state=global_random_seed, n_jobs=2)
+    np.testing.assert_allclose(one, two, rtol=0, atol=1e-6)

@@ -218,7 +218,7 @@ def _patch_shape(patch_size, name="patch_size"):
 
 def fit_kmeans(
     X, n_clusters, *, batch_size=4096, n_steps=300, max_full_samples=20_000,
-    random_state=None, sample_indices=None,
+    random_state=None, sample_indices=None, n_jobs=None,
 ) -> np.ndarray:
     """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
 
@@ -233,9 +233,9 @@ def fit_kmeans(
       ``3 * n_clusters`` rows) seeding k-means++.  Memory beyond ``X`` stays at a
       few batches.
 
-    k-means runs on one OpenMP thread: the batches are small, and on a loaded
-    machine scikit-learn's OpenMP threads spin-wait (a 512-row ``partial_fit`` took
-    165 ms with two threads beside other jobs, 1 ms with one).
+    k-means runs on ``n_jobs`` OpenMP threads, one by default: on a loaded machine
+    scikit-learn's OpenMP threads spin-wait (a 512-row ``partial_fit`` took 165 ms
+    with two threads beside other jobs, 1 ms with one).
 
     Parameters
     ----------
@@ -250,13 +250,16 @@ def fit_kmeans(
     sample_indices : ndarray of int or None, default=None
         Cluster only these rows of ``X`` (``None``: all), without copying them out of
         a large ``X``: the result equals ``fit_kmeans(X[sample_indices], ...)``.
+    n_jobs : int or None, default=None
+        OpenMP threads (``None``: one); other numbers change the centres only by
+        floating-point rounding.
 
     Returns
     -------
     centers : ndarray of shape (n_centers, n_features), float64
         ``n_centers = min(n_clusters, number of distinct rows)``.
     """
-    with threadpool_limits(limits=1, user_api="openmp"):
+    with threadpool_limits(limits=int(n_jobs or 1), user_api="openmp"):
         return _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
                            check_random_state(random_state), sample_indices)
 
@@ -480,6 +483,11 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         Tabular mode: the value of ``y`` that marks a positive histogram.
     random_state : int, RandomState instance or None, default=None
         Seeds k-means (initialisation and batches).
+    n_jobs : int or None, default=None
+        Threads of k-means (``None``: one; scikit-learn's threads spin-wait on a
+        loaded machine, so more pay only with cores to spare).  Other numbers give
+        the same centres up to floating-point rounding (the threads sum in another
+        order).
 
     Attributes
     ----------
@@ -533,6 +541,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         "max_full_samples": [Interval(numbers.Integral, 1, None, closed="left")],
         "pos_label": [numbers.Real, str, "boolean"],
         "random_state": ["random_state"],
+        "n_jobs": [Interval(numbers.Integral, 1, None, closed="left"), None],
     }
 
     def __init__(
@@ -554,6 +563,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         max_full_samples=20_000,
         pos_label=1,
         random_state=None,
+        n_jobs=None,
     ):
         self.patch_size = patch_size
         self.context_size = context_size
@@ -571,6 +581,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         self.max_full_samples = max_full_samples
         self.pos_label = pos_label
         self.random_state = random_state
+        self.n_jobs = n_jobs
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -633,6 +644,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
             batch_size=self.batch_size,
             n_steps=self.n_steps,
             max_full_samples=self.max_full_samples,
+            n_jobs=self.n_jobs,
         )
         self.positive_centers_ = fit_kmeans(
             positive, self.n_positive_clusters, random_state=rng,
