@@ -298,6 +298,26 @@ def _decoded(X, n_threads, *, quiet):
     return FrameSequence(out)
 
 
+def _search_backend(args):
+    """Where the search's fits run: this machine (``--jobs``), or a Dask cluster."""
+    import contextlib
+
+    if not args.dask_scheduler:
+        return contextlib.nullcontext()
+    try:
+        import joblib
+        from distributed import Client
+    except ImportError:
+        raise ValueError(
+            "--dask-scheduler needs Dask's distributed scheduler: pip install "
+            "'tunnelsense[distributed]'"
+        ) from None
+    stack = contextlib.ExitStack()
+    stack.enter_context(Client(args.dask_scheduler))
+    stack.enter_context(joblib.parallel_config(backend="dask"))
+    return stack
+
+
 class _StepBar:
     """Progress of a pipeline fit, one step at a time (``fit_pipeline``)."""
 
@@ -354,7 +374,8 @@ def _cmd_train(args) -> int:
         n_fits = n_candidates * min(len(tours), 3)
         print(f"searching {n_candidates} settings x {min(len(tours), 3)} folds = "
               f"{n_fits} fits on {args.jobs} job(s), then the best on all tours")
-        search.fit(X, y, groups=groups)
+        with _search_backend(args):
+            search.fit(X, y, groups=groups)
         model = search.best_estimator_
         print(
             f"best parameters: {search.best_params_} (score {search.best_score_:.4f})"
@@ -656,6 +677,13 @@ def register(verbs) -> None:
         default=os.cpu_count() or 1,
         help="threads decoding the frames, and parallel fits of --search (default: "
         "the number of CPUs)",
+    )
+    p.add_argument(
+        "--dask-scheduler",
+        metavar="ADDRESS",
+        help="run the fits of --search on this Dask cluster (e.g. "
+        "tcp://10.0.0.5:8786; needs the 'distributed' extra); the workers must see "
+        "the tour folders at the same paths",
     )
     p.add_argument("--quiet", action="store_true", help="no progress")
     add_output_arguments(p, signs=True)

@@ -1,0 +1,150 @@
+"""Whole-process ``tunnelsense detect tunnel`` on PNG tours from disk, beside a bare decode.
+
+What a user runs is the command, from files on disk; its floor is the cost of reading
+those files.  For each tour this script runs, interleaved, ``--repeats`` times:
+
+* ``decode``: a fresh Python process that decodes every PNG of the tour with OpenCV
+  (``cv2.imdecode(np.fromfile(...), IMREAD_UNCHANGED)``, as the tour reader does) and
+  nothing else;
+* ``detect``: ``tunnelsense detect tunnel --model M TOUR --out R --force --quiet`` in a
+  fresh process (imports, model load, reading, detection, writing);
+
+and prints the medians, frames/s and the ratio detect / decode.  The tours (640x480,
+``--frames`` frames, simulated once into ``--workdir``):
+
+* ``curved-8bit``: the simulator's noisiest built-in scenario (``curved``: another
+  camera, sensor noise sigma 4, a curving tunnel), 8-bit PNGs;
+* ``curved-16bit``: the same frames as 16-bit PNGs (``x 257``);
+* ``dense``: heavy traffic seen with a camera gain of ``--dense-gain`` (1.15), so that
+  many more grid keypoints fall in the learned band (the script prints how many).
+
+Training time: ``tunnelsense train tunnel`` on one ``--frames`` light-traffic tour, whole
+process, median of ``--repeats``, per 1,000 frames.
+
+    python benchmarks/bench_detect_end_to_end.py --frames 1500 --repeats 3
+"""
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+_DECODE = (
+    "import sys, glob, cv2, numpy as np\n"
+    "files = sorted(glob.glob(sys.argv[1] + '/img1/*.png'))\n"
+    "for f in files:\n"
+    "    cv2.imdecode(np.fromfile(f, np.uint8), cv2.IMREAD_UNCHANGED)\n"
+)
+
+
+def _cli(*argv):
+    return [sys.executable, "-m", "tunnelsense._cli", *argv]
+
+
+def _timed(cmd):
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def _write_tours(workdir: Path, frames: int, gain: float) -> dict:
+    from tunnelsense import FrameRecord, FrameSequence, Tour
+    from tunnelsense.datasets import make_tunnel_tour
+    from tunnelsense.io import write_tour
+
+    tours = {}
+    train = workdir / "train-light"
+    if not train.exists():
+        write_tour(make_tunnel_tour(frames, scenario="light", random_state=100), train)
+    curved = make_tunnel_tour(frames, scenario="curved", random_state=101)
+    for name, convert in (
+        ("curved-8bit", None),
+        ("curved-16bit", lambda im: im.astype(np.uint16) * 257),
+    ):
+        path = workdir / name
+        if not path.exists():
+            tour = curved
+            if convert is not None:
+                tour = Tour(
+                    name,
+                    FrameSequence([FrameRecord(name, r.frame, convert(r.image))
+                                   for r in curved.frames]),
+                    curved.gt,
+                    frame_rate=curved.frame_rate,
+                    info=curved.info,
+                )
+            write_tour(tour, path)
+        tours[name] = path
+    path = workdir / "dense"
+    if not path.exists():
+        heavy = make_tunnel_tour(frames, scenario="heavy", random_state=102)
+        frames_g = FrameSequence([
+            FrameRecord("dense", r.frame,
+                        np.clip(r.image * gain, 0, 255).astype(np.uint8))
+            for r in heavy.frames
+        ])
+        write_tour(Tour("dense", frames_g, heavy.gt, frame_rate=heavy.frame_rate,
+                        info=heavy.info), path)
+    tours["dense"] = path
+    return train, tours
+
+
+def _in_band_keypoints(model_path, tour_path, n=100):
+    from tunnelsense.io import load_model, open_tour
+    from tunnelsense.tunnel import sample_keypoints
+
+    kp = load_model(model_path).named_steps["keypoints"]
+    tour = open_tour(tour_path)
+    step = max(1, len(tour) // n)
+    counts = [len(sample_keypoints(r.image, kp.low_, kp.high_))
+              for r in tour.frames[::step]]
+    return float(np.mean(counts))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=1500)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--dense-gain", type=float, default=1.15)
+    parser.add_argument("--workdir", default=None,
+                        help="where to keep the simulated tours (default: a temp dir)")
+    args = parser.parse_args(argv)
+    workdir = Path(args.workdir or tempfile.mkdtemp(prefix="bench-e2e-"))
+    workdir.mkdir(parents=True, exist_ok=True)
+    print(f"tours in {workdir} ({args.frames} frames each)", flush=True)
+    train, tours = _write_tours(workdir, args.frames, args.dense_gain)
+    model = workdir / "model.skops"
+
+    train_times = [
+        _timed(_cli("train", "tunnel", str(train), "--model", str(model), "--force"))
+        for _ in range(args.repeats)
+    ]
+    t = statistics.median(train_times)
+    print(f"\ntrain tunnel, {args.frames} frames: median {t:.1f} s "
+          f"({1000 * t / args.frames:.1f} s per 1,000 frames; runs "
+          + ", ".join(f"{v:.1f}" for v in train_times) + ")")
+
+    print("\n| tour | in-band keypoints / frame | decode (s) | detect (s) | "
+          "detect frames/s | detect / decode |")
+    print("|---|---|---|---|---|---|")
+    for name, path in tours.items():
+        decode, detect = [], []
+        out = workdir / f"{name}.txt"
+        for _ in range(args.repeats):
+            decode.append(_timed([sys.executable, "-c", _DECODE, str(path)]))
+            detect.append(_timed(_cli("detect", "tunnel", "--model", str(model),
+                                      str(path), "--out", str(out), "--force",
+                                      "--quiet")))
+        d, e = statistics.median(decode), statistics.median(detect)
+        density = _in_band_keypoints(model, path)
+        print(f"| {name} | {density:.0f} | {d:.2f} | {e:.2f} | "
+              f"{args.frames / e:.0f} | {e / d:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
