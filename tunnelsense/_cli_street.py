@@ -69,10 +69,9 @@ def _cmd_train(args) -> int:
 
     from tunnelsense._records import to_xy
     from tunnelsense.io import save_model
+    from tunnelsense.io._output import check_output
     from tunnelsense.metrics import make_street_scorer
     from tunnelsense.street import make_parking_pipeline
-
-    from tunnelsense.io._output import check_output
 
     if Path(args.model).suffix.lower() not in (".skops", ".joblib"):
         raise ValueError(f"--model {args.model}: expected a .skops (safe) or .joblib "
@@ -133,7 +132,6 @@ def _cmd_detect(args) -> int:
     from tunnelsense._records import RUN_LABELS
     from tunnelsense._streaming import ResultsWriter
     from tunnelsense.io import open_run_stream
-
     from tunnelsense.io._output import check_output
 
     out = Path(args.out)
