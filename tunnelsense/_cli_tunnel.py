@@ -498,14 +498,19 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
     """
     from tunnelsense._streaming import StreamingPipeline, decode_ahead
 
+    from threadpoolctl import threadpool_limits
+
     stream = StreamingPipeline(model)
     if n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
-    for k, record in enumerate(frames, 1):
-        yield from stream.push(record)
-        if progress is not None:
-            progress.update(k)
-    yield from stream.close()
+    # one frame's matrix products are small: BLAS threads would only contend with
+    # the reader threads
+    with threadpool_limits(limits=1, user_api="blas"):
+        for k, record in enumerate(frames, 1):
+            yield from stream.push(record)
+            if progress is not None:
+                progress.update(k)
+        yield from stream.close()
 
 
 def _cmd_detect(args) -> int:

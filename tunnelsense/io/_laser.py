@@ -27,6 +27,7 @@ from tunnelsense._records import (
     Run,
     empty_run_gt,
 )
+from tunnelsense.io._mot import LineNumbers
 
 __all__ = [
     "RunStream",
@@ -347,7 +348,7 @@ def read_run_gt(path) -> pd.DataFrame:
                 "0 <= first_scan <= last_scan"
             )
     table = pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
-    table.attrs["lines"] = [int(i) for i in lines]
+    table.attrs["lines"] = LineNumbers(int(i) for i in lines)
     return table
 
 

@@ -78,6 +78,19 @@ _INT_COLUMNS = {"frame", "id", "class"}
 # --------------------------------------------------------------------------------------
 # Comma-separated MOT tables
 # --------------------------------------------------------------------------------------
+class LineNumbers(tuple):
+    """The file line of each row of a table read from disk (``table.attrs["lines"]``).
+
+    pandas deep-copies ``attrs`` at every operation on the table; a tuple cannot
+    change, so its copies are itself.
+    """
+
+    __slots__ = ()
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 def _parse_line_by_line(path, text, columns):
     """Slow path: find the first bad line and say what is wrong with it."""
     rows = []
@@ -164,7 +177,7 @@ def _read_table(path, columns) -> pd.DataFrame:
             )
     for c in int_columns:
         table[c] = table[c].to_numpy().astype(np.int64)
-    table.attrs["lines"] = lines
+    table.attrs["lines"] = LineNumbers(lines)
     return table
 
 
