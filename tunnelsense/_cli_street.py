@@ -36,10 +36,10 @@ _SEARCH_GRID = {
 }
 
 
-def _read_runs(paths):
+def _read_runs(paths, range_unit="m"):
     from tunnelsense.io import read_run
 
-    return [read_run(p) for p in paths]
+    return [read_run(p, range_unit=range_unit) for p in paths]
 
 
 def _speed_of(run):
@@ -79,7 +79,7 @@ def _cmd_train(args) -> int:
     inputs = [f for d in args.rundirs for f in input_files(d)]
     check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
-    runs = _read_runs(args.rundirs)
+    runs = _read_runs(args.rundirs, args.range_unit)
     X, y, groups = to_xy(runs)
     X = [r for run in runs for r in _with_speed(run)]
     pipe = make_parking_pipeline()
@@ -140,7 +140,8 @@ def _cmd_detect(args) -> int:
     if args.draw:
         check_draw_dir(args.draw, force=args.force)
     model = _load_model(args)
-    source = open_run_stream(args.rundir, chunk_scans=1024)
+    source = open_run_stream(args.rundir, chunk_scans=1024,
+                             range_unit=args.range_unit)
     speed = _speed_of(source)
     step = model.steps[-1][1] if hasattr(model, "steps") else model
     head = model[:-1] if hasattr(model, "steps") and len(model.steps) > 1 else None
@@ -187,7 +188,7 @@ def _cmd_detect(args) -> int:
     if args.draw:
         from tunnelsense.street._plotting import draw_run
 
-        run = _read_runs([args.rundir])[0]
+        run = _read_runs([args.rundir], args.range_unit)[0]
         X = _with_speed(run)
         Xt = head.transform(X) if head is not None else X
         written = draw_run(run, step, args.draw, X=Xt)
@@ -228,6 +229,14 @@ def _cmd_evaluate(args) -> int:
     return 0
 
 
+def _add_range_unit(parser) -> None:
+    parser.add_argument(
+        "--range-unit", choices=("m", "mm"), default="m",
+        help="unit of the ranges in scans.npz: m (ROS, floats; default) or mm "
+        "(integer millimetres, as some drivers write)",
+    )
+
+
 def register(verbs) -> None:
     """Add the ``street`` commands to the ``train``, ``detect`` and ``evaluate`` verbs.
 
@@ -245,6 +254,7 @@ def register(verbs) -> None:
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
     add_output_arguments(p, signs=True)
+    _add_range_unit(p)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
@@ -259,6 +269,7 @@ def register(verbs) -> None:
                    help="continue an interrupted OBJECTS.csv (rows are replayed and "
                         "checked, not duplicated)")
     add_output_arguments(p)
+    _add_range_unit(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")
