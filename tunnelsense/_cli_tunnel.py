@@ -496,9 +496,9 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
         As ``model.predict`` gives them, in input order, each as soon as every
         trajectory through it has ended (in-memory images are released).
     """
-    from tunnelsense._streaming import StreamingPipeline, decode_ahead
-
     from threadpoolctl import threadpool_limits
+
+    from tunnelsense._streaming import StreamingPipeline, decode_ahead
 
     stream = StreamingPipeline(model)
     if n_threads > 0:

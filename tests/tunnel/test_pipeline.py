@@ -83,10 +83,13 @@ def test_fit_predict_score_and_persist(tours, tmp_path):
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
 def test_frames_without_keypoints_give_no_detections(tours, dtype):
     """Dark stretches, a tunnel exit, a lens cap: no keypoint in the band is no error."""
-    from tunnelsense import FrameSequence
+    from tunnelsense import FrameRecord, FrameSequence
     from tunnelsense._streaming import StreamingPipeline
 
     X, y, _ = to_xy(tours[:2])
+    X = FrameSequence(  # a model of this bit depth
+        FrameRecord(r.tour, r.frame, r.image.astype(dtype)) for r in X
+    )
     pipe = make_indicator_pipeline(**SMALL).fit(X, y)
     images = np.stack([r.image for r in tours[2].frames]).astype(dtype)
     images[40:45] = 0  # black frames inside the tour
@@ -175,3 +178,21 @@ def test_verifier_settings_reach_the_step():
     pipe = make_indicator_pipeline(max_distance=0.2)
     assert isinstance(pipe.named_steps["verifier"], KMeansHistogramVerifier)
     assert pipe.named_steps["verifier"].max_distance == 0.2
+
+
+def test_frames_of_another_bit_depth_are_refused(tours):
+    """A 16-bit tour given to a model fitted on 8-bit frames: an error, not silence."""
+    from tunnelsense import FrameSequence
+    from tunnelsense._streaming import StreamingPipeline
+    from tunnelsense.exceptions import InputFormatError
+
+    X, y, _ = to_xy(tours[:1])
+    pipe = make_indicator_pipeline(**SMALL).fit(X, y)
+    assert pipe.named_steps["keypoints"].pixel_dtype_ == "uint8"
+    images = np.stack([r.image for r in tours[2].frames[:5]]).astype(np.uint16) * 257
+    frames = FrameSequence.from_array(images, tour="wide")
+    match = r"X\[0\] \('wide', frame 1\): a uint16 frame, but the sampler was fitted on uint8"
+    with pytest.raises(InputFormatError, match=match):
+        pipe.predict(frames)
+    with pytest.raises(InputFormatError, match=match):
+        StreamingPipeline(pipe).push(frames[0])

@@ -18,6 +18,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import FrameSequence, check_frames, decode_once
+from tunnelsense.exceptions import InputFormatError
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
 
@@ -37,6 +38,25 @@ def _check_image(image, index, record):
             f"2-D uint8 or uint16 array; got {desc}"
         )
     return image
+
+
+def _pixel_dtype(records) -> str:
+    """The pixel type of the frames (one decode at most when none is decoded)."""
+    kinds = set()
+    for r in records:
+        source = r.source
+        if isinstance(source, np.ndarray):
+            kinds.add(str(source.dtype))
+        elif hasattr(source, "array"):  # DecodedImage
+            kinds.add(str(source.array.dtype))
+    if not kinds and len(records):
+        kinds.add(str(records[0].image.dtype))
+    if len(kinds) > 1:
+        raise InputFormatError(
+            f"the frames mix pixel types ({', '.join(sorted(kinds))}); fit on frames "
+            "of one bit depth: the intensity band is in grey levels of that depth"
+        )
+    return kinds.pop() if kinds else "uint8"
 
 
 def sample_keypoints(
@@ -260,6 +280,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         The band in use (``low``/``high``, or the learned one).
     n_frames_fit_ : int
         Number of frames seen by ``fit``.
+    pixel_dtype_ : str
+        The pixel type of the frames ``fit`` saw (``"uint8"`` or ``"uint16"``).
 
     Notes
     -----
@@ -268,6 +290,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
     [0, 255] range).  For 16-bit frames either pass the band in raw counts (``low``,
     ``high``) or use ``band="learned"``, which learns it in whatever units the labelled
     frames have.  ``payload["keypoints"]`` then holds the raw 16-bit intensities.
+    A sampler fitted on frames of one depth refuses frames of the other
+    (:class:`~tunnelsense.exceptions.InputFormatError`) rather than find no keypoint:
+    a 16-bit camera's raw counts are not 8-bit grey levels times 257, the camera's
+    gain decides, so no conversion is right for every camera.
 
     Examples
     --------
@@ -342,6 +368,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self : IntensityKeypointSampler
         """
         records, boxes = check_frames(X, y)
+        self.pixel_dtype_ = _pixel_dtype(records)
         if self.band == "learned":
             if boxes is None:
                 raise ValueError(
@@ -405,10 +432,20 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             col_offset=self.col_offset,
         )
         band = (self.low_, self.high_)
+        fitted = getattr(self, "pixel_dtype_", None)  # None: a model saved before
         out = []
         for i, r in enumerate(records):
             r = decode_once(r)  # the later stages of this pass read the same array
             image = _check_image(r.image, i, r)
+            if fitted is not None and image.dtype != fitted:
+                raise InputFormatError(
+                    f"X[{i}] ({r.tour!r}, frame {r.frame}): a {image.dtype} frame, but "
+                    f"the sampler was fitted on {fitted} frames: its intensity band "
+                    f"[{self.low_:g}, {self.high_:g}] is in {fitted} grey levels. A "
+                    "16-bit camera's raw counts are not 8-bit levels times 257 (the "
+                    "camera's gain decides); fit the detector on tours of this camera, "
+                    "or convert the frames to the fitted depth yourself"
+                )
             out.append(
                 r.evolve(
                     keypoints=sample_keypoints(image, self.low_, self.high_, **kw),
