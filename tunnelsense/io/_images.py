@@ -8,6 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from tunnelsense.exceptions import InputFormatError
+
 __all__ = ["IMAGE_EXTENSIONS", "read_image", "read_png_size", "read_video_frame"]
 
 #: File endings read as image frames (case-insensitive).
@@ -26,11 +28,11 @@ def _to_gray(image: np.ndarray, where: str) -> np.ndarray:
         elif image.shape[2] == 4:
             image = cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
         else:
-            raise ValueError(
+            raise InputFormatError(
                 f"{where}: expected 1, 3 or 4 channels, got {image.shape[2]}"
             )
     if image.dtype not in (np.uint8, np.uint16):
-        raise ValueError(f"{where}: expected 8-bit or 16-bit pixels, got {image.dtype}")
+        raise InputFormatError(f"{where}: expected 8-bit or 16-bit pixels, got {image.dtype}")
     return np.ascontiguousarray(image)
 
 
@@ -42,7 +44,7 @@ def read_png_size(path) -> tuple[int, int]:
     with open(path, "rb") as f:
         head = f.read(24)
     if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
-        raise ValueError(f"{path}: not a PNG file (bad signature or header)")
+        raise InputFormatError(f"{path}: not a PNG file (bad signature or header)")
     width, height = struct.unpack(">II", head[16:24])
     return int(height), int(width)
 
@@ -67,15 +69,15 @@ def read_image(path) -> np.ndarray:
         raise FileNotFoundError(f"{path}: frame file not found")
     data = np.fromfile(path, dtype=np.uint8)
     if data.size == 0:
-        raise ValueError(f"{path}: empty file, expected an image")
+        raise InputFormatError(f"{path}: empty file, expected an image")
     if data[:8].tobytes() == _PNG_SIGNATURE and data.tobytes().rfind(b"IEND") < 0:
         # libpng may hand back a partly decoded frame for a truncated file.
-        raise ValueError(
+        raise InputFormatError(
             f"{path}: truncated PNG (no IEND chunk at the end of the file)"
         )
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if image is None:
-        raise ValueError(f"{path}: corrupt image, OpenCV could not decode it")
+        raise InputFormatError(f"{path}: corrupt image, OpenCV could not decode it")
     return _to_gray(image, str(path))
 
 
@@ -86,7 +88,7 @@ def open_video(path) -> cv2.VideoCapture:
         raise FileNotFoundError(f"{path}: video file not found")
     capture = cv2.VideoCapture(str(path))
     if not capture.isOpened():
-        raise ValueError(f"{path}: OpenCV cannot open this file as a video")
+        raise InputFormatError(f"{path}: OpenCV cannot open this file as a video")
     return capture
 
 
@@ -95,36 +97,54 @@ def read_video_frame(path, index: int) -> np.ndarray:
     capture = open_video(path)
     try:
         if index and not capture.set(cv2.CAP_PROP_POS_FRAMES, index):
-            raise ValueError(f"{path}: cannot seek to frame {index}")
+            raise InputFormatError(f"{path}: cannot seek to frame {index}")
         ok, image = capture.read()
     finally:
         capture.release()
     if not ok or image is None:
-        raise ValueError(
+        raise InputFormatError(
             f"{path}: cannot decode frame {index} (the video ends earlier)"
         )
     return _to_gray(image, f"{path} frame {index}")
 
 
-def iter_video(path):
+def iter_video(path, *, check_length=True):
     """Yield the frames of a video file one by one, decoding sequentially.
 
     Parameters
     ----------
     path : str or Path
         A video file OpenCV can open.
+    check_length : bool, default=True
+        When the file's header states a number of frames and the video ends more than
+        1 % (at least one frame) earlier, raise after the last decodable frame: the
+        file is truncated or damaged.  (Some containers only estimate the count;
+        pass ``False`` for those.)
 
     Yields
     ------
     image : ndarray of shape (height, width)
         Grey frames, in order.
+
+    Raises
+    ------
+    InputFormatError
+        The video ends before the number of frames its header states.
     """
     capture = open_video(path)
     try:
+        stated = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        n = 0
         while True:
             ok, image = capture.read()
             if not ok:
-                return
+                break
+            n += 1
             yield _to_gray(image, str(path))
     finally:
         capture.release()
+    if check_length and stated > 0 and n < stated - max(1, stated // 100):
+        raise InputFormatError(
+            f"{path}: the video ends after {n} frames, but its header states {stated} "
+            "(truncated or damaged file); the frames before were processed"
+        )

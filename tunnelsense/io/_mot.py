@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import configparser
 import io
+import math
 import re
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from tunnelsense._records import (
     VideoFrame,
     empty_mot_gt,
 )
+from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io._images import (
     IMAGE_EXTENSIONS,
     open_video,
@@ -99,7 +101,7 @@ def _parse_line_by_line(path, text, columns):
             continue
         fields = [f.strip() for f in line.split(",")]
         if len(fields) != len(columns):
-            raise ValueError(
+            raise InputFormatError(
                 f"{path}, line {lineno}: {len(fields)} columns, expected "
                 f"{len(columns)} ({','.join(columns)})"
             )
@@ -108,12 +110,12 @@ def _parse_line_by_line(path, text, columns):
             try:
                 number = float(value)
             except ValueError:
-                raise ValueError(
+                raise InputFormatError(
                     f"{path}, line {lineno}: column {name!r} is {value!r}, "
                     "expected a number"
                 ) from None
             if name in _INT_COLUMNS and not number.is_integer():
-                raise ValueError(
+                raise InputFormatError(
                     f"{path}, line {lineno}: column {name!r} is {value!r}, "
                     "expected an integer"
                 )
@@ -160,19 +162,19 @@ def _read_table(path, columns) -> pd.DataFrame:
     lines = [i for i, line in enumerate(text.splitlines(), 1) if line.strip()]
     bad = np.flatnonzero(~np.isfinite(values).all(axis=1))
     if bad.size:
-        raise ValueError(
+        raise InputFormatError(
             f"{path}, line {lines[bad[0]]}: NaN or infinity, expected numbers"
         )
     ints = table[int_columns].to_numpy()
     bad = np.flatnonzero((np.abs(ints) >= 2**62).any(axis=1))
     if bad.size:
-        raise ValueError(f"{path}, line {lines[bad[0]]}: integer column out of range")
+        raise InputFormatError(f"{path}, line {lines[bad[0]]}: integer column out of range")
     if "bb_width" in table:
         bad = np.flatnonzero(
             (table[["bb_width", "bb_height"]].to_numpy() < 0).any(axis=1)
         )
         if bad.size:
-            raise ValueError(
+            raise InputFormatError(
                 f"{path}, line {lines[bad[0]]}: negative box width or height"
             )
     for c in int_columns:
@@ -289,10 +291,10 @@ def _read_seqinfo(path: Path) -> dict:
     try:
         parser.read(path, encoding="utf-8-sig")
     except (configparser.Error, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: not a valid ini file: {exc}") from None
+        raise InputFormatError(f"{path}: not a valid ini file: {exc}") from None
     sections = [s for s in parser.sections() if s.lower() == "sequence"]
     if not sections:
-        raise ValueError(f"{path}: no [Sequence] section")
+        raise InputFormatError(f"{path}: no [Sequence] section")
     items = dict(parser.items(sections[0]))
     lower = {k.lower(): k for k in items}
     info = {}
@@ -305,26 +307,30 @@ def _read_seqinfo(path: Path) -> dict:
         else:
             missing.append(key)
     if missing:
-        raise ValueError(
+        raise InputFormatError(
             f"{path}: [Sequence] lacks required key(s) {', '.join(missing)}"
         )
     for key in ("seqLength", "imWidth", "imHeight"):
         try:
             info[key] = int(info[key])
         except ValueError:
-            raise ValueError(
+            raise InputFormatError(
                 f"{path}: {key} is {info[key]!r}, expected an integer"
             ) from None
         if info[key] < 0 or (key != "seqLength" and info[key] == 0):
-            raise ValueError(
+            raise InputFormatError(
                 f"{path}: {key} is {info[key]}, expected a positive integer"
             )
+    raw = info["frameRate"]
     try:
-        info["frameRate"] = float(info["frameRate"])
+        info["frameRate"] = float(raw)
     except ValueError:
-        raise ValueError(
-            f"{path}: frameRate is {info['frameRate']!r}, expected a number"
-        ) from None
+        info["frameRate"] = math.nan
+    if not (math.isfinite(info["frameRate"]) and info["frameRate"] > 0):
+        raise InputFormatError(
+            f"{path}: frameRate is {raw!r}, expected a positive number of frames per "
+            "second"
+        )
     if not info["imExt"].startswith("."):
         info["imExt"] = "." + info["imExt"]
     info["extra"] = items
@@ -337,10 +343,38 @@ def _check_sizes(files, shape):
         if f.suffix.lower() == ".png":
             size = read_png_size(f)
             if size != shape:
-                raise ValueError(
+                raise InputFormatError(
                     f"{f}: frame is {size[1]}x{size[0]} px, expected "
                     f"{shape[1]}x{shape[0]} px like the rest of its tour"
                 )
+
+
+def _sequence_files(path, image_dir, seq) -> list:
+    """``img1/000001.png ...``: every frame of ``seqLength`` present, and no more."""
+    if not image_dir.is_dir():
+        raise FileNotFoundError(f"{image_dir}: image folder not found (imDir)")
+    ext = seq["imExt"]
+    present = {
+        int(p.stem) for p in image_dir.iterdir()
+        if p.suffix == ext and p.stem.isdigit() and len(p.stem) < 12
+    }
+    n = seq["seqLength"]
+    files = []
+    for i in range(1, n + 1):
+        if i not in present:
+            raise FileNotFoundError(
+                f"{image_dir / f'{i:06d}{ext}'}: frame file not found (seqinfo.ini "
+                f"says seqLength={n})"
+            )
+        files.append(image_dir / f"{i:06d}{ext}")
+    beyond = sorted(k for k in present if k > n)
+    if beyond:
+        raise InputFormatError(
+            f"{path / 'seqinfo.ini'}: seqLength is {n}, but {image_dir} holds "
+            f"{len(beyond)} more frame(s), up to {beyond[-1]:06d}{ext}; correct "
+            "seqLength, or remove the extra frames"
+        )
+    return files
 
 
 def read_tour(path) -> Tour:
@@ -375,15 +409,7 @@ def read_tour(path) -> Tour:
     seq = _read_seqinfo(path / "seqinfo.ini")
     shape = (seq["imHeight"], seq["imWidth"])
     image_dir = path / seq["imDir"]
-    files = [
-        image_dir / f"{i:06d}{seq['imExt']}" for i in range(1, seq["seqLength"] + 1)
-    ]
-    for f in files:
-        if not f.is_file():
-            raise FileNotFoundError(
-                f"{f}: frame file not found (seqinfo.ini says seqLength="
-                f"{seq['seqLength']})"
-            )
+    files = _sequence_files(path, image_dir, seq)
     _check_sizes(files, shape)
     frames = FrameSequence(
         FrameRecord(seq["name"], i, ImageFile(f, shape)) for i, f in enumerate(files, 1)
@@ -393,7 +419,7 @@ def read_tour(path) -> Tour:
     if len(gt):
         bad = np.flatnonzero((gt["frame"] < 1) | (gt["frame"] > seq["seqLength"]))
         if bad.size:
-            raise ValueError(
+            raise InputFormatError(
                 f"{gt_path}, line {gt.attrs['lines'][bad[0]]}: frame "
                 f"{gt['frame'].iloc[bad[0]]} is outside 1..{seq['seqLength']}"
             )
@@ -474,7 +500,10 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
     """Read a plain folder of image files as a tour without ground truth.
 
     Files are ordered by name with digit runs compared as numbers (``f_2.png`` before
-    ``f_10.png``); hidden files are skipped.
+    ``f_10.png``); hidden files are skipped.  When every name ends in a number, that
+    number is the frame's (a missing file leaves a gap in the frame numbers, which the
+    trajectory linker respects; a folder numbered from 0 is shifted to start at 1;
+    two files of one number are refused); otherwise frames are numbered 1..n.
 
     Parameters
     ----------
@@ -502,7 +531,7 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
         key=_natural_key,
     )
     if not files:
-        raise ValueError(
+        raise InputFormatError(
             f"{path}: no image files (expected files ending in {', '.join(IMAGE_EXTENSIONS)})"
         )
     first = files[0]
@@ -513,10 +542,34 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
     )
     _check_sizes(files, shape)
     name = path.resolve().name
+    numbers = _frame_numbers(path, files)
     frames = FrameSequence(
-        FrameRecord(name, i, ImageFile(f, shape)) for i, f in enumerate(files, 1)
+        FrameRecord(name, k, ImageFile(f, shape))
+        for k, f in sorted(zip(numbers, files, strict=True), key=lambda kf: kf[0])
     )
     return Tour(name, frames, empty_mot_gt(), float(frame_rate), {"source": str(path)})
+
+
+def _frame_numbers(folder, files) -> list[int]:
+    """Frame numbers from the files' names: the number each name ends with.
+
+    A missing file leaves a gap (the trajectory linker sees it); a folder numbered
+    from 0 is shifted to start at 1.  Names that do not all end in a number are
+    numbered 1..n in order.
+    """
+    found = [re.search(r"(\d+)$", f.stem) for f in files]
+    if not all(found):
+        return list(range(1, len(files) + 1))
+    numbers = [int(m.group(1)) for m in found]
+    seen = {}
+    for f, k in zip(files, numbers, strict=True):
+        if k in seen:
+            raise InputFormatError(
+                f"{folder}: {seen[k].name} and {f.name} both hold frame {k}"
+            )
+        seen[k] = f
+    shift = 1 if min(numbers) == 0 else 0
+    return [k + shift for k in numbers]
 
 
 def read_video(path) -> Tour:
@@ -546,7 +599,7 @@ def read_video(path) -> Tour:
     finally:
         capture.release()
     if n == 0:
-        raise ValueError(f"{path}: the video holds no frames OpenCV can decode")
+        raise InputFormatError(f"{path}: the video holds no frames OpenCV can decode")
     name = path.stem
     frames = FrameSequence(
         FrameRecord(name, i + 1, VideoFrame(path, i)) for i in range(n)
@@ -574,7 +627,7 @@ def open_tour(source) -> Tour:
         return read_image_folder(source)
     if source.is_file():
         if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):
-            raise ValueError(
+            raise InputFormatError(
                 f"{source}: a single file of this kind is not a tour (expected a "
                 "MOTChallenge folder, an image folder or a video file)"
             )
