@@ -291,8 +291,12 @@ def _decoded(X, n_threads, *, quiet):
     from tunnelsense._streaming import decode_ahead
 
     progress = _progress(len(X), "decoding frames", enabled=not quiet)
-    out = []
-    for record in decode_ahead(X, n_threads=max(n_threads, 1), ahead=64):
+    frames = decode_ahead(X, n_threads=max(n_threads, 1), ahead=max(len(X), 1))
+    out = [first] if (first := next(frames, None)) is not None else []
+    # every frame is queued now; the model writer's import (about 1 s, in this
+    # thread) overlaps the decoding threads, which run without the interpreter lock
+    import skops.io  # noqa: F401
+    for record in frames:
         out.append(record)
         progress.update(len(out))
     return FrameSequence(out)

@@ -73,10 +73,11 @@ def hypotheses_from_records(records) -> pd.DataFrame:
     -------
     hypotheses : DataFrame with :data:`HYPOTHESIS_COLUMNS`
     """
-    parts = []
+    keys = ("cluster_boxes", "track_ids", "indicator", "trajectory_positive")
+    tours, frames, tracks, boxes, indicator, positive = [], [], [], [], [], []
     for i, r in enumerate(records):
         p = r.payload
-        missing = [k for k in ("cluster_boxes", "track_ids", "indicator", "trajectory_positive") if k not in p]
+        missing = [k for k in keys if k not in p]
         if missing:
             raise ValueError(
                 f"records[{i}] ({r.tour!r}, frame {r.frame}) lacks payload {missing}: "
@@ -85,24 +86,29 @@ def hypotheses_from_records(records) -> pd.DataFrame:
         b = np.asarray(p["cluster_boxes"], dtype=np.float64).reshape(-1, 4)
         if len(b) == 0:
             continue
-        parts.append(
-            pd.DataFrame(
-                {
-                    "tour": r.tour,
-                    "frame": np.int64(r.frame),
-                    "track_id": np.asarray(p["track_ids"], dtype=np.int64),
-                    "bb_left": b[:, 0],
-                    "bb_top": b[:, 1],
-                    "bb_width": b[:, 2],
-                    "bb_height": b[:, 3],
-                    "indicator": np.asarray(p["indicator"], dtype=bool),
-                    "trajectory_positive": np.asarray(p["trajectory_positive"], dtype=bool),
-                }
-            )
-        )
-    if not parts:
+        tours += [r.tour] * len(b)
+        frames.append(np.full(len(b), r.frame, np.int64))
+        tracks.append(np.asarray(p["track_ids"], dtype=np.int64))
+        boxes.append(b)
+        indicator.append(np.asarray(p["indicator"], dtype=bool))
+        positive.append(np.asarray(p["trajectory_positive"], dtype=bool))
+    if not boxes:
         return pd.DataFrame({c: pd.Series(dtype=_dtype(c)) for c in HYPOTHESIS_COLUMNS})
-    return pd.concat(parts, ignore_index=True)
+    b = np.concatenate(boxes)
+    # one table built from whole columns: a table per frame cost 0.5 ms each
+    return pd.DataFrame(
+        {
+            "tour": tours,
+            "frame": np.concatenate(frames),
+            "track_id": np.concatenate(tracks),
+            "bb_left": b[:, 0],
+            "bb_top": b[:, 1],
+            "bb_width": b[:, 2],
+            "bb_height": b[:, 3],
+            "indicator": np.concatenate(indicator),
+            "trajectory_positive": np.concatenate(positive),
+        }
+    )
 
 
 def _dtype(column):
