@@ -625,11 +625,13 @@ def _cmd_demo(args) -> int:
     start = time.perf_counter()
     n = args.frames
     print(f"simulating a training tour (light traffic, {n} frames, seed {args.seed})")
-    train = make_tunnel_tour(n, scenario="light", random_state=args.seed)
+    train = make_tunnel_tour(n, scenario="light", random_state=args.seed,
+                             progress=_progress(n, "rendering frames"))
     tests = []
     for k, scenario in enumerate(("light", "heavy", "curved"), 1):
         print(f"simulating a test tour ({scenario}, {n} frames, seed {args.seed + k})")
-        tests.append(make_tunnel_tour(n, scenario=scenario, random_state=args.seed + k))
+        tests.append(make_tunnel_tour(n, scenario=scenario, random_state=args.seed + k,
+                                      progress=_progress(n, "rendering frames")))
     X, y, _ = to_xy([train])
     if not any(len(b) for b in train.boxes(min_height=args.min_height)):
         raise ValueError(
