@@ -36,10 +36,11 @@ _SEARCH_GRID = {
 }
 
 
-def _read_runs(paths, range_unit="m"):
+def _read_runs(paths, args):
     from tunnelsense.io import read_run
 
-    return [read_run(p, range_unit=range_unit) for p in paths]
+    return [read_run(p, range_unit=args.range_unit, topic=args.topic,
+                     mount_height=args.mount_height) for p in paths]
 
 
 def _speed_of(run):
@@ -79,7 +80,7 @@ def _cmd_train(args) -> int:
     inputs = [f for d in args.rundirs for f in input_files(d)]
     check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
-    runs = _read_runs(args.rundirs, args.range_unit)
+    runs = _read_runs(args.rundirs, args)
     X, y, groups = to_xy(runs)
     X = [r for run in runs for r in _with_speed(run)]
     pipe = make_parking_pipeline()
@@ -141,7 +142,8 @@ def _cmd_detect(args) -> int:
         check_draw_dir(args.draw, force=args.force)
     model = _load_model(args)
     source = open_run_stream(args.rundir, chunk_scans=1024,
-                             range_unit=args.range_unit)
+                             range_unit=args.range_unit, topic=args.topic,
+                             mount_height=args.mount_height)
     speed = _speed_of(source)
     step = model.steps[-1][1] if hasattr(model, "steps") else model
     head = model[:-1] if hasattr(model, "steps") and len(model.steps) > 1 else None
@@ -188,7 +190,7 @@ def _cmd_detect(args) -> int:
     if args.draw:
         from tunnelsense.street._plotting import draw_run
 
-        run = _read_runs([args.rundir], args.range_unit)[0]
+        run = _read_runs([args.rundir], args)[0]
         X = _with_speed(run)
         Xt = head.transform(X) if head is not None else X
         written = draw_run(run, step, args.draw, X=Xt)
@@ -235,6 +237,13 @@ def _add_range_unit(parser) -> None:
         help="unit of the ranges in scans.npz: m (ROS, floats; default) or mm "
         "(integer millimetres, as some drivers write)",
     )
+    parser.add_argument(
+        "--topic", help="a ROS bag's sensor_msgs/LaserScan topic (default: the only one)"
+    )
+    parser.add_argument(
+        "--mount-height", type=float, metavar="METRES",
+        help="a ROS bag's laser height above the road, when the bag does not say",
+    )
 
 
 def register(verbs) -> None:
@@ -258,7 +267,9 @@ def register(verbs) -> None:
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
-    p.add_argument("rundir", metavar="RUNDIR", help="a laser run folder")
+    p.add_argument("rundir", metavar="RUN",
+                   help="a laser run folder (scans.npz), a ROS 1 .bag file or a ROS 2 "
+                   "bag folder of sensor_msgs/LaserScan")
     add_model_arguments(p, help_model="a model saved by train street (.skops, or a "
                         ".joblib pickle with --trust-pickle)")
     p.add_argument("--out", required=True, metavar="OBJECTS.csv",

@@ -22,17 +22,20 @@ def open_source(source) -> Tour | Run:
     Parameters
     ----------
     source : str or Path
-        A laser run folder (holding ``scans.npz``) or ``.npz`` file, or anything
+        A laser run folder (holding ``scans.npz``) or ``.npz`` file, a ROS bag
+        (written with its mount height), or anything
         :func:`~tunnelsense.io.open_tour` reads.
 
     Returns
     -------
     data : Tour or Run
     """
+    from tunnelsense.io._rosbag import is_bag
+
     source = Path(source)
     if (
         source.is_dir() and (source / "scans.npz").exists()
-    ) or source.suffix.lower() == ".npz":
+    ) or source.suffix.lower() == ".npz" or is_bag(source):
         return read_run(source)
     return open_tour(source)
 

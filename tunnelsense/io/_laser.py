@@ -79,13 +79,18 @@ _NPZ_ERRORS = (zipfile.BadZipFile, zlib.error, ValueError, OSError, EOFError, Ke
 RANGE_UNITS = {"m": 1.0, "mm": 0.001}
 
 
-def read_run(path, *, range_unit="m") -> Run:
+def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
     """Read a laser run folder (``scans.npz`` + optional ``gt.csv``) as a :class:`~tunnelsense.Run`.
 
     Parameters
     ----------
     path : str or Path
-        The run folder, or its ``scans.npz`` file.
+        The run folder, or its ``scans.npz`` file; or a ROS 1 ``.bag`` file or ROS 2
+        bag folder of ``sensor_msgs/LaserScan`` (the ``rosbag`` extra).
+    topic : str, default=None
+        A bag's ``LaserScan`` topic (``None``: the only one).
+    mount_height : float, default=None
+        For a bag: the sensor's height above the road (m), when the bag does not say.
     range_unit : {"m", "mm"}, default="m"
         Unit of ``ranges`` in the file.  ROS ``LaserScan`` ranges are metres
         (floats); some drivers write integer millimetres, which are refused unless
@@ -110,6 +115,10 @@ def read_run(path, *, range_unit="m") -> Run:
         number of beams; ``gt.csv`` is malformed (the message names the file and
         line).
     """
+    from tunnelsense.io._rosbag import is_bag, read_bag_run
+
+    if is_bag(path):
+        return read_bag_run(path, topic=topic, mount_height=mount_height)
     name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=False,
                                                          range_unit=range_unit)
     ranges = _to_metres(ranges, geometry.range_max, RANGE_UNITS[range_unit])
@@ -350,7 +359,8 @@ class RunStream:
                 yield ScanRecord(self.name, s, block[i], float(self._stamps[s]), g)
 
 
-def open_run_stream(path, *, chunk_scans=1024, range_unit="m") -> RunStream:
+def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
+                    mount_height=None) -> RunStream:
     """Open a laser run for reading scan by scan (bounded memory).
 
     The same checks as :func:`read_run` are made up front, from the file's headers;
@@ -364,6 +374,8 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m") -> RunStream:
         Scans decompressed at a time.
     range_unit : {"m", "mm"}, default="m"
         Unit of ``ranges`` in the file (see :func:`read_run`).
+    topic, mount_height : see :func:`read_run`
+        For a ROS bag (then the scans are read message by message).
 
     Returns
     -------
@@ -382,6 +394,10 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m") -> RunStream:
     >>> [s.scan for s in open_run_stream(folder, chunk_scans=2)]
     [0, 1, 2, 3, 4]
     """
+    from tunnelsense.io._rosbag import is_bag, open_bag_run
+
+    if is_bag(path):
+        return open_bag_run(path, topic=topic, mount_height=mount_height)
     name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=True,
                                                          range_unit=range_unit)
     return RunStream(name, ranges, stamps, geometry, gt, info, int(chunk_scans),
