@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from tunnelsense._cli_common import (
@@ -92,7 +93,7 @@ def _cmd_train(args) -> int:
             raise ValueError("--search needs at least two runs (folds are runs)")
         search = GridSearchCV(pipe, _SEARCH_GRID, cv=GroupKFold(min(n_groups, 5)),
                               scoring=make_street_scorer("parked", "f1"),
-                              error_score="raise")
+                              error_score="raise", n_jobs=args.jobs)
         search.fit(X, y, groups=groups)
         pipe = search.best_estimator_
         summary["search"] = {"grid": _SEARCH_GRID, "best_params": search.best_params_,
@@ -262,6 +263,8 @@ def register(verbs) -> None:
                    help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                   help="parallel fits of --search (default: the number of CPUs)")
     add_output_arguments(p, signs=True)
     _add_range_unit(p)
     p.set_defaults(func=_cmd_train)

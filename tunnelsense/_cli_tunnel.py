@@ -597,7 +597,8 @@ def _cmd_detect(args) -> int:
     elapsed = time.perf_counter() - start
     print(
         f"wrote {out}: {n_det} detections on {n_frames} frames, {len(ids)} indicator "
-        f"trajectories ({elapsed:.1f} s)"
+        f"trajectories, and every keypoint cluster to {_clusters_path(out)} (for "
+        f"'evaluate tunnel') ({elapsed:.1f} s)"
     )
     return 0
 
@@ -745,6 +746,10 @@ def register_top(sub) -> None:
     p = sub.add_parser(
         "demo",
         help="simulate tunnel tours, train the indicator detector, detect and report",
+        description="Simulate a light-traffic training tour and three test tours "
+        "(light traffic, heavy traffic, another camera in a curving tunnel), train the "
+        "indicator detector on the first, detect on the others and print the paper's "
+        "cluster and trajectory figures for each.",
     )
     p.add_argument(
         "--frames",
