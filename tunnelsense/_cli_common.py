@@ -119,9 +119,22 @@ def input_files(source) -> list[Path]:
     source = Path(source)
     if not source.is_dir():
         return [source]
-    known = [source / n for n in ("seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv")]
-    present = [p for p in known if p.exists()]
+    names = ["seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv", "metadata.yaml"]
+    names.append(_image_dir(source / "seqinfo.ini"))
+    present = [source / n for n in names if n and (source / n).exists()]
     return present or [source]  # a plain image folder: every file in it
+
+
+def _image_dir(seqinfo) -> str | None:
+    """The ``imDir`` a ``seqinfo.ini`` names (its frames), if it can be read."""
+    import configparser
+
+    parser = configparser.ConfigParser(interpolation=None)
+    try:
+        parser.read(seqinfo, encoding="utf-8")
+        return parser.get("Sequence", "imDir", fallback=None)
+    except (configparser.Error, UnicodeDecodeError, OSError):
+        return None
 
 
 def check_draw_dir(path, *, force) -> Path:
