@@ -234,3 +234,36 @@ def test_random_bytes_and_edits_are_refused(tmp_path, global_random_seed):
         path.write_bytes(bytes(data))
         with pytest.raises(UntrustedModelError):
             load_model(path)
+
+
+class _Evil:
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.marker}",))
+
+
+def test_a_pickled_array_member_is_refused(tmp_path):
+    """An .npy member holding a pickled object array: never unpickled."""
+    model = DecisionTreeClassifier(max_depth=1).fit([[0], [1]], [0, 1])
+    path = save_model(model, tmp_path / "m.skops")
+    marker = tmp_path / "marker"
+    evil = io.BytesIO()
+    np.save(evil, np.array([_Evil(marker)], dtype=object), allow_pickle=True)
+    src = zipfile.ZipFile(io.BytesIO(path.read_bytes()))
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename.endswith(".npy"):
+                data = evil.getvalue()
+            dst.writestr(item, data)
+        dst.comment = b"tunnelsense-sha256:" + b"0" * 64
+    raw = bytearray(out.getvalue())
+    raw[-64:] = hashlib.sha256(bytes(raw[:-64])).hexdigest().encode()
+    crafted = tmp_path / "crafted.skops"
+    crafted.write_bytes(bytes(raw))
+    with pytest.raises(UntrustedModelError, match="Object arrays cannot be loaded"):
+        load_model(crafted)
+    assert not marker.exists()
