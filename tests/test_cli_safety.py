@@ -174,3 +174,14 @@ def test_evaluate_says_n_a_for_0_of_0(tmp_path, capsys):
     assert main(["evaluate", "tunnel", str(folder), str(results)]) == 0
     text = capsys.readouterr().out
     assert "100.0 %" not in text and "n/a (0 of 0)" in text
+
+
+def test_draw_every_and_the_disk_it_uses(tunnel, tmp_path, capsys):
+    draw = tmp_path / "draw"
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]),
+                 str(tunnel["tours"][1]), "--out", str(tmp_path / "r.txt"),
+                 "--draw", str(draw), "--draw-every", "10", "--quiet"]) == 0
+    pictures = sorted(p.name for p in draw.iterdir())
+    assert pictures == [f"{k:06d}.png" for k in range(1, 121, 10)]
+    size = sum(p.stat().st_size for p in draw.iterdir()) / 1e6
+    assert f"drew 12 pictures ({size:.1f} MB) in {draw}" in capsys.readouterr().out

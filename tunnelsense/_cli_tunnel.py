@@ -531,6 +531,8 @@ def _cmd_detect(args) -> int:
                      what="--out")
     if args.draw is not None:
         check_draw_dir(args.draw, force=args.force)
+    if args.draw_every < 1:
+        raise ValueError(f"--draw-every must be at least 1; got {args.draw_every}")
     model = _load_model(args)
     frames, total = open_frames(args.source)
     results = ResultsWriter(out, resume=args.resume, overwrite=args.force,
@@ -579,6 +581,7 @@ def _cmd_detect(args) -> int:
         pictures = ((r, None) for r in released)
     n_frames = n_det = 0
     ids = set()
+    drawn = []
     with results, clusters:
         for r, pic in pictures:
             lines = _result_lines(r)
@@ -592,9 +595,14 @@ def _cmd_detect(args) -> int:
             n_det += len(lines)
             if lines:
                 ids.update(int(d[4]) for d in r.payload["detections"])
-            if pic is not None:
-                cv2.imwrite(str(draw / f"{r.frame:06d}.png"), pic)
+            if pic is not None and (r.frame - 1) % args.draw_every == 0:
+                target = draw / f"{r.frame:06d}.png"
+                if not cv2.imwrite(str(target), pic):
+                    raise OSError(f"{target}: OpenCV could not write the picture")
+                drawn.append(target.stat().st_size)
     elapsed = time.perf_counter() - start
+    if drawn:
+        print(f"drew {len(drawn)} pictures ({sum(drawn) / 1e6:.1f} MB) in {draw}")
     print(
         f"wrote {out}: {n_det} detections on {n_frames} frames, {len(ids)} indicator "
         f"trajectories, and every keypoint cluster to {_clusters_path(out)} (for "
@@ -708,7 +716,15 @@ def register(verbs) -> None:
     )
     p.add_argument("source", help="MOTChallenge folder, image folder or video file")
     p.add_argument("--out", required=True, help="MOTChallenge results file to write")
-    p.add_argument("--draw", metavar="DIR", help="also draw every frame into DIR")
+    p.add_argument("--draw", metavar="DIR", help="also draw frames into DIR")
+    p.add_argument(
+        "--draw-every",
+        type=int,
+        default=1,
+        metavar="N",
+        help="with --draw, draw every N-th frame (default 1: every frame, about "
+        "0.4 MB each at 640x480)",
+    )
     p.add_argument(
         "--resume",
         action="store_true",
