@@ -185,3 +185,38 @@ def test_draw_every_and_the_disk_it_uses(tunnel, tmp_path, capsys):
     assert pictures == [f"{k:06d}.png" for k in range(1, 121, 10)]
     size = sum(p.stat().st_size for p in draw.iterdir()) / 1e6
     assert f"drew 12 pictures ({size:.1f} MB) in {draw}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("where", ["frames", "device"])
+def test_draw_never_goes_into_inputs_or_device_folders(tunnel, tmp_path, capsys, where):
+    tour = tunnel["tours"][1]
+    before = _snapshot(tour)
+    draw = tour / "img1" if where == "frames" else "/dev/shm/tunnelsense-draw-test"
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]), str(tour),
+                 "--out", str(tmp_path / "r.txt"), "--draw", str(draw), "--force",
+                 "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert ("input of this command" if where == "frames" else "device folder") in err
+    assert _snapshot(tour) == before
+    assert not (tmp_path / "r.txt").exists()
+    import os
+
+    assert not os.path.exists("/dev/shm/tunnelsense-draw-test")
+
+
+def test_the_key_file_is_an_input(street, tmp_path, capsys):
+    key = tmp_path / "fleet.key"
+    key.write_text("fleet-secret-0123456789")
+    signed = tmp_path / "signed.skops"
+    assert main(["train", "street", str(street["run"]), "--model", str(signed),
+                 "--key-file", str(key)]) == 0
+    assert main(["detect", "street", "--model", str(signed), str(street["run"]),
+                 "--out", str(key), "--key-file", str(key), "--force", "--quiet"]) == 1
+    assert "input of this command" in capsys.readouterr().err
+    named = tmp_path / "fleet-key.skops"  # a key file a model could be written over
+    named.write_text("fleet-secret-0123456789")
+    assert main(["train", "street", str(street["run"]), "--model", str(named),
+                 "--key-file", str(named), "--force"]) == 1
+    assert "input of this command" in capsys.readouterr().err
+    assert named.read_text() == "fleet-secret-0123456789"
+    assert key.read_text() == "fleet-secret-0123456789"

@@ -116,9 +116,11 @@ def input_files(source) -> list[Path]:
 
     An output is never written over any of them, even with ``--force``.
     """
+    from tunnelsense.io._rosbag import is_bag
+
     source = Path(source)
-    if not source.is_dir():
-        return [source]
+    if not source.is_dir() or is_bag(source):
+        return [source]  # a file, or a ROS 2 bag folder: every file in it
     names = ["seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv", "metadata.yaml"]
     names.append(_image_dir(source / "seqinfo.ini"))
     present = [source / n for n in names if n and (source / n).exists()]
@@ -137,14 +139,29 @@ def _image_dir(seqinfo) -> str | None:
         return None
 
 
-def check_draw_dir(path, *, force) -> Path:
-    """A folder for pictures: new or empty, or ``--force`` to draw over its files."""
+def check_draw_dir(path, *, force, inputs=()) -> Path:
+    """A folder for pictures: new or empty, or ``--force`` to draw over its files.
+
+    Never a device folder, and never one of the command's inputs (or inside one),
+    even with ``--force``.
+    """
+    from tunnelsense.exceptions import OutputExistsError
+    from tunnelsense.io._output import _is_device_path
+
     path = Path(path)
+    if _is_device_path(path):
+        raise ValueError(f"--draw {path}: refusing to write into a device folder")
     if path.exists() and not path.is_dir():
         raise ValueError(f"--draw {path}: exists and is not a folder")
+    target = path.resolve()
+    for item in inputs:
+        item = Path(item).resolve()
+        if target.is_relative_to(item):
+            raise OutputExistsError(
+                f"--draw {path}: is (or is inside) an input of this command ({item}); "
+                "refusing to draw into it"
+            )
     if path.is_dir() and any(path.iterdir()) and not force:
-        from tunnelsense.exceptions import OutputExistsError
-
         raise OutputExistsError(
             f"--draw {path}: the folder is not empty; refusing to draw over its files "
             "(pass --force)"

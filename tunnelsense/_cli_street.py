@@ -79,6 +79,7 @@ def _cmd_train(args) -> int:
         raise ValueError(f"--model {args.model}: expected a .skops (safe) or .joblib "
                          "(pickle) file name")
     inputs = [f for d in args.rundirs for f in input_files(d)]
+    inputs += [args.key_file] if args.key_file else []
     check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
     runs = _read_runs(args.rundirs, args)
@@ -137,10 +138,11 @@ def _cmd_detect(args) -> int:
     from tunnelsense.io._output import check_output
 
     out = Path(args.out)
-    check_output(out, overwrite=args.force or args.resume,
-                 inputs=[args.model, *input_files(args.rundir)], what="--out")
+    inputs = [args.model, *input_files(args.rundir),
+              *([args.key_file] if args.key_file else [])]
+    check_output(out, overwrite=args.force or args.resume, inputs=inputs, what="--out")
     if args.draw:
-        check_draw_dir(args.draw, force=args.force)
+        check_draw_dir(args.draw, force=args.force, inputs=inputs)
     model = _load_model(args)
     source = open_run_stream(args.rundir, chunk_scans=1024,
                              range_unit=args.range_unit, topic=args.topic,

@@ -353,6 +353,7 @@ def _cmd_train(args) -> int:
             "runs on load) or .joblib (pickle)"
         )
     inputs = [f for d in args.seqdirs for f in input_files(d)]
+    inputs += [args.key_file] if args.key_file else []
     check_output(out, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
     tours = [read_tour(d) for d in args.seqdirs]
@@ -525,12 +526,13 @@ def _cmd_detect(args) -> int:
 
     start = time.perf_counter()
     out = Path(args.out)
-    inputs = [args.model, *input_files(args.source)]
+    inputs = [args.model, *input_files(args.source),
+              *([args.key_file] if args.key_file else [])]
     for path in (out, _clusters_path(out)):
         check_output(path, overwrite=args.force or args.resume, inputs=inputs,
                      what="--out")
     if args.draw is not None:
-        check_draw_dir(args.draw, force=args.force)
+        check_draw_dir(args.draw, force=args.force, inputs=inputs)
     if args.draw_every < 1:
         raise ValueError(f"--draw-every must be at least 1; got {args.draw_every}")
     model = _load_model(args)

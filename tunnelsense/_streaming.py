@@ -265,7 +265,7 @@ class ResultsWriter:
                     self.path.parent.mkdir(parents=True)
                 except OSError as exc:
                     raise output_error(self.path, exc) from None
-            self._open(self.path, "w")
+            self._open(self.path, "x")  # never truncate a file made meanwhile
         if header is not None:
             self._emit(header)
             self.flush()

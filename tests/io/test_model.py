@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
-from sklearn.tree import DecisionTreeClassifier
+from sklearn.linear_model import LogisticRegression
 
 from tunnelsense._cli import main
 from tunnelsense.io import (
@@ -35,7 +35,7 @@ def model(global_random_seed):
     X = rng.normal(size=(60, 3))
     y = (X[:, 0] + X[:, 1] > 0).astype(int)
     pipe = Pipeline(
-        [("scale", StandardScaler()), ("tree", DecisionTreeClassifier(max_depth=3))]
+        [("scale", StandardScaler()), ("tree", LogisticRegression())]
     )
     return pipe.fit(X, y), X
 
@@ -167,11 +167,11 @@ def test_unknown_extension(model, tmp_path):
 def test_model_from_an_older_version_is_refused_clearly(model, tmp_path):
     """A parameter added since the model was saved: say so at load time."""
     pipe, _ = model
-    del pipe.named_steps["tree"].__dict__["max_depth"]  # as if saved before it existed
+    del pipe.named_steps["tree"].__dict__["max_iter"]  # as if saved before it existed
     for name in ("m.skops", "m.joblib"):
         path = save_model(pipe, tmp_path / name)
         with pytest.raises(
             ValueError,
-            match=r"DecisionTreeClassifier lacks parameter\(s\) max_depth: the model was saved by another version",
+            match=r"LogisticRegression lacks parameter\(s\) max_iter: the model was saved by another version",
         ):
             load_model(path, allow_pickle=True)

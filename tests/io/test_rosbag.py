@@ -74,3 +74,14 @@ def test_bag_errors_are_clear(runs, tmp_path):
     broken.write_bytes(runs["ros1"].read_bytes()[:2000])
     with pytest.raises(InputFormatError, match="broken.bag"):
         list(open_run_stream(broken))
+
+
+def test_a_bag_folder_is_never_written_into(runs, capsys):
+    data = sorted(runs["ros2"].iterdir())
+    before = {p: p.read_bytes() for p in data}
+    for target in data:
+        assert main(["detect", "street", "--model", str(runs["model"]),
+                     str(runs["ros2"]), "--out", str(target), "--force",
+                     "--quiet"]) == 1
+        assert "input of this command" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in data} == before

@@ -66,12 +66,11 @@ _PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
 KEY_ENV = "TUNNELSENSE_MODEL_KEY"
 
 #: The exact type names, beyond skops' own trusted defaults, that a model file may
-#: hold: tunnelsense's estimators, and scikit-learn's tree structure (a decision tree
-#: in a user's pipeline; its ``__setstate__`` checks the arrays it is given).  No
-#: prefix matching, nothing callable.
+#: hold: tunnelsense's estimators, nothing else.  (scikit-learn's ``Tree`` is left out
+#: on purpose, as skops leaves it: its ``__setstate__`` does not check child indices,
+#: and a forged tree crashes ``predict`` or reads memory out of bounds.)
 TRUSTED_TYPES = frozenset(
     [
-        "sklearn.tree._tree.Tree",
         "tunnelsense.tunnel._keypoints.IntensityKeypointSampler",
         "tunnelsense.tunnel._verification.KMeansHistogramVerifier",
         "tunnelsense.tunnel._clustering.MSTClusterer",
@@ -173,9 +172,9 @@ def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> from sklearn.tree import DecisionTreeClassifier
+    >>> from sklearn.linear_model import LogisticRegression
     >>> from tunnelsense.io import load_model, save_model
-    >>> model = DecisionTreeClassifier(max_depth=1).fit([[0], [1]], [0, 1])
+    >>> model = LogisticRegression().fit([[0], [1]], [0, 1])
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.skops"
     >>> _ = save_model(model, path, summary={"tours": ["tour-01"]})
     >>> load_model(path).predict([[1]]).tolist()

@@ -356,7 +356,7 @@ def _sequence_files(path, image_dir, seq) -> list:
     ext = seq["imExt"]
     present = {
         int(p.stem) for p in image_dir.iterdir()
-        if p.suffix == ext and p.stem.isdigit() and len(p.stem) < 12
+        if p.suffix == ext and p.stem.isdigit() and len(p.stem) < 12 and p.is_file()
     }
     n = seq["seqLength"]
     files = []
