@@ -8,9 +8,9 @@ import zipfile
 import joblib
 import numpy as np
 import pytest
+from sklearn.linear_model import LogisticRegression
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
-from sklearn.linear_model import LogisticRegression
 
 from tunnelsense._cli import main
 from tunnelsense.io import (
