@@ -20,6 +20,7 @@ in ``gt.csv``.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -264,6 +265,59 @@ class FrameRecord:
         return f"FrameRecord(tour={self.tour!r}, frame={self.frame}, payload=[{keys}])"
 
 
+#: The fields of :class:`LaserGeometry`, in order.
+GEOMETRY_FIELDS = ("angle_min", "angle_increment", "range_min", "range_max",
+                   "mount_height")
+
+#: Physically possible values of the geometry fields: (test, what is expected).
+GEOMETRY_RULES = {
+    "angle_increment": (lambda v: v != 0, "a non-zero angle (rad)"),
+    "range_min": (lambda v: v >= 0, "a range >= 0 (m)"),
+    "range_max": (lambda v: v > 0, "a range > 0 (m)"),
+    "mount_height": (lambda v: v > 0, "a height > 0 (m) above the road"),
+}
+
+
+def geometry_problem(values: Mapping) -> str | None:
+    """What makes a laser geometry impossible, or None.
+
+    Parameters
+    ----------
+    values : mapping
+        The :data:`GEOMETRY_FIELDS` and their values.
+
+    Returns
+    -------
+    problem : str or None
+        For instance ``"angle_increment is 0.0, expected a non-zero angle (rad)"``.
+    """
+    floats = {}
+    for k in GEOMETRY_FIELDS:
+        v = floats[k] = _finite_float(values[k])
+        if v is None:
+            return f"{k} is {values[k]!r}, expected a finite number"
+        test, expected = GEOMETRY_RULES.get(k, (None, None))
+        if test is not None and not test(v):
+            return f"{k} is {v!r}, expected {expected}"
+    if floats["range_min"] >= floats["range_max"]:
+        return (
+            f"range_min ({floats['range_min']!r}) must be below range_max "
+            f"({floats['range_max']!r})"
+        )
+    return None
+
+
+def _finite_float(value) -> float | None:
+    """``value`` as a finite float, or None if it is not a finite real number."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        return None
+    try:
+        value = float(value)
+    except OverflowError:
+        return None
+    return value if math.isfinite(value) else None
+
+
 @dataclass(frozen=True, slots=True)
 class LaserGeometry:
     """How the beams of a vertically scanning laser range finder are laid out.
@@ -280,6 +334,12 @@ class LaserGeometry:
         Valid range interval (m).  A range ``>= range_max``, NaN or +inf is no return.
     mount_height : float
         Height of the sensor above the road (m).
+
+    Raises
+    ------
+    ValueError
+        A field that is not a finite number, ``angle_increment == 0``,
+        ``range_min < 0``, ``range_max <= range_min`` or ``mount_height <= 0``.
     """
 
     angle_min: float
@@ -287,6 +347,11 @@ class LaserGeometry:
     range_min: float
     range_max: float
     mount_height: float
+
+    def __post_init__(self):
+        problem = geometry_problem({k: getattr(self, k) for k in GEOMETRY_FIELDS})
+        if problem is not None:
+            raise ValueError(f"impossible LaserGeometry: {problem}")
 
     def angles(self, n_beams: int) -> np.ndarray:
         """The beam angles (rad) of a scan of ``n_beams`` beams."""

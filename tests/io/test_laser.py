@@ -1,3 +1,4 @@
+import io
 import json
 import zipfile
 
@@ -6,7 +7,9 @@ import pandas as pd
 import pytest
 
 from tunnelsense import LaserGeometry, Run
-from tunnelsense.io import read_run, read_run_gt, write_run
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io import describe, open_run_stream, read_run, read_run_gt, write_run
+from tunnelsense.io._laser import _write_npz
 
 
 @pytest.fixture
@@ -250,3 +253,253 @@ def test_stream_keeps_float32_no_returns_and_reports_truncation(run, tmp_path):
     with pytest.raises(ValueError, match=r"scans.npz: lacks field\(s\) ranges"):
         _save(tmp_path, ranges=None)
         open_run_stream(tmp_path)
+
+
+# --------------------------------------------------------------------------------------
+# Bad input is an InputFormatError naming the file, the same from every reader
+# --------------------------------------------------------------------------------------
+def _arrays(**fields):
+    """The members of a valid scans.npz (5 scans of 4 beams), some replaced."""
+    arrays = dict(
+        ranges=np.full((5, 4), 3.0),
+        stamps=np.arange(5) / 75.0,
+        angle_min=np.float64(-1.4),
+        angle_increment=np.float64(0.0087),
+        range_min=np.float64(0.05),
+        range_max=np.float64(8.191),
+        mount_height=np.float64(2.0),
+    )
+    arrays.update(fields)
+    return {k: v for k, v in arrays.items() if v is not None}
+
+
+def _write_members(folder, arrays, raw=None):
+    """Write ``arrays`` as scans.npz, then ``raw`` {name: bytes} as extra members."""
+    folder.mkdir(exist_ok=True)
+    _write_npz(folder / "scans.npz", arrays)
+    with zipfile.ZipFile(folder / "scans.npz", "a") as zf:
+        for name, data in (raw or {}).items():
+            zf.writestr(name, data)
+    return folder
+
+
+def _every_reader_refuses(folder, match, **kwargs):
+    for read in (read_run, lambda f, **kw: list(open_run_stream(f, **kw)), describe):
+        with pytest.raises(InputFormatError, match=match):
+            read(folder, **kwargs)
+
+
+def _npy_header(shape, descr="<f8", fortran_order=False):
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buf, {"shape": shape, "fortran_order": fortran_order, "descr": descr}
+    )
+    return buf.getvalue()
+
+
+def test_raised_errors_are_input_format_errors(tmp_path):
+    """The messages are unchanged; the class is the project's InputFormatError."""
+    _save(tmp_path, ranges=None)
+    with pytest.raises(InputFormatError, match=r"scans.npz: lacks field\(s\) ranges"):
+        read_run(tmp_path)
+    (tmp_path / "gt.csv").write_text("id,first_scan,last_scan,label\n1,zero,3,parked\n")
+    with pytest.raises(InputFormatError, match="gt.csv, line 2: first_scan is 'zero'"):
+        read_run_gt(tmp_path / "gt.csv")
+
+
+def test_zero_scans_are_refused(tmp_path):
+    folder = _write_members(
+        tmp_path / "run", _arrays(ranges=np.zeros((0, 4)), stamps=np.zeros(0))
+    )
+    _every_reader_refuses(folder, r"scans.npz: ranges has 0 scans")
+
+
+def test_fortran_ordered_ranges_are_read_alike(tmp_path):
+    """np.savez keeps a transposed array column-major; every reader reads it."""
+    ranges = np.asfortranarray(np.arange(20.0).reshape(5, 4) / 4 + 0.5)
+    folder = _write_members(tmp_path / "run", _arrays(ranges=ranges))
+    expected = np.ascontiguousarray(ranges)
+    assert np.array_equal(read_run(folder).scans.ranges(), expected)
+    streamed = [s.ranges for s in open_run_stream(folder, chunk_scans=2)]
+    assert np.array_equal(np.stack(streamed), expected)
+    assert describe(folder)["scans"] == 5
+
+
+@pytest.mark.parametrize(
+    ("missing", "member", "data", "match"),
+    [
+        ("ranges", "ranges.npy", b"hello world", "ranges"),
+        ("ranges", "ranges", b"hello world", "ranges"),
+        ("stamps", "stamps.npy", b"hello world", "stamps"),
+        ("mount_height", "mount_height.npy", b"\x93NUMPY", "mount_height"),
+    ],
+)
+def test_members_that_are_not_npy_arrays(tmp_path, missing, member, data, match):
+    folder = _write_members(
+        tmp_path / "run", _arrays(**{missing: None}), raw={member: data}
+    )
+    _every_reader_refuses(folder, rf"scans.npz: .*{match}")
+
+
+@pytest.mark.parametrize(
+    "shape", [(5, 10**15), (10**9, 10**9), (5, -4), (-5, 4)]
+)
+def test_member_header_claiming_an_impossible_shape(tmp_path, shape):
+    """A few bytes claiming petabytes are refused, never allocated."""
+    folder = _write_members(
+        tmp_path / "run",
+        _arrays(ranges=None),
+        raw={"ranges.npy": _npy_header(shape) + bytes(160)},
+    )
+    _every_reader_refuses(folder, r"scans.npz: .*ranges")
+
+
+def test_unknown_npy_version_is_refused_alike(tmp_path):
+    data = bytearray(_npy_header((5, 4)) + bytes(160))
+    data[6] = 9  # format version 9.0
+    folder = _write_members(
+        tmp_path / "run", _arrays(ranges=None), raw={"ranges.npy": bytes(data)}
+    )
+    _every_reader_refuses(folder, r"scans.npz: .*ranges.*version")
+
+
+def test_narrow_floats_are_read_without_warnings(tmp_path):
+    """float16 ranges beside a range_max float16 cannot hold: no overflow warning."""
+    ranges = np.full((5, 4), 3.0, np.float16)
+    ranges[0, 0] = np.inf
+    folder = _write_members(
+        tmp_path / "run", _arrays(ranges=ranges, range_max=np.float64(1e6))
+    )
+    back = read_run(folder).scans.ranges()
+    assert back.dtype == np.float64 and back[0, 0] == np.inf and back[1, 1] == 3.0
+    streamed = np.stack([s.ranges for s in open_run_stream(folder)])
+    assert np.array_equal(streamed, back)
+
+
+@pytest.mark.parametrize(
+    ("field", "match"),
+    [("stamps", "stamps contain NaN or infinity"),
+     ("mount_height", "mount_height must be one finite number"),
+     ("angle_max", "angle_max must be one finite number")],
+)
+def test_long_doubles_beyond_float64_are_refused(tmp_path, field, match):
+    huge = np.longdouble(10) ** 4000
+    if not np.isfinite(huge):
+        pytest.skip("long double is float64 on this platform")
+    value = np.array([0, 1, 2, 3, huge]) if field == "stamps" else huge
+    folder = _write_members(tmp_path / "run", _arrays(**{field: np.asarray(value)}))
+    _every_reader_refuses(folder, "scans.npz: " + match)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_angle_max_must_be_finite(tmp_path, value):
+    folder = _write_members(tmp_path / "run", _arrays(angle_max=np.float64(value)))
+    _every_reader_refuses(folder, "scans.npz: angle_max must be one finite number")
+
+
+def test_info_json_as_utf8_bytes_is_read(tmp_path):
+    info = np.array('{"site": "Gare de l\'Est – quai 3"}'.encode())
+    folder = _write_members(tmp_path / "run", _arrays(info_json=info))
+    assert read_run(folder).info == {"site": "Gare de l'Est – quai 3"}
+    assert open_run_stream(folder).info == {"site": "Gare de l'Est – quai 3"}
+
+
+@pytest.mark.parametrize(
+    ("info", "match"),
+    [
+        (np.array(b'{"a": "caf\xe9"}'), "info_json is not UTF-8"),
+        (np.array('{"a": ' + "9" * 5000 + "}"), "info_json is not valid JSON"),
+        (np.array("[" * 100_000 + "]" * 100_000), "info_json is not valid JSON"),
+        (np.array(["{}", "{}"]), "info_json must be one JSON string"),
+        (np.array(3.0), "info_json must be one JSON string"),
+    ],
+)
+def test_bad_info_json(tmp_path, info, match):
+    folder = _write_members(tmp_path / "run", _arrays(info_json=info))
+    _every_reader_refuses(folder, "scans.npz: " + match)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        # a first row longer than the header: pandas would make "7" an index and
+        # read id=1, first_scan=0, last_scan=1 silently
+        ("id,first_scan,last_scan,label\n7,1,0,1,parked\n",
+         r"gt.csv, line 2: 5 fields, expected 4"),
+        ("id,first_scan,last_scan,label\n1,0,1,parked\n2,3,4,passing,x\n",
+         r"gt.csv, line 3: 5 fields, expected 4"),
+        ("id,first_scan,last_scan,label,id\n1,0,1,parked,2\n",
+         r"gt.csv, line 1: column id appears twice"),
+    ],
+)
+def test_gt_csv_rows_do_not_shift(tmp_path, text, match):
+    (tmp_path / "gt.csv").write_text(text)
+    with pytest.raises(InputFormatError, match=match):
+        read_run_gt(tmp_path / "gt.csv")
+
+
+def test_gt_csv_extra_columns_are_kept_out(tmp_path):
+    (tmp_path / "gt.csv").write_text(
+        "id,first_scan,last_scan,label,note\n1,0,1,parked,van\n2,3,4,passing,\n"
+    )
+    gt = read_run_gt(tmp_path / "gt.csv")
+    assert gt["id"].tolist() == [1, 2] and gt["label"].tolist() == ["parked", "passing"]
+    assert list(gt.attrs["lines"]) == [2, 3]
+
+
+def test_range_unit_mm_divides_every_range(tmp_path):
+    """With range_unit="mm", integer and float ranges alike are divided by 1000."""
+    ints = _write_members(
+        tmp_path / "ints", _arrays(ranges=np.full((5, 4), 3000, np.uint16))
+    )
+    floats = _write_members(
+        tmp_path / "floats", _arrays(ranges=np.full((5, 4), 3000.0, np.float32))
+    )
+    for folder in (ints, floats):
+        run = read_run(folder, range_unit="mm")
+        assert np.array_equal(run.scans.ranges(), np.full((5, 4), 3.0))
+        assert run.geometry.range_max == 8.191  # metres, as ROS defines it
+        streamed = [s.ranges for s in open_run_stream(folder, range_unit="mm")]
+        assert np.array_equal(np.stack(streamed), run.scans.ranges())
+        assert describe(folder, range_unit="mm")["scans"] == 5
+    _every_reader_refuses(ints, r"ranges are integers \(uint16\).*range_unit='mm'")
+
+
+@pytest.mark.parametrize("unit", ["cm", "M", None, 1])
+def test_range_unit_must_be_known(tmp_path, unit):
+    folder = _write_members(tmp_path / "run", _arrays())
+    _every_reader_refuses(folder, r"range_unit must be one of 'm', 'mm'",
+                          range_unit=unit)
+
+
+@pytest.mark.parametrize("chunk_scans", [0, -3, 2.5, "4"])
+def test_chunk_scans_must_be_a_positive_integer(tmp_path, chunk_scans):
+    folder = _write_members(tmp_path / "run", _arrays())
+    with pytest.raises(InputFormatError, match="chunk_scans must be an integer >= 1"):
+        open_run_stream(folder, chunk_scans=chunk_scans)
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        (dict(angle_increment=0.0), "angle_increment is 0.0, expected a non-zero"),
+        (dict(angle_increment=np.inf), "angle_increment is inf, expected a finite"),
+        (dict(range_min=-0.1), "range_min is -0.1, expected a range >= 0"),
+        (dict(range_max=0.0), "range_max is 0.0, expected a range > 0"),
+        (dict(range_min=9.0), r"range_min \(9.0\) must be below range_max \(8.191\)"),
+        (dict(mount_height=0.0), "mount_height is 0.0, expected a height > 0"),
+        (dict(angle_min=np.nan), "angle_min is nan, expected a finite"),
+        (dict(angle_min="x"), "angle_min is 'x', expected a finite number"),
+    ],
+)
+def test_laser_geometry_refuses_impossible_values(fields, match):
+    values = dict(angle_min=-1.4, angle_increment=0.0087, range_min=0.05,
+                  range_max=8.191, mount_height=2.0)
+    with pytest.raises(ValueError, match=match):
+        LaserGeometry(**{**values, **fields})
+
+
+def test_gt_csv_trailing_empty_fields_are_harmless(tmp_path):
+    (tmp_path / "gt.csv").write_text("id,first_scan,last_scan,label\n1,0,1,parked,,\n")
+    gt = read_run_gt(tmp_path / "gt.csv")
+    assert gt[["id", "first_scan", "last_scan"]].to_numpy().tolist() == [[1, 0, 1]]

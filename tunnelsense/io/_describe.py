@@ -16,7 +16,7 @@ __all__ = ["describe", "open_source"]
 _MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 
 
-def open_source(source) -> Tour | Run:
+def open_source(source, *, range_unit="m") -> Tour | Run:
     """Read a tour (MOTChallenge folder, image folder, video) or a laser run.
 
     Parameters
@@ -25,6 +25,9 @@ def open_source(source) -> Tour | Run:
         A laser run folder (holding ``scans.npz``) or ``.npz`` file, a ROS bag
         (written with its mount height), or anything
         :func:`~tunnelsense.io.open_tour` reads.
+    range_unit : {"m", "mm"}, default="m"
+        For a laser run: the unit of ``ranges`` in ``scans.npz`` (see
+        :func:`~tunnelsense.io.read_run`).
 
     Returns
     -------
@@ -36,20 +39,24 @@ def open_source(source) -> Tour | Run:
     if (
         source.is_dir() and (source / "scans.npz").exists()
     ) or source.suffix.lower() == ".npz" or is_bag(source):
-        return read_run(source)
+        return read_run(source, range_unit=range_unit)
     return open_tour(source)
 
 
-def describe(source) -> dict:
+def describe(source, *, range_unit="m") -> dict:
     """Describe a tour or a laser run as a JSON-able dict.
 
     A model file (``.skops``, ``.joblib``) is described by its model card instead
-    (:func:`~tunnelsense.io.describe_model`).
+    (:func:`~tunnelsense.io.describe_model`).  A laser run is read, and checked, as
+    :func:`~tunnelsense.io.read_run` reads it.
 
     Parameters
     ----------
     source : str, Path, Tour or Run
         What to describe.
+    range_unit : {"m", "mm"}, default="m"
+        For a laser run file: the unit of ``ranges`` in ``scans.npz`` (see
+        :func:`~tunnelsense.io.read_run`).
 
     Returns
     -------
@@ -63,7 +70,11 @@ def describe(source) -> dict:
         and Path(source).suffix.lower() in _MODEL_SUFFIXES
     ):
         return describe_model(source)
-    data = source if isinstance(source, Tour | Run) else open_source(source)
+    data = (
+        source
+        if isinstance(source, Tour | Run)
+        else open_source(source, range_unit=range_unit)
+    )
     if isinstance(data, Tour):
         height, width = data.image_shape
         gt = data.gt

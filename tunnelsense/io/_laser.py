@@ -8,12 +8,20 @@ A run folder holds::
     gt.csv      id,first_scan,last_scan,label   (0-based, inclusive; parked | passing)
 
 No return may be written as NaN, +inf or a range ``>= range_max``: drivers differ, and
-all three are accepted.
+all three are accepted.  Ranges are float metres; integer millimetres are read with
+``range_unit="mm"``.  A run holds at least one scan of at least one beam, its stamps
+increase strictly, and the members of ``scans.npz`` are ``.npy`` arrays without
+Python objects (NumPy's ``np.savez`` writes such files).
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import json
+import math
+import numbers
+import struct
 import zipfile
 import zlib
 from pathlib import Path
@@ -22,11 +30,14 @@ import numpy as np
 import pandas as pd
 
 from tunnelsense._records import (
+    GEOMETRY_FIELDS,
+    GEOMETRY_RULES,
     RUN_GT_COLUMNS,
     RUN_LABELS,
     LaserGeometry,
     Run,
     empty_run_gt,
+    geometry_problem,
 )
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io._mot import LineNumbers
@@ -40,43 +51,141 @@ __all__ = [
     "write_run_gt",
 ]
 
-_SCALARS = ("angle_min", "angle_increment", "range_min", "range_max", "mount_height")
-
-
-def _load_npz(path: Path, *, lazy_ranges=False) -> dict:
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: scans file not found")
-    try:
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files if not (lazy_ranges and k == "ranges")}
-        if lazy_ranges:
-            with zipfile.ZipFile(path) as zf:
-                if "ranges.npy" in zf.namelist():
-                    with zf.open("ranges.npy") as f:
-                        version = np.lib.format.read_magic(f)
-                        read_header = (
-                            np.lib.format.read_array_header_1_0
-                            if version == (1, 0)
-                            else np.lib.format.read_array_header_2_0
-                        )
-                        shape, fortran, dtype = read_header(f)
-                        offset = f.tell()
-                    if fortran or dtype.hasobject:
-                        raise ValueError(
-                            "ranges.npy is Fortran-ordered or holds objects"
-                        )
-                    data["ranges"] = _LazyRanges(path, shape, dtype, offset)
-        return data
-    except _NPZ_ERRORS as exc:
-        raise InputFormatError(f"{path}: corrupt or not an .npz file ({exc})") from None
-
-
-#: What reading a damaged zip or .npy member raises.
-_NPZ_ERRORS = (zipfile.BadZipFile, zlib.error, ValueError, OSError, EOFError, KeyError,
-               NotImplementedError, RuntimeError, OverflowError, TypeError)
+_SCALARS = GEOMETRY_FIELDS
 
 #: Units of ``ranges`` in a file: ROS says metres; some drivers write integer mm.
 RANGE_UNITS = {"m": 1.0, "mm": 0.001}
+
+#: Physically possible values of the geometry fields (shared with the bag reader).
+_GEOMETRY_RULES = GEOMETRY_RULES
+
+#: What reading a damaged zip or .npy member raises.
+_NPZ_ERRORS = (zipfile.BadZipFile, zlib.error, ValueError, OSError, EOFError, KeyError,
+               NotImplementedError, RuntimeError, OverflowError, TypeError,
+               struct.error)
+
+#: The .npy format versions NumPy reads, and their header readers.
+_NPY_HEADERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+    (3, 0): np.lib.format.read_array_header_2_0,  # 2.0 with a UTF-8 header
+}
+
+
+def _corrupt(npz_path, problem) -> InputFormatError:
+    return InputFormatError(f"{npz_path}: corrupt or not an .npz file ({problem})")
+
+
+class _Member:
+    """A ``.npy`` member of an npz, its header read and checked against its size."""
+
+    def __init__(self, npz_path, zf, info):
+        self.npz_path, self.name = npz_path, info.filename
+        try:
+            with zf.open(info) as f:
+                version = np.lib.format.read_magic(f)
+                if version not in _NPY_HEADERS:
+                    raise ValueError(f".npy format version {version[0]}."
+                                     f"{version[1]} is not supported")
+                self.shape, self.fortran, self.dtype = _NPY_HEADERS[version](f)
+                self.offset = f.tell()
+        except _NPZ_ERRORS as exc:
+            raise _corrupt(npz_path, f"{self.name}: {exc}") from None
+        problem = self._problem(info.file_size - self.offset)
+        if problem:
+            raise _corrupt(npz_path, f"{self.name}: {problem}")
+
+    def _read_into(self, zf, view) -> None:
+        """Fill ``view`` with the member's data, in bounded reads, checking its CRC."""
+        with zf.open(self.name) as f:
+            f.read(self.offset)
+            done = 0
+            while done < len(view):
+                chunk = f.read(min(len(view) - done, 1 << 22))
+                if not chunk:
+                    raise _corrupt(self.npz_path, f"{self.name}: ends early")
+                view[done : done + len(chunk)] = chunk
+                done += len(chunk)
+            f.read()  # to the end of the member: checks its CRC
+
+    def _problem(self, data_bytes) -> str | None:
+        if self.dtype.hasobject:
+            return "holds Python objects; pickled arrays are refused"
+        if self.dtype.subdtype is not None or self.dtype.itemsize == 0:
+            return f"unsupported dtype {self.dtype}"
+        if any(n < 0 for n in self.shape):
+            return f"negative dimension in shape {self.shape}"
+        if self.nbytes != data_bytes:
+            return (f"its header describes {self.dtype} of shape {self.shape} "
+                    f"({self.nbytes} bytes), but it holds {data_bytes} bytes")
+        return None
+
+    @property
+    def nbytes(self) -> int:
+        """The size of the array the header describes, in bytes."""
+        return math.prod(self.shape) * self.dtype.itemsize
+
+    def read(self, zf) -> np.ndarray:
+        """The whole array; reads at most the bytes the member really holds."""
+        try:
+            raw = np.empty(self.nbytes, dtype=np.uint8)
+        except MemoryError:
+            raise _corrupt(self.npz_path, f"{self.name}: {self.nbytes} bytes do not "
+                           "fit in memory") from None
+        try:
+            self._read_into(zf, memoryview(raw))
+        except InputFormatError:
+            raise
+        except _NPZ_ERRORS as exc:
+            raise _corrupt(self.npz_path, f"{self.name}: {exc}") from None
+        flat = np.frombuffer(raw, dtype=self.dtype, count=math.prod(self.shape))
+        return flat.reshape(self.shape, order="F" if self.fortran else "C")
+
+
+def _load_npz(path: Path, *, lazy_ranges=False) -> tuple[dict, list]:
+    """The arrays of an npz by field name, and the names of its other members.
+
+    ``ranges`` is a :class:`_LazyRanges` if ``lazy_ranges``.  Members whose names do
+    not end in ``.npy`` are not read.
+    """
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: scans file not found")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = {i.filename: i for i in zf.infolist()}  # the last of a name wins
+            data, others = {}, []
+            for name, info in infos.items():
+                if not name.endswith(".npy"):
+                    others.append(name)
+                    continue
+                member = _Member(path, zf, info)
+                if lazy_ranges and name == "ranges.npy":
+                    data["ranges"] = _LazyRanges(member)
+                else:
+                    data[name[: -len(".npy")]] = member.read(zf)
+    except InputFormatError:
+        raise
+    except _NPZ_ERRORS as exc:
+        raise _corrupt(path, exc) from None
+    return data, others
+
+
+def _check_range_unit(range_unit) -> float:
+    """The factor from ``range_unit`` to metres."""
+    if not isinstance(range_unit, str) or range_unit not in RANGE_UNITS:
+        raise InputFormatError(
+            f"range_unit must be one of {', '.join(map(repr, RANGE_UNITS))}; "
+            f"got {range_unit!r}"
+        )
+    return RANGE_UNITS[range_unit]
+
+
+def _refuse_unit_for_bag(path, range_unit) -> None:
+    if range_unit != "m":
+        raise InputFormatError(
+            f"{path}: range_unit={range_unit!r} applies to scans.npz; the ranges of "
+            "sensor_msgs/LaserScan messages in a bag are metres"
+        )
 
 
 def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
@@ -87,15 +196,16 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
     path : str or Path
         The run folder, or its ``scans.npz`` file; or a ROS 1 ``.bag`` file or ROS 2
         bag folder of ``sensor_msgs/LaserScan`` (the ``rosbag`` extra).
+    range_unit : {"m", "mm"}, default="m"
+        Unit of ``ranges`` in ``scans.npz``.  ROS ``LaserScan`` ranges are metres, as
+        floats, and integer ranges are refused with ``"m"``.  Some drivers write
+        integer millimetres: with ``"mm"`` every range, integer or float, is divided
+        by 1000, while ``range_min`` and ``range_max`` are read as metres, as ROS
+        defines them.  A bag's ranges are metres: ``"mm"`` is refused for a bag.
     topic : str, default=None
         A bag's ``LaserScan`` topic (``None``: the only one).
     mount_height : float, default=None
         For a bag: the sensor's height above the road (m), when the bag does not say.
-    range_unit : {"m", "mm"}, default="m"
-        Unit of ``ranges`` in the file.  ROS ``LaserScan`` ranges are metres
-        (floats); some drivers write integer millimetres, which are refused unless
-        ``range_unit="mm"`` (then ``ranges`` are divided by 1000; ``range_min`` and
-        ``range_max`` stay metres, as ROS defines them).
 
     Returns
     -------
@@ -108,77 +218,101 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
     FileNotFoundError
         The folder or ``scans.npz`` is missing.
     InputFormatError
-        ``scans.npz`` is corrupt, lacks a field, has ranges of the wrong shape or
-        integer ranges read as metres, impossible geometry (``angle_increment`` 0,
-        ``range_max <= range_min``, ``mount_height <= 0``), stamps that are not
-        numbers or do not increase, or an ``angle_max`` that does not match the
-        number of beams; ``gt.csv`` is malformed (the message names the file and
-        line).
+        ``range_unit`` is unknown; ``scans.npz`` is corrupt (the zip, a CRC, a
+        member that is not a ``.npy`` array or holds pickled objects), lacks a
+        field, has ranges that are not numbers of shape (n_scans, n_beams) with at
+        least one scan and one beam, integer ranges read as metres, impossible
+        geometry (``angle_increment`` 0, ``range_min < 0``,
+        ``range_max <= range_min``, ``mount_height <= 0``, a field that is not one
+        finite number), stamps that are not finite numbers increasing strictly, an
+        ``angle_max`` that does not match the number of beams, or an ``info_json``
+        that is not a UTF-8 JSON object; ``gt.csv`` is malformed.  The message
+        names the file, and the field, member or line.
     """
-    from tunnelsense.io._rosbag import is_bag, read_bag_run
+    from tunnelsense.io._rosbag import is_bag
 
+    scale = _check_range_unit(range_unit)
     if is_bag(path):
+        from tunnelsense.io._rosbag import read_bag_run
+
+        _refuse_unit_for_bag(path, range_unit)
         return read_bag_run(path, topic=topic, mount_height=mount_height)
     name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=False,
                                                          range_unit=range_unit)
-    ranges = _to_metres(ranges, geometry.range_max, RANGE_UNITS[range_unit])
+    ranges = _to_metres(ranges, geometry.range_max, scale)
     return Run.from_arrays(name, ranges, stamps, geometry, gt, info=info)
 
 
+def _as_float64(values) -> np.ndarray:
+    """``values`` as float64; what float64 cannot hold becomes +-inf, silently."""
+    with np.errstate(over="ignore"):
+        return np.asarray(values).astype(np.float64)
+
+
 def _to_metres(ranges, range_max, scale):
-    """Ranges as float64 metres, no-returns of narrower floats kept as such (+inf)."""
-    if scale != 1.0:
-        return ranges.astype(np.float64) * scale
-    if ranges.dtype.kind == "f" and ranges.dtype != np.float64:
-        # ROS ranges are float32: float32(8.191) widens to 8.19099998..., below the
-        # float64 range_max. Mark no-returns in the file's own precision first.
-        limit = np.asarray(range_max, dtype=ranges.dtype)
-        ranges = np.where(ranges >= limit, np.inf, ranges)
-    return ranges.astype(np.float64, copy=False)
+    """Ranges as C-ordered float64 metres, narrower floats' no-returns kept (+inf)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        if scale != 1.0:
+            ranges = ranges.astype(np.float64) * scale
+        elif ranges.dtype.kind == "f" and ranges.dtype != np.float64:
+            # ROS ranges are float32: float32(8.191) widens to 8.19099998..., below
+            # the float64 range_max. Mark no-returns in the file's own precision.
+            limit = np.asarray(range_max).astype(ranges.dtype)
+            ranges = np.where(ranges >= limit, np.inf, ranges)
+        return np.ascontiguousarray(ranges, dtype=np.float64)
 
 
 class _LazyRanges:
     """Shape and dtype of ``ranges.npy`` inside an npz, rows read on demand."""
 
-    def __init__(self, npz_path, shape, dtype, offset):
-        self.npz_path, self.shape, self.dtype, self.offset = (
-            npz_path,
-            shape,
-            dtype,
-            offset,
+    def __init__(self, member):
+        self.member = member
+        self.npz_path, self.shape, self.dtype = (
+            member.npz_path, member.shape, member.dtype
         )
 
     def iter_chunks(self, rows):
-        """Yield ``(first_scan, block)``; a damaged member raises InputFormatError."""
-        n_scans, n_beams = self.shape
-        row_bytes = n_beams * self.dtype.itemsize
+        """Yield ``(first_scan, block)``; a damaged member raises InputFormatError.
+
+        A column-major (Fortran-ordered) member is read whole first.
+        """
         start = 0
         try:
-            with zipfile.ZipFile(self.npz_path) as zf, zf.open("ranges.npy") as f:
-                f.read(self.offset)
-                for start in range(0, n_scans, rows):
-                    n = min(rows, n_scans - start)
-                    buf = f.read(n * row_bytes)
-                    if len(buf) != n * row_bytes:
-                        raise InputFormatError(
-                            f"{self.npz_path}: ranges end early (truncated file)"
-                        )
-                    if start + n == n_scans:
-                        f.read()  # to the end of the member: checks its CRC
-                    yield start, np.frombuffer(buf, self.dtype).reshape(n, n_beams)
+            with zipfile.ZipFile(self.npz_path) as zf:
+                blocks = (self._whole if self.member.fortran else self._rows)(zf, rows)
+                for start, block in blocks:
+                    yield start, block
+        except InputFormatError:
+            raise
         except _NPZ_ERRORS as exc:
-            if isinstance(exc, InputFormatError):
-                raise
             raise InputFormatError(
                 f"{self.npz_path}: corrupt ranges.npy after scan {start} ({exc})"
             ) from None
 
+    def _whole(self, zf, rows):
+        ranges = self.member.read(zf)
+        for start in range(0, len(ranges), rows):
+            yield start, ranges[start : start + rows]
+
+    def _rows(self, zf, rows):
+        n_scans, n_beams = self.shape
+        row_bytes = n_beams * self.dtype.itemsize
+        with zf.open(self.member.name) as f:
+            f.read(self.member.offset)
+            for start in range(0, n_scans, rows):
+                n = min(rows, n_scans - start)
+                buf = f.read(n * row_bytes)
+                if len(buf) != n * row_bytes:
+                    raise InputFormatError(
+                        f"{self.npz_path}: ranges end early (truncated file)"
+                    )
+                if start + n == n_scans:
+                    f.read()  # to the end of the member: checks its CRC
+                yield start, np.frombuffer(buf, self.dtype).reshape(n, n_beams)
+
 
 def _open_run(path, *, lazy, range_unit="m"):
-    if range_unit not in RANGE_UNITS:
-        raise ValueError(
-            f"range_unit must be one of {', '.join(RANGE_UNITS)}; got {range_unit!r}"
-        )
+    _check_range_unit(range_unit)
     path = Path(path)
     if path.is_dir():
         folder, npz_path = path, path / "scans.npz"
@@ -186,27 +320,44 @@ def _open_run(path, *, lazy, range_unit="m"):
         folder, npz_path = path.parent, path
     else:
         raise FileNotFoundError(f"{path}: run folder not found")
-    data = _load_npz(npz_path, lazy_ranges=lazy)
-    missing = [k for k in ("ranges", "stamps", *_SCALARS) if k not in data]
-    if missing:
-        raise InputFormatError(f"{npz_path}: lacks field(s) {', '.join(missing)}")
+    data, others = _load_npz(npz_path, lazy_ranges=lazy)
+    _check_fields(npz_path, data, others)
     ranges = data["ranges"]
     _check_ranges(npz_path, ranges, range_unit)
     stamps = _check_stamps(npz_path, data["stamps"], ranges.shape[0])
-    scalars = _check_geometry(npz_path, data, ranges.shape[1])
+    geometry = _check_geometry(npz_path, data, ranges.shape[1])
     info = _read_info(npz_path, data)
     name = str(info.pop("name", folder.resolve().name))
+    gt = _read_gt_of(folder, n_scans=ranges.shape[0])
+    return name, ranges, stamps, geometry, gt, info
+
+
+def _check_fields(npz_path, data, others) -> None:
+    missing = [k for k in ("ranges", "stamps", *_SCALARS) if k not in data]
+    if missing:
+        holds = (
+            f"; it holds no .npy member of those names (members: "
+            f"{', '.join(others[:5])}{', ...' if len(others) > 5 else ''})"
+            if others
+            else ""
+        )
+        raise InputFormatError(
+            f"{npz_path}: lacks field(s) {', '.join(missing)}{holds}"
+        )
+
+
+def _read_gt_of(folder, *, n_scans) -> pd.DataFrame:
+    """The run's ``gt.csv`` (empty without one), its scans within the run."""
     gt_path = folder / "gt.csv"
     gt = read_run_gt(gt_path) if gt_path.exists() else empty_run_gt()
-    beyond = np.flatnonzero(gt["last_scan"].to_numpy() >= ranges.shape[0])
+    beyond = np.flatnonzero(gt["last_scan"].to_numpy() >= n_scans)
     if beyond.size:
         i = beyond[0]
         raise InputFormatError(
             f"{gt_path}, line {gt.attrs['lines'][i]}: last_scan {gt['last_scan'].iloc[i]} "
-            f"is beyond the run's {ranges.shape[0]} scans (numbered from 0)"
+            f"is beyond the run's {n_scans} scans (numbered from 0)"
         )
-    geometry = LaserGeometry(**scalars)
-    return name, ranges, stamps, geometry, gt, info
+    return gt
 
 
 def _check_ranges(npz_path, ranges, range_unit) -> None:
@@ -214,6 +365,10 @@ def _check_ranges(npz_path, ranges, range_unit) -> None:
         raise InputFormatError(
             f"{npz_path}: ranges must be a numeric array of shape (n_scans, n_beams); "
             f"got {ranges.dtype} of shape {ranges.shape}"
+        )
+    if ranges.shape[0] == 0:
+        raise InputFormatError(
+            f"{npz_path}: ranges has 0 scans; a run holds at least one"
         )
     if ranges.shape[1] == 0:
         raise InputFormatError(f"{npz_path}: ranges has 0 beams per scan")
@@ -236,7 +391,7 @@ def _check_stamps(npz_path, stamps, n_scans) -> np.ndarray:
         raise InputFormatError(
             f"{npz_path}: stamps must be numbers (seconds); got {stamps.dtype}"
         )
-    stamps = stamps.astype(np.float64)
+    stamps = _as_float64(stamps)
     if not np.all(np.isfinite(stamps)):
         raise InputFormatError(f"{npz_path}: stamps contain NaN or infinity")
     bad = np.flatnonzero(np.diff(stamps) <= 0)
@@ -249,57 +404,39 @@ def _check_stamps(npz_path, stamps, n_scans) -> np.ndarray:
     return stamps
 
 
-#: Physically possible values of the geometry fields: (test, what is expected).
-_GEOMETRY_RULES = {
-    "angle_increment": (lambda v: v != 0, "a non-zero angle (rad)"),
-    "range_min": (lambda v: v >= 0, "a range >= 0 (m)"),
-    "range_max": (lambda v: v > 0, "a range > 0 (m)"),
-    "mount_height": (lambda v: v > 0, "a height > 0 (m) above the road"),
-}
-
-
-def _check_geometry(npz_path, data, n_beams) -> dict:
-    scalars = {}
-    for k in _SCALARS:
-        value = data[k]
-        if (
-            value.size != 1
-            or value.dtype.kind not in "fiu"
-            or not np.isfinite(value.astype(np.float64)).all()
-        ):
-            raise InputFormatError(
-                f"{npz_path}: {k} must be one finite number; got {value!r}"
-            )
-        scalars[k] = float(value.reshape(()))
-        test, expected = _GEOMETRY_RULES.get(k, (None, None))
-        if test is not None and not test(scalars[k]):
-            raise InputFormatError(
-                f"{npz_path}: {k} is {scalars[k]!r}, expected {expected}"
-            )
-    if scalars["range_min"] >= scalars["range_max"]:
+def _one_finite_number(npz_path, data, k) -> float:
+    value = data[k]
+    number = _as_float64(value) if value.dtype.kind in "fiu" else None
+    if number is None or number.size != 1 or not np.isfinite(number).all():
+        shown = np.array2string(value, threshold=6) if value.size else repr(value)
         raise InputFormatError(
-            f"{npz_path}: range_min ({scalars['range_min']!r}) must be below range_max "
-            f"({scalars['range_max']!r})"
+            f"{npz_path}: {k} must be one finite number; got {shown} "
+            f"({value.dtype}, shape {value.shape})"
         )
+    return float(number.reshape(()))
+
+
+def _check_geometry(npz_path, data, n_beams) -> LaserGeometry:
+    """The run's geometry; refuses impossible values and a wrong ``angle_max``."""
+    scalars = {k: _one_finite_number(npz_path, data, k) for k in _SCALARS}
+    problem = geometry_problem(scalars)
+    if problem is not None:
+        raise InputFormatError(f"{npz_path}: {problem}")
     if "angle_max" in data:
-        value = np.asarray(data["angle_max"])
-        if value.size != 1 or value.dtype.kind not in "fiu":
-            raise InputFormatError(
-                f"{npz_path}: angle_max must be one number; got {value!r}"
-            )
-        angle_max = float(value.reshape(()))
-        expected = scalars["angle_min"] + scalars["angle_increment"] * (n_beams - 1)
-        if not np.isclose(
-            angle_max, expected, atol=abs(scalars["angle_increment"]) / 4
-        ):
-            n_expected = (angle_max - scalars["angle_min"]) / scalars[
-                "angle_increment"
-            ] + 1
-            raise InputFormatError(
-                f"{npz_path}: angle_min, angle_max and angle_increment describe "
-                f"{n_expected:.0f} beams, but ranges has {n_beams}"
-            )
-    return scalars
+        _check_angle_max(npz_path, scalars, _one_finite_number(npz_path, data,
+                                                               "angle_max"), n_beams)
+    return LaserGeometry(**scalars)
+
+
+def _check_angle_max(npz_path, scalars, angle_max, n_beams) -> None:
+    start, step = scalars["angle_min"], scalars["angle_increment"]
+    n_described = (angle_max - start) / step + 1  # Python floats: inf, no warning
+    if not abs(n_described - n_beams) <= 0.25:
+        shown = f"{n_described:.0f}" if abs(n_described) < 1e12 else f"{n_described:.3g}"
+        raise InputFormatError(
+            f"{npz_path}: angle_min, angle_max and angle_increment describe "
+            f"{shown} beams, but ranges has {n_beams}"
+        )
 
 
 def _read_info(npz_path, data) -> dict:
@@ -308,11 +445,13 @@ def _read_info(npz_path, data) -> dict:
     value = data["info_json"]
     if value.dtype.kind not in "US" or value.size != 1:
         raise InputFormatError(
-            f"{npz_path}: info_json must be one JSON string; got {value.dtype}"
+            f"{npz_path}: info_json must be one JSON string; got {value.dtype} of "
+            f"shape {value.shape}"
         )
+    text = _text_of(npz_path, value.reshape(()))
     try:
-        info = json.loads(str(value.reshape(())))
-    except (json.JSONDecodeError, RecursionError) as exc:
+        info = json.loads(text)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, too many digits
         raise InputFormatError(
             f"{npz_path}: info_json is not valid JSON ({exc})"
         ) from None
@@ -321,6 +460,23 @@ def _read_info(npz_path, data) -> dict:
             f"{npz_path}: info_json must hold a JSON object; got {type(info).__name__}"
         )
     return info
+
+
+def _text_of(npz_path, value) -> str:
+    """A 0-d string array as text: bytes are UTF-8, code points valid Unicode."""
+    if value.dtype.kind == "S":
+        try:
+            return value.item().decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InputFormatError(
+                f"{npz_path}: info_json is not UTF-8 text ({exc})"
+            ) from None
+    codes = np.frombuffer(value.tobytes(), dtype=value.dtype.str[0] + "u4")
+    if np.any((codes > 0x10FFFF) | ((codes >= 0xD800) & (codes <= 0xDFFF))):
+        raise InputFormatError(
+            f"{npz_path}: info_json holds code points that are not Unicode characters"
+        )
+    return str(value.item())
 
 
 class RunStream:
@@ -369,11 +525,14 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
     Parameters
     ----------
     path : str or Path
-        The run folder, or its ``scans.npz`` file.
+        The run folder, or its ``scans.npz`` file; or a ROS bag (see
+        :func:`read_run`).
     chunk_scans : int, default=1024
-        Scans decompressed at a time.
+        Scans decompressed at a time (at least 1).  A column-major
+        (Fortran-ordered) ``ranges`` member is decompressed whole.
     range_unit : {"m", "mm"}, default="m"
-        Unit of ``ranges`` in the file (see :func:`read_run`).
+        Unit of ``ranges`` in ``scans.npz``: with ``"mm"`` every range is divided
+        by 1000 (see :func:`read_run`).
     topic, mount_height : see :func:`read_run`
         For a ROS bag (then the scans are read message by message).
 
@@ -382,6 +541,16 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
     stream : RunStream
         Iterable of :class:`~tunnelsense.ScanRecord`, with ``name``, ``geometry``,
         ``gt``, ``info`` and ``n_scans``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder or ``scans.npz`` is missing.
+    InputFormatError
+        As :func:`read_run`, here or while iterating: damage found only when the
+        ranges are decompressed (a bad CRC, a truncated member) is raised by the
+        iteration, naming the file and the last scan read.  Also a ``chunk_scans``
+        that is not an integer >= 1.
 
     Examples
     --------
@@ -394,18 +563,34 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
     >>> [s.scan for s in open_run_stream(folder, chunk_scans=2)]
     [0, 1, 2, 3, 4]
     """
-    from tunnelsense.io._rosbag import is_bag, open_bag_run
+    from tunnelsense.io._rosbag import is_bag
 
+    scale = _check_range_unit(range_unit)
+    if (
+        isinstance(chunk_scans, bool | np.bool_)
+        or not isinstance(chunk_scans, numbers.Integral)
+        or chunk_scans < 1
+    ):
+        raise InputFormatError(
+            f"chunk_scans must be an integer >= 1; got {chunk_scans!r}"
+        )
     if is_bag(path):
+        from tunnelsense.io._rosbag import open_bag_run
+
+        _refuse_unit_for_bag(path, range_unit)
         return open_bag_run(path, topic=topic, mount_height=mount_height)
     name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=True,
                                                          range_unit=range_unit)
     return RunStream(name, ranges, stamps, geometry, gt, info, int(chunk_scans),
-                     RANGE_UNITS[range_unit])
+                     scale)
 
 
 def read_run_gt(path) -> pd.DataFrame:
     """Read a laser run's ``gt.csv`` (``id,first_scan,last_scan,label``).
+
+    The first line is the header; further columns are allowed and left out; blank
+    lines are skipped.  A row with more non-empty fields than the header is refused
+    (never shifted).
 
     Parameters
     ----------
@@ -415,54 +600,33 @@ def read_run_gt(path) -> pd.DataFrame:
     Returns
     -------
     gt : DataFrame
-        ``id``, ``first_scan``, ``last_scan`` as int64 and ``label`` as strings.
+        ``id``, ``first_scan``, ``last_scan`` as int64 and ``label`` as strings;
+        ``gt.attrs["lines"]`` holds the file line of each row.
 
     Raises
     ------
+    FileNotFoundError
+        The file is missing.
     InputFormatError
-        A missing column, a non-integer scan number, ``first_scan > last_scan`` or a
-        label other than ``parked`` / ``passing`` (names the file and line).
+        Text that is not UTF-8 CSV, a missing or repeated column, a row with more
+        fields than the header, a scan number that is not an integer of at most 18
+        digits, ``first_scan > last_scan`` or a label other than ``parked`` /
+        ``passing`` (names the file and line).
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: ground-truth file not found")
-    try:
-        gt = pd.read_csv(
-            path,
-            dtype=str,
-            keep_default_na=False,
-            skip_blank_lines=False,
-            encoding="utf-8-sig",
+    lines, header, rows = _read_csv_rows(path)
+    columns = _gt_columns(path, header)
+    out = {
+        c: np.array(
+            [_scan_number(path, i, c, row[columns[c]]) for i, row in zip(lines, rows,
+                                                                          strict=True)],
+            dtype=np.int64,
         )
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputFormatError(f"{path}: not a readable CSV file ({exc})") from None
-    gt.columns = [c.strip() for c in gt.columns]
-    # file line of each row (header is line 1); then drop blank lines
-    lines = np.arange(2, len(gt) + 2)
-    blank = (gt.apply(lambda col: col.str.strip()) == "").all(axis=1).to_numpy()
-    gt, lines = gt[~blank].reset_index(drop=True), lines[~blank]
-    missing = [c for c in RUN_GT_COLUMNS if c not in gt.columns]
-    if missing:
-        raise InputFormatError(
-            f"{path}: lacks column(s) {', '.join(missing)} (expected header "
-            f"{','.join(RUN_GT_COLUMNS)})"
-        )
-    out = {}
-    for c in ("id", "first_scan", "last_scan"):
-        values = []
-        for i, v in zip(lines, gt[c], strict=True):
-            try:
-                number = int(v.strip())
-            except ValueError:
-                number = None
-            if number is None or not -(2**62) < number < 2**62:
-                raise InputFormatError(
-                    f"{path}, line {i}: {c} is {v!r}, expected an integer"
-                    + ("" if number is None else " of at most 18 digits")
-                )
-            values.append(number)
-        out[c] = np.array(values, dtype=np.int64)
-    labels = [v.strip() for v in gt["label"]]
+        for c in ("id", "first_scan", "last_scan")
+    }
+    labels = [row[columns["label"]].strip() for row in rows]
     for i, label in zip(lines, labels, strict=True):
         if label not in RUN_LABELS:
             raise InputFormatError(
@@ -476,8 +640,71 @@ def read_run_gt(path) -> pd.DataFrame:
                 "0 <= first_scan <= last_scan"
             )
     table = pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
-    table.attrs["lines"] = LineNumbers(int(i) for i in lines)
+    table.attrs["lines"] = LineNumbers(lines)
     return table
+
+
+def _read_csv_rows(path) -> tuple[list, list, list]:
+    """File lines (from 2) and fields of the non-blank rows, and the header's fields.
+
+    Rows shorter than the header are padded with empty fields; fields beyond the
+    header's are refused unless empty.
+    """
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputFormatError(f"{path}: not UTF-8 text ({exc})") from None
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    header, lines, rows = None, [], []
+    try:
+        while True:
+            line = reader.line_num + 1
+            row = next(reader, None)
+            if row is None:
+                break
+            if header is None:
+                header = [c.strip() for c in row]
+            elif any(f.strip() for f in row):
+                if any(f.strip() for f in row[len(header) :]):
+                    raise InputFormatError(
+                        f"{path}, line {line}: {len(row)} fields, expected "
+                        f"{len(header)} as in the header"
+                    )
+                lines.append(line)
+                rows.append((row + [""] * len(header))[: len(header)])
+    except csv.Error as exc:
+        raise InputFormatError(
+            f"{path}, line {reader.line_num}: not readable as CSV ({exc})"
+        ) from None
+    return lines, header or [], rows
+
+
+def _gt_columns(path, header) -> dict:
+    """The position of each ground-truth column in the header."""
+    missing = [c for c in RUN_GT_COLUMNS if c not in header]
+    if missing:
+        raise InputFormatError(
+            f"{path}: lacks column(s) {', '.join(missing)} (expected header "
+            f"{','.join(RUN_GT_COLUMNS)})"
+        )
+    for c in RUN_GT_COLUMNS:
+        if header.count(c) > 1:
+            raise InputFormatError(f"{path}, line 1: column {c} appears twice")
+    return {c: header.index(c) for c in RUN_GT_COLUMNS}
+
+
+def _scan_number(path, line, column, text) -> int:
+    """An integer field of gt.csv, of at most 18 digits (int64 holds it)."""
+    try:
+        number = int(text.strip())
+    except ValueError:  # not an integer, or thousands of digits
+        number = None
+    if number is None or not -(2**62) < number < 2**62:
+        raise InputFormatError(
+            f"{path}, line {line}: {column} is {text!r}, expected an integer"
+            + ("" if number is None else " of at most 18 digits")
+        )
+    return number
 
 
 def write_run_gt(gt: pd.DataFrame, path) -> None:

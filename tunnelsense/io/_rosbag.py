@@ -153,16 +153,15 @@ def open_bag_run(path, *, topic=None, mount_height=None) -> BagRun:
         raise
     except Exception as exc:  # rosbags raises its own errors on damaged bags
         raise InputFormatError(f"{path}: cannot read the bag ({exc})") from None
-    from tunnelsense.io._laser import _GEOMETRY_RULES
+    from tunnelsense._records import geometry_problem
 
     values = {"angle_min": float(msg.angle_min),
               "angle_increment": float(msg.angle_increment),
               "range_min": float(msg.range_min), "range_max": float(msg.range_max),
               "mount_height": float(mount_height)}
-    for key, value in values.items():
-        test, expected = _GEOMETRY_RULES.get(key, (np.isfinite, "a finite number"))
-        if not (np.isfinite(value) and test(value)):
-            raise InputFormatError(f"{path}: {key} is {value!r}, expected {expected}")
+    problem = geometry_problem(values)
+    if problem is not None:
+        raise InputFormatError(f"{path}: {problem}")
     name = path.stem if path.is_file() else path.name
     return BagRun(path, topic, LaserGeometry(**values), n_scans, name)
 
