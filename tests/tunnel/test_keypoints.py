@@ -1,7 +1,9 @@
 import numpy as np
 import pytest
 
-from tunnelsense import FrameRecord, FrameSequence, ScanRecord
+from tunnelsense import FrameRecord, FrameSequence, ImageFile, ScanRecord
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io import load_model, save_model
 from tunnelsense.tunnel import (
     IntensityKeypointSampler,
     indicator_band,
@@ -156,6 +158,63 @@ def test_records_keep_identity_and_other_payload():
     out = IntensityKeypointSampler().fit(X).transform(list(X)[::-1])
     assert [r.key for r in out] == [r.key for r in list(X)[::-1]]
     assert all(r.payload["note"] == "kept" for r in out)
+
+
+def _wide(X):
+    """The same frames as 16-bit raw counts."""
+    return FrameSequence(FrameRecord(r.tour, r.frame, r.image.astype(np.uint16) * 257)
+                         for r in X)
+
+
+def test_frames_of_another_bit_depth_are_refused():
+    X, y = labelled_frames(0)
+    est = IntensityKeypointSampler().fit(X)
+    assert est.pixel_dtype_ == "uint8"
+    with pytest.raises(InputFormatError, match=r"X\[0\] \('lab', frame 1\): a uint16 "
+                                               r"frame, but the sampler was fitted on "
+                                               r"uint8 frames"):
+        est.transform(_wide(X))
+    wide = IntensityKeypointSampler(band="learned").fit(_wide(X), y)
+    assert wide.pixel_dtype_ == "uint16"
+    with pytest.raises(InputFormatError, match=r"a uint8 frame, but the sampler was "
+                                               r"fitted on uint16 frames"):
+        wide.transform(X)
+
+
+def test_fit_refuses_frames_of_two_bit_depths(tmp_path):
+    """Lazily decoded frames too: the learned band would mix two scales."""
+    import cv2
+
+    X, y = labelled_frames(0, n_frames=2)
+    paths = [tmp_path / "a.png", tmp_path / "b.png"]
+    cv2.imwrite(str(paths[0]), X[0].image)
+    cv2.imwrite(str(paths[1]), X[1].image.astype(np.uint16) * 257)
+    lazy = FrameSequence(FrameRecord("lab", i, ImageFile(p))
+                         for i, p in enumerate(paths, 1))
+    match = r"X\[1\] \('lab', frame 2\): a uint16 frame, but the other frames are uint8"
+    with pytest.raises(InputFormatError, match=match):
+        IntensityKeypointSampler(band="learned").fit(lazy, y)
+
+
+def test_pixel_dtype_survives_a_skops_round_trip(tmp_path):
+    X, _ = labelled_frames(0)
+    est = IntensityKeypointSampler().fit(_wide(X))
+    back = load_model(save_model(est, tmp_path / "m.skops"))
+    assert back.pixel_dtype_ == "uint16" and type(back.pixel_dtype_) is str
+    with pytest.raises(InputFormatError, match="fitted on uint16 frames"):
+        back.transform(X)
+
+
+def test_a_sampler_fitted_before_pixel_dtype_works_as_before(tmp_path):
+    """A model saved without ``pixel_dtype_`` takes frames of any depth, unchecked."""
+    X, _ = labelled_frames(0)
+    est = IntensityKeypointSampler(8000, 60000).fit(X)
+    del est.pixel_dtype_
+    back = load_model(save_model(est, tmp_path / "old.skops"))
+    assert not hasattr(back, "pixel_dtype_")
+    out = back.transform(_wide(X))
+    expected = sample_keypoints(_wide(X)[0].image, 8000, 60000)
+    assert len(expected) and np.array_equal(out[0].payload["keypoints"], expected)
 
 
 _X, _Y = labelled_frames(3, n_frames=3)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import struct
 from pathlib import Path
 
@@ -10,7 +11,16 @@ import numpy as np
 
 from tunnelsense.exceptions import InputFormatError
 
-__all__ = ["IMAGE_EXTENSIONS", "read_image", "read_png_size", "read_video_frame"]
+__all__ = [
+    "IMAGE_EXTENSIONS",
+    "iter_video",
+    "open_video",
+    "read_image",
+    "read_png_size",
+    "read_video_frame",
+    "stated_frame_count",
+    "video_length_error",
+]
 
 #: File endings read as image frames (case-insensitive).
 IMAGE_EXTENSIONS = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp", ".pgm", ".pnm")
@@ -39,7 +49,8 @@ def _to_gray(image: np.ndarray, where: str) -> np.ndarray:
 def read_png_size(path) -> tuple[int, int]:
     """``(height, width)`` of a PNG from its header, without decoding it.
 
-    Raises ``ValueError`` naming the file when it is not a PNG or is too short.
+    Raises :class:`~tunnelsense.exceptions.InputFormatError` naming the file when it
+    is not a PNG or is too short.
     """
     with open(path, "rb") as f:
         head = f.read(24)
@@ -52,8 +63,10 @@ def read_png_size(path) -> tuple[int, int]:
 def read_image(path) -> np.ndarray:
     """Decode one frame: a 2-D ``uint8`` or ``uint16`` array.
 
-    Colour images are converted to grey.  A missing, empty, truncated or corrupt file
-    raises an exception naming it.
+    Colour images are converted to grey.  A missing file raises
+    ``FileNotFoundError``; an empty, truncated or corrupt file, an image larger than
+    OpenCV decodes, or pixels other than 8- or 16-bit raise
+    :class:`~tunnelsense.exceptions.InputFormatError` naming the file.
 
     Parameters
     ----------
@@ -75,10 +88,22 @@ def read_image(path) -> np.ndarray:
         raise InputFormatError(
             f"{path}: truncated PNG (no IEND chunk at the end of the file)"
         )
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:  # e.g. a header stating more pixels than OpenCV allows
+        raise InputFormatError(
+            f"{path}: OpenCV refused the image ({_cv_reason(exc)}); expected an image "
+            "of at most 2**20 pixels a side and 2**30 in all"
+        ) from None
     if image is None:
         raise InputFormatError(f"{path}: corrupt image, OpenCV could not decode it")
     return _to_gray(image, str(path))
+
+
+def _cv_reason(exc: cv2.error) -> str:
+    """The short reason in an OpenCV error message (after ``error: (code:kind)``)."""
+    text = str(exc).strip()
+    return text.rsplit(") ", 1)[-1] if ") " in text else text
 
 
 def open_video(path) -> cv2.VideoCapture:
@@ -86,7 +111,12 @@ def open_video(path) -> cv2.VideoCapture:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: video file not found")
-    capture = cv2.VideoCapture(str(path))
+    try:
+        capture = cv2.VideoCapture(str(path))
+    except cv2.error as exc:
+        raise InputFormatError(
+            f"{path}: OpenCV cannot open this file as a video ({_cv_reason(exc)})"
+        ) from None
     if not capture.isOpened():
         raise InputFormatError(f"{path}: OpenCV cannot open this file as a video")
     return capture
@@ -108,6 +138,43 @@ def read_video_frame(path, index: int) -> np.ndarray:
     return _to_gray(image, f"{path} frame {index}")
 
 
+def stated_frame_count(capture: cv2.VideoCapture) -> int:
+    """The number of frames the video's header states (0 when it does not say)."""
+    value = capture.get(cv2.CAP_PROP_FRAME_COUNT)
+    return int(value) if math.isfinite(value) and value > 0 else 0
+
+
+def video_length_error(path, n_decoded: int, n_stated: int, hint: str = ""):
+    """The error for a video that ends before its header's frame count, or None.
+
+    OpenCV's frame count is exact for most files but only an estimate (duration times
+    frame rate) for some containers, so a shortfall of up to 1 % of the stated count,
+    and at least one frame, is tolerated.  A header that states no count (0) is not
+    checked, nor is a video longer than its header says.
+
+    Parameters
+    ----------
+    path : str or Path
+        The video file, named in the message.
+    n_decoded : int
+        The frames OpenCV could read.
+    n_stated : int
+        The frames the header states (:func:`stated_frame_count`).
+    hint : str, default=""
+        Appended to the message.
+
+    Returns
+    -------
+    error : InputFormatError or None
+    """
+    if n_stated <= 0 or n_decoded >= n_stated - max(1, n_stated // 100):
+        return None
+    return InputFormatError(
+        f"{path}: the video ends after {n_decoded} frames, but its header states "
+        f"{n_stated} (truncated or damaged file){hint}"
+    )
+
+
 def iter_video(path, *, check_length=True):
     """Yield the frames of a video file one by one, decoding sequentially.
 
@@ -116,10 +183,10 @@ def iter_video(path, *, check_length=True):
     path : str or Path
         A video file OpenCV can open.
     check_length : bool, default=True
-        When the file's header states a number of frames and the video ends more than
-        1 % (at least one frame) earlier, raise after the last decodable frame: the
-        file is truncated or damaged.  (Some containers only estimate the count;
-        pass ``False`` for those.)
+        Whether to raise, after the last decodable frame, when the video ends before
+        the number of frames its header states (see :func:`video_length_error` for
+        the tolerance).  Pass ``False`` for a container whose count is a poor
+        estimate.
 
     Yields
     ------
@@ -129,22 +196,21 @@ def iter_video(path, *, check_length=True):
     Raises
     ------
     InputFormatError
-        The video ends before the number of frames its header states.
+        The video ends before the number of frames its header states; raised after
+        the frames before were yielded.
     """
     capture = open_video(path)
     try:
-        stated = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        stated = stated_frame_count(capture)
         n = 0
         while True:
             ok, image = capture.read()
-            if not ok:
+            if not ok or image is None:
                 break
             n += 1
-            yield _to_gray(image, str(path))
+            yield _to_gray(image, f"{path} frame {n - 1}")
     finally:
         capture.release()
-    if check_length and stated > 0 and n < stated - max(1, stated // 100):
-        raise InputFormatError(
-            f"{path}: the video ends after {n} frames, but its header states {stated} "
-            "(truncated or damaged file); the frames before were processed"
-        )
+    error = video_length_error(path, n, stated, "; the frames before were processed")
+    if check_length and error is not None:
+        raise error

@@ -40,6 +40,28 @@ def _check_image(image, index, record):
     return image
 
 
+def _check_depth(image, index, record, expected, band=None):
+    """Refuse a frame whose pixel type is not ``expected``, the units of the band.
+
+    ``band`` is the fitted band (in ``transform``), or None (in ``fit``, where the
+    other frames set ``expected``).
+    """
+    if image.dtype == expected:
+        return image
+    told = (
+        f"the other frames are {expected}: fit on frames of one bit depth"
+        if band is None
+        else f"the sampler was fitted on {expected} frames: its intensity band "
+        f"[{band[0]:g}, {band[1]:g}] is in {expected} grey levels"
+    )
+    raise InputFormatError(
+        f"X[{index}] ({record.tour!r}, frame {record.frame}): a {image.dtype} frame, "
+        f"but {told}. A 16-bit camera's raw counts are not 8-bit levels times 257 "
+        "(the camera's gain decides); fit the detector on frames of this depth, or "
+        "convert the frames to the fitted depth yourself"
+    )
+
+
 def _pixel_dtype(records) -> str:
     """The pixel type of the frames (one decode at most when none is decoded)."""
     kinds = set()
@@ -281,7 +303,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
     n_frames_fit_ : int
         Number of frames seen by ``fit``.
     pixel_dtype_ : str
-        The pixel type of the frames ``fit`` saw (``"uint8"`` or ``"uint16"``).
+        The pixel type of the frames ``fit`` saw (``"uint8"`` or ``"uint16"``): the
+        units of the band.  A plain string, so it is saved with the model.
 
     Notes
     -----
@@ -290,10 +313,18 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
     [0, 255] range).  For 16-bit frames either pass the band in raw counts (``low``,
     ``high``) or use ``band="learned"``, which learns it in whatever units the labelled
     frames have.  ``payload["keypoints"]`` then holds the raw 16-bit intensities.
-    A sampler fitted on frames of one depth refuses frames of the other
-    (:class:`~tunnelsense.exceptions.InputFormatError`) rather than find no keypoint:
-    a 16-bit camera's raw counts are not 8-bit grey levels times 257, the camera's
-    gain decides, so no conversion is right for every camera.
+
+    **Frames of another bit depth are refused.**  ``transform`` raises
+    :class:`~tunnelsense.exceptions.InputFormatError`, naming the frame, for a frame
+    whose pixel type is not ``pixel_dtype_``, rather than find no keypoint (8-bit
+    band on raw counts) or keypoints in the wrong places.  The frames are not
+    converted: a FIR camera's 16-bit raw counts are not 8-bit grey levels times 257;
+    the camera's gain and offset (its automatic gain control, for 8-bit video) decide
+    the mapping, so no fixed rule is right for every camera.  Fit on frames of the
+    depth the camera delivers, or convert them yourself.  ``fit`` likewise refuses
+    frames of both depths.  A sampler fitted before ``pixel_dtype_`` existed (a model
+    saved by an earlier version) has no such attribute and takes frames of any depth
+    unchecked, as it did then.
 
     Examples
     --------
@@ -376,7 +407,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                     "the (k, 4) indicator boxes to learn the band from"
                 )
             images = [
-                _check_image(r.image, i, r) for i, r in enumerate(records) if len(boxes[i])
+                _check_depth(_check_image(r.image, i, r), i, r, self.pixel_dtype_)
+                for i, r in enumerate(records) if len(boxes[i])
             ]
             self.low_, self.high_ = indicator_band(
                 images, [b for b in boxes if len(b)], self.n_sigma,
@@ -432,20 +464,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             col_offset=self.col_offset,
         )
         band = (self.low_, self.high_)
-        fitted = getattr(self, "pixel_dtype_", None)  # None: a model saved before
+        fitted = getattr(self, "pixel_dtype_", None)  # None: fitted before it existed
         out = []
         for i, r in enumerate(records):
             r = decode_once(r)  # the later stages of this pass read the same array
             image = _check_image(r.image, i, r)
-            if fitted is not None and image.dtype != fitted:
-                raise InputFormatError(
-                    f"X[{i}] ({r.tour!r}, frame {r.frame}): a {image.dtype} frame, but "
-                    f"the sampler was fitted on {fitted} frames: its intensity band "
-                    f"[{self.low_:g}, {self.high_:g}] is in {fitted} grey levels. A "
-                    "16-bit camera's raw counts are not 8-bit levels times 257 (the "
-                    "camera's gain decides); fit the detector on tours of this camera, "
-                    "or convert the frames to the fitted depth yourself"
-                )
+            if fitted is not None:
+                _check_depth(image, i, r, fitted, band)
             out.append(
                 r.evolve(
                     keypoints=sample_keypoints(image, self.low_, self.high_, **kw),
