@@ -174,7 +174,8 @@ def _register_methods(sub) -> None:
 
     modules = [
         importlib.import_module(m)
-        for m in ("tunnelsense._cli_tunnel", "tunnelsense._cli_street")
+        for m in ("tunnelsense._cli_tunnel", "tunnelsense._cli_street",
+                  "tunnelsense._cli_position")
         if importlib.util.find_spec(m) is not None
     ]
     for module in modules:

@@ -9,10 +9,12 @@ fuses the two with a 1-D Kalman filter over distance.
 from tunnelsense.positioning._evaluate import (
     dead_reckoning,
     errors_table,
+    format_errors,
     position_errors,
 )
 from tunnelsense.positioning._filter import forward, rts_smooth
 from tunnelsense.positioning._fixes import detection_table, estimate_pass
+from tunnelsense.positioning._online import locate_online
 from tunnelsense.positioning._plot import plot_positioning
 from tunnelsense.positioning._positioner import TunnelPositioner
 from tunnelsense.positioning._stream import FIX_COLUMNS, PositionStream
@@ -38,7 +40,9 @@ __all__ = [
     "detection_table",
     "errors_table",
     "estimate_pass",
+    "format_errors",
     "forward",
+    "locate_online",
     "plot_positioning",
     "position_errors",
     "read_indicator_map",

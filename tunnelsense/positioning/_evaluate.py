@@ -11,7 +11,7 @@ from tunnelsense.positioning._tables import (
     check_positions,
 )
 
-__all__ = ["dead_reckoning", "errors_table", "position_errors"]
+__all__ = ["dead_reckoning", "errors_table", "format_errors", "position_errors"]
 
 
 def dead_reckoning(odometry, *, initial_chainage=0.0) -> np.ndarray:
@@ -96,3 +96,23 @@ def _summary(err):
 def errors_table(errors) -> pd.DataFrame:
     """The per-pass errors of :func:`position_errors` as a table."""
     return pd.DataFrame(errors.get("passes", []))
+
+
+def format_errors(errors, title=None) -> str:
+    """:func:`position_errors` as a short text report (what the command line prints)."""
+    dr = errors.get("dead_reckoning")
+    lines = [] if title is None else [title]
+    if "passes" in errors:
+        lines.append("indicator passes" + ("  (error m: fused, dead reckoning)" if dr
+                                           else "  (error m)"))
+        for p in errors["passes"]:
+            extra = f"  {p['dead_reckoning_error']:+9.2f}" if dr else ""
+            lines.append(f"  id {p['id']:>4}  chainage {p['chainage']:9.1f} m  frame "
+                         f"{p['frame']:>6}  {p['error']:+7.2f}{extra}")
+    lines.append(f"{'':22}{'fused':>10}" + (f"{'dead reckoning':>17}" if dr else ""))
+    for key, text in (("max", "maximum error (m)"), ("rms", "RMS error (m)"),
+                      ("final", "final error (m)")):
+        lines.append(f"  {text:20}{errors[key]:10.2f}"
+                     + (f"{dr[key]:17.2f}" if dr else ""))
+    lines.append(f"  within 2 sigma      {100 * errors['within_2_sigma']:9.1f} %")
+    return "\n".join(lines)

@@ -93,7 +93,9 @@ def estimate_pass(distance, height, *, slope=None):
     """Odometry distance at which a sign passes the camera, from its box heights.
 
     Fits ``1 / h = a + b d`` (weighted by ``h**2``: a box's height error is a fixed
-    fraction of it) and solves ``a + b d = 0``.
+    fraction of it) and solves ``a + b d = 0``.  Boxes whose relative error is more
+    than four robust standard deviations (and 1 %) off the line -- a box merged with
+    a lamp for a frame -- are left out and the line fitted again.
 
     Parameters
     ----------
@@ -124,10 +126,29 @@ def estimate_pass(distance, height, *, slope=None):
     """
     d = np.asarray(distance, np.float64)
     h = np.asarray(height, np.float64)
+    keep = np.ones(len(d), bool)
+    # a box merged with a lamp for a frame or two is an outlier: refit without the
+    # boxes whose relative error is far beyond the others' (robust scale, MAD)
+    for _ in range(5):
+        fit = _fit(d[keep], h[keep], d[-1], slope)
+        if fit is None:
+            return float("nan"), float("nan")
+        a, b = fit[:2]
+        rel = h * (1.0 / h - a - b * (d - d[-1]))  # relative error of each box
+        scale = 1.4826 * np.median(np.abs(rel[keep]))
+        new = np.abs(rel) <= max(4.0 * scale, 0.01)
+        if np.array_equal(new, keep) or new.sum() < (2 if slope is not None else 3):
+            break
+        keep = new
+    return _solve(*_fit(d[keep], h[keep], d[-1], slope))
+
+
+def _fit(d, h, d_ref, slope):
+    """Weighted line fit of ``1 / h`` on ``d - d_ref``: ``(a, b, xm, sxx, sigma2, n)``."""
     n = len(d)
     if n < (2 if slope is not None else 3):
-        return float("nan"), float("nan")
-    x = d - d[-1]  # relative to the last detection: a well-conditioned fit
+        return None
+    x = d - d_ref  # relative to the last detection: a well-conditioned fit
     y = 1.0 / h
     w = h * h
     w = w / w.sum()
@@ -135,7 +156,7 @@ def estimate_pass(distance, height, *, slope=None):
         xm, ym = w @ x, w @ y
         sxx = w @ (x - xm) ** 2
         if sxx <= 0:
-            return float("nan"), float("nan")
+            return None
         b = (w @ ((x - xm) * (y - ym))) / sxx
         a = ym - b * xm
         dof = n - 2
@@ -144,11 +165,15 @@ def estimate_pass(distance, height, *, slope=None):
         a = w @ (y - b * x)
         xm, sxx = 0.0, np.inf
         dof = n - 1
-    if not b < 0:
-        return float("nan"), float("nan")
     resid = y - a - b * x
     sigma2 = (n * (w @ resid**2)) / max(dof, 1)  # per unit weight (weights sum to n)
+    return a, b, xm, sxx, sigma2, n, d_ref
+
+
+def _solve(a, b, xm, sxx, sigma2, n, d_ref):
+    if not b < 0:
+        return float("nan"), float("nan")
     # variance of a + b x at x = x*, solved for x*: var(x*) = var(a + b x*) / b^2
     x_star = -a / b
     var_line = sigma2 / n * (1.0 + (x_star - xm) ** 2 / sxx)
-    return float(d[-1] + x_star), float(var_line / (b * b))
+    return float(d_ref + x_star), float(var_line / (b * b))

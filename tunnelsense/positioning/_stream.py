@@ -52,7 +52,7 @@ class PositionStream:
         self._closed = False
 
     # ------------------------------------------------------------------ online
-    def push(self, frame, stamp, speed, yaw_rate=0.0, detections=None):
+    def push(self, frame, stamp, speed, yaw_rate=0.0, detections=None, *, until=None):
         """Take the odometry sample of the next frame; return its position.
 
         Parameters
@@ -68,6 +68,11 @@ class PositionStream:
         detections : DataFrame, sequence of FrameRecord or None, default=None
             Detections released by the detector since the last push (of this frame
             or earlier ones).
+        until : int or None, default=None
+            The detector's output is final up to this frame (the last frame it has
+            released); a trajectory is complete when this is more than ``max_gap``
+            frames past its last box.  None: this frame (each frame's detections
+            pushed with it).
 
         Returns
         -------
@@ -115,9 +120,10 @@ class PositionStream:
         for dist, row in due:
             self._apply(dist, row)
         if detections is not None:
-            self._add_detections(detections)
+            self.add_detections(detections)
+        horizon = frame if until is None else int(until)
         for track in [t for t, (idx, _) in self._tracks.items()
-                      if self._frames[idx[-1]] + int(p.max_gap) < frame]:
+                      if self._frames[idx[-1]] + int(p.max_gap) < horizon]:
             self._end_track(track)
         x, P = self._post[-1], self._post_cov[-1]
         out = (frame, stamp, float(x[0]), float(np.sqrt(max(P[0, 0], 0.0))))
@@ -163,7 +169,14 @@ class PositionStream:
         return pd.DataFrame(rows, columns=list(FIX_COLUMNS))
 
     # ------------------------------------------------------------------ fixes
-    def _add_detections(self, detections):
+    def add_detections(self, detections):
+        """Take detections released after the last push (e.g. at the tour's end).
+
+        Their frames must have been pushed; the fixes they make are used at the next
+        push or at :meth:`close`.
+        """
+        if self._closed:
+            raise RuntimeError("the stream is closed")
         table = detection_table(detections)
         for f, t, h in table.itertuples(index=False):
             i = self._index.get(int(f))
