@@ -9,6 +9,8 @@ from sklearn.base import BaseEstimator, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted
 
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._fixes import detection_table
 from tunnelsense.positioning._stream import PositionStream
 from tunnelsense.positioning._tables import check_indicator_map, check_odometry
 
@@ -214,16 +216,15 @@ class TunnelPositioner(BaseEstimator):
         """
         check_is_fitted(self)
         odometry = check_odometry(odometry)
-        from tunnelsense.positioning._fixes import detection_table
-
         table = detection_table(detections)
         by_frame = dict(iter(table.groupby("frame", sort=True)))
         stream = self.start_stream()
         for f, t, v, w in odometry.itertuples(index=False):
             stream.push(f, t, v, w, by_frame.pop(int(f), None))
         if by_frame:
-            raise ValueError(
-                f"detections: frames {sorted(by_frame)[:5]} are not in the odometry")
+            raise InputFormatError(
+                f"detections: frame {sorted(by_frame)[0]} has no odometry sample (the "
+                "odometry must have a row for every frame with detections)")
         positions = stream.close()
         return (positions, stream.fixes) if return_fixes else positions
 
