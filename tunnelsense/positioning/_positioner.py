@@ -217,14 +217,24 @@ class TunnelPositioner(BaseEstimator):
         check_is_fitted(self)
         odometry = check_odometry(odometry)
         table = detection_table(detections)
-        by_frame = dict(iter(table.groupby("frame", sort=True)))
-        stream = self.start_stream()
-        for f, t, v, w in odometry.itertuples(index=False):
-            stream.push(f, t, v, w, by_frame.pop(int(f), None))
-        if by_frame:
+        frames = table["frame"].to_numpy()
+        missing = np.setdiff1d(frames, odometry["frame"].to_numpy())
+        if missing.size:
             raise InputFormatError(
-                f"detections: frame {sorted(by_frame)[0]} has no odometry sample (the "
-                "odometry must have a row for every frame with detections)")
+                f"detections: frame {missing[0]} has no odometry sample (the odometry "
+                "must have a row for every frame with detections)")
+        # each frame's detections pushed with its odometry sample (sorted by frame)
+        starts = np.searchsorted(frames, odometry["frame"].to_numpy(), side="left")
+        ends = np.searchsorted(frames, odometry["frame"].to_numpy(), side="right")
+        tracks, heights = table["track_id"].tolist(), table["bb_height"].tolist()
+        frames = frames.tolist()
+        stream = self.start_stream()
+        for (f, t, v, _w), a, b in zip(odometry.itertuples(index=False), starts, ends,
+                                      strict=True):
+            stream._advance(f, t, v)  # noqa: SLF001 - push without a table per frame
+            if b > a:
+                stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])  # noqa: SLF001
+            stream._finish(f)  # noqa: SLF001
         positions = stream.close()
         return (positions, stream.fixes) if return_fixes else positions
 

@@ -79,6 +79,13 @@ class PositionStream:
         position : tuple
             ``(frame, stamp, chainage, sigma)`` of this frame.
         """
+        self._advance(frame, stamp, speed)
+        if detections is not None:
+            self.add_detections(detections)
+        return self._finish(frame if until is None else until)
+
+    def _advance(self, frame, stamp, speed):
+        """Append the frame's odometry sample; apply the passes it reaches."""
         if self._closed:
             raise RuntimeError("the stream is closed")
         frame, stamp, speed = int(frame), float(stamp), float(speed)
@@ -119,14 +126,17 @@ class PositionStream:
         self._pending = [item for item in self._pending if item[0] > d]
         for dist, row in due:
             self._apply(dist, row)
-        if detections is not None:
-            self.add_detections(detections)
-        horizon = frame if until is None else int(until)
+
+    def _finish(self, until):
+        """End the trajectories complete by ``until``; the last frame's position."""
+        p = self._p
+        horizon = int(until)
         for track in [t for t, (idx, _) in self._tracks.items()
                       if self._frames[idx[-1]] + int(p.max_gap) < horizon]:
             self._end_track(track)
         x, P = self._post[-1], self._post_cov[-1]
-        out = (frame, stamp, float(x[0]), float(np.sqrt(max(P[0, 0], 0.0))))
+        out = (self._frames[-1], self._stamps[-1], float(x[0]),
+               float(np.sqrt(max(P[0, 0], 0.0))))
         self._online.append(out)
         return out
 
@@ -178,15 +188,19 @@ class PositionStream:
         if self._closed:
             raise RuntimeError("the stream is closed")
         table = detection_table(detections)
-        for f, t, h in table.itertuples(index=False):
-            i = self._index.get(int(f))
+        self._add_rows(table["frame"].tolist(), table["track_id"].tolist(),
+                       table["bb_height"].tolist())
+
+    def _add_rows(self, frames, tracks, heights):
+        for f, t, h in zip(frames, tracks, heights, strict=True):
+            i = self._index.get(f)
             if i is None:
                 raise InputFormatError(
                     f"detections: frame {f} has no odometry sample before it (frames "
                     f"so far {self._frames[0]}..{self._frames[-1]})")
-            idx, hs = self._tracks.setdefault(int(t), ([], []))
+            idx, hs = self._tracks.setdefault(t, ([], []))
             idx.append(i)
-            hs.append(float(h))
+            hs.append(h)
 
     def _end_track(self, track):
         p = self._p
