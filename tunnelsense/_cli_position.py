@@ -80,11 +80,12 @@ def _cmd_evaluate_position(args) -> int:
     truth = read_positions(Path(args.tour) / "positions.csv")
     estimate = read_positions(args.positions, sigma=True)
     odo = read_odometry(odometry) if odometry.is_file() else None
-    errors = position_errors(truth, estimate, odo, read_indicator_map(imap))
+    indicators = read_indicator_map(imap)
+    errors = position_errors(truth, estimate, odo, indicators)
     if args.draw:
         import matplotlib.pyplot as plt
 
-        ax = plot_positioning(truth, estimate, odo)
+        ax = plot_positioning(truth, estimate, odo, indicator_map=indicators)
         with atomic_write(args.draw, "wb") as f:
             ax.figure.savefig(f, format="png", dpi=100)
         plt.close(ax.figure)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from tunnelsense.positioning._evaluate import dead_reckoning
-from tunnelsense.positioning._tables import check_positions
+from tunnelsense.positioning._tables import check_indicator_map, check_positions
 
 __all__ = ["plot_positioning"]
 
 
-def plot_positioning(truth, estimate, odometry=None, fixes=None, *, ax=None):
+def plot_positioning(truth, estimate, odometry=None, fixes=None, *,
+                     indicator_map=None, ax=None):
     """Plot the chainage error against time: dead reckoning, fused, fixes marked.
 
     Parameters
@@ -22,6 +25,8 @@ def plot_positioning(truth, estimate, odometry=None, fixes=None, *, ax=None):
     fixes : DataFrame or None, default=None
         The fix log (``predict(..., return_fixes=True)``): accepted fixes are marked
         at their pass, rejected ones crossed.
+    indicator_map : DataFrame or None, default=None
+        With it, the times the camera passes an indicator are drawn as dotted lines.
     ax : matplotlib Axes or None, default=None
         Where to draw; None makes a new figure.
 
@@ -52,6 +57,12 @@ def plot_positioning(truth, estimate, odometry=None, fixes=None, *, ax=None):
             k = [by_frame[f] for f in sel["pass_frame"] if f in by_frame]
             if k:
                 ax.plot(t[k], err[k], marker, color="tab:red", ms=6, label=label)
+    if indicator_map is not None:
+        c = check_indicator_map(indicator_map)["chainage"].to_numpy()
+        c = c[(c >= s[0]) & (c <= s[-1])]
+        for k, when in enumerate(np.interp(c, s, t)):
+            ax.axvline(when, color="tab:green", ls=":", lw=1,
+                       label=None if k else "indicator passed")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("chainage error (m)")
