@@ -126,21 +126,39 @@ def estimate_pass(distance, height, *, slope=None):
     """
     d = np.asarray(distance, np.float64)
     h = np.asarray(height, np.float64)
+    if len(d) < (2 if slope is not None else 3):
+        return float("nan"), float("nan")
+    # a box merged with a lamp now and then is an outlier: start from a line fitted
+    # robustly (Theil-Sen), then refit without the boxes whose relative error is far
+    # beyond the others' (robust scale, MAD)
+    a, b = _theil_sen(d - d[-1], 1.0 / h, slope)
     keep = np.ones(len(d), bool)
-    # a box merged with a lamp for a frame or two is an outlier: refit without the
-    # boxes whose relative error is far beyond the others' (robust scale, MAD)
-    for _ in range(5):
+    for _ in range(10):
+        rel = h * (1.0 / h - a - b * (d - d[-1]))  # relative error of each box
+        scale = 1.4826 * np.median(np.abs(rel[keep]))
+        new = np.abs(rel) <= max(4.0 * scale, 0.01)
+        if new.sum() < (2 if slope is not None else 3):
+            return float("nan"), float("nan")
+        keep, done = new, np.array_equal(new, keep)
         fit = _fit(d[keep], h[keep], d[-1], slope)
         if fit is None:
             return float("nan"), float("nan")
         a, b = fit[:2]
-        rel = h * (1.0 / h - a - b * (d - d[-1]))  # relative error of each box
-        scale = 1.4826 * np.median(np.abs(rel[keep]))
-        new = np.abs(rel) <= max(4.0 * scale, 0.01)
-        if np.array_equal(new, keep) or new.sum() < (2 if slope is not None else 3):
+        if done:
             break
-        keep = new
-    return _solve(*_fit(d[keep], h[keep], d[-1], slope))
+    return _solve(*fit)
+
+
+def _theil_sen(x, y, slope):
+    """Median of the pairwise slopes (or ``slope``), and the median intercept."""
+    if slope is None:
+        i, j = np.triu_indices(len(x), 1)
+        dx = x[j] - x[i]
+        ok = dx != 0
+        if not ok.any():
+            return 0.0, 0.0
+        slope = np.median((y[j] - y[i])[ok] / dx[ok])
+    return float(np.median(y - slope * x)), float(slope)
 
 
 def _fit(d, h, d_ref, slope):
