@@ -210,3 +210,14 @@ def test_dead_reckoning_and_errors():
 @pytest.mark.parametrize("name, check", list(sklearn_api_checks(TunnelPositioner())))
 def test_sklearn_api_checks(name, check):
     check()
+
+
+def test_a_fitted_positioner_round_trips_through_a_safe_model_file(tmp_path):
+    from tunnelsense.io import load_model, save_model
+
+    _, _, odometry, indicators, det = _tour(2, distance=600.0)
+    pos = TunnelPositioner(smooth=True, gate=3.5).fit(indicators)
+    save_model(pos, tmp_path / "p.skops")
+    back = load_model(tmp_path / "p.skops")
+    assert back.get_params() == pos.get_params()
+    pd.testing.assert_frame_equal(back.predict(det, odometry), pos.predict(det, odometry))
