@@ -128,6 +128,15 @@ def test_duplicate_frames_rejected():
         TrajectoryLinker().fit(X)
 
 
+def test_histograms_of_the_wrong_length_are_refused():
+    X = [rec(f, [[10.0 + f, 20, 4, 8]]) for f in (1, 2)]
+    X[1] = X[1].evolve(cluster_histograms=np.full((2, 32), 1 / 32))
+    with pytest.raises(ValueError, match=r"X\[1\].*cluster_histograms.*\(1, bins\)"):
+        TrajectoryLinker().fit(X)
+    with pytest.raises(ValueError, match="cluster_histograms"):
+        TrajectoryLinker().fit(X[:1]).start_stream().push_many(X)
+
+
 def test_missing_clusters_is_a_clear_error():
     with pytest.raises(ValueError, match="MSTClusterer"):
         TrajectoryLinker().fit([FrameRecord("t", 1, IMG)])

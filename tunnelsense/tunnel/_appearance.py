@@ -28,38 +28,26 @@ from sklearn.utils.validation import (
     validate_data,
 )
 
+from tunnelsense._payload import (
+    APPEARANCE,
+    APPEARANCE_SCORE,
+    CLUSTER_BOXES,
+    CLUSTER_HISTOGRAMS,
+    boxes_of,
+    frame_image,
+    inside_boxes,
+)
 from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import bin_lut, frame_image, is_record_input
+from tunnelsense.tunnel._common import bin_lut, is_record_input
 
 __all__ = [
     "WeightedAdaBoost",
     "box_histograms",
-    "boxes_of",
     "centres_in_boxes",
     "fit_stump",
     "samme",
     "stump_decision",
 ]
-
-
-def boxes_of(record, index, stage) -> np.ndarray:
-    """The ``(m, 4)`` cluster boxes of a record's payload, or a clear error."""
-    try:
-        boxes = record.payload["cluster_boxes"]
-    except KeyError:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-            f"payload['cluster_boxes']: {stage} needs frame records that went through "
-            "MSTClusterer first"
-        ) from None
-    boxes = np.asarray(boxes, dtype=np.float64)
-    if boxes.ndim != 2 or boxes.shape[1] != 4:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): "
-            "payload['cluster_boxes'] must have shape (m, 4) (left, top, width, "
-            f"height); got shape {boxes.shape}"
-        )
-    return boxes
 
 
 def centres_in_boxes(boxes, gt_boxes) -> np.ndarray:
@@ -84,17 +72,10 @@ def centres_in_boxes(boxes, gt_boxes) -> np.ndarray:
 def match_centres(boxes, gt_boxes) -> np.ndarray:
     """Index of the first of ``gt_boxes`` holding each box's centre, or -1."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    gt = np.asarray(gt_boxes, dtype=np.float64).reshape(-1, 4)
-    if len(boxes) == 0 or len(gt) == 0:
+    inside = inside_boxes(boxes[:, 0] + boxes[:, 2] / 2, boxes[:, 1] + boxes[:, 3] / 2,
+                          gt_boxes)
+    if inside.size == 0:
         return np.full(len(boxes), -1, dtype=np.intp)
-    cx = (boxes[:, 0] + boxes[:, 2] / 2)[:, None]
-    cy = (boxes[:, 1] + boxes[:, 3] / 2)[:, None]
-    inside = (
-        (gt[:, 0] <= cx)
-        & (cx < gt[:, 0] + gt[:, 2])
-        & (gt[:, 1] <= cy)
-        & (cy < gt[:, 1] + gt[:, 3])
-    )
     return np.where(inside.any(1), inside.argmax(1), -1)
 
 
@@ -432,6 +413,9 @@ class WeightedAdaBoost(ClassifierMixin, TransformerMixin, BaseEstimator):
         "margin": [Interval(numbers.Real, 0, None, closed="left")],
     }
 
+    _payload_reads = (CLUSTER_BOXES,)
+    _payload_adds = (APPEARANCE, APPEARANCE_SCORE, CLUSTER_HISTOGRAMS)
+
     def __init__(
         self,
         *,
@@ -659,11 +643,11 @@ class WeightedAdaBoost(ClassifierMixin, TransformerMixin, BaseEstimator):
             for r, _, H in self._frame_histograms(records):
                 score = self._decision(H) if len(H) else np.empty(0)
                 out.append(
-                    r.evolve(
-                        appearance=score > 0,
-                        appearance_score=score,
-                        cluster_histograms=H,
-                    )
+                    r.evolve(**{
+                        APPEARANCE: score > 0,
+                        APPEARANCE_SCORE: score,
+                        CLUSTER_HISTOGRAMS: H,
+                    })
                 )
             return FrameSequence(out)
         X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)

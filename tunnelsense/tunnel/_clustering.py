@@ -34,8 +34,16 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from tunnelsense._payload import (
+    CLUSTER_BOXES,
+    CLUSTER_LABELS,
+    KEYPOINT_BAND,
+    KEYPOINTS,
+    keypoint_band_of,
+    keypoints_of,
+)
 from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import is_record_input, keypoints_of
+from tunnelsense.tunnel._common import is_record_input
 
 __all__ = [
     "DENSE_MAX_POINTS",
@@ -396,6 +404,10 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
         "reach": [tuple, list],
     }
 
+    _payload_reads = (KEYPOINTS,)
+    _payload_optional = (KEYPOINT_BAND,)
+    _payload_adds = (CLUSTER_LABELS, CLUSTER_BOXES)
+
     def __init__(self, cut=40.0, *, box="keypoints", band=None, reach=(14, 12)):
         self.cut = cut
         self.box = box
@@ -496,14 +508,8 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
     def _band_of(self, record, index):
         if self.band is not None:
             return tuple(self.band)
-        try:
-            return tuple(record.payload["keypoint_band"])
-        except KeyError:
-            raise ValueError(
-                f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-                "payload['keypoint_band']: MSTClusterer(box='region') needs band=(low, "
-                "high) or frames that went through IntensityKeypointSampler"
-            ) from None
+        return keypoint_band_of(record, index, "MSTClusterer(box='region')",
+                                instead=", or band=(low, high)")
 
     def _transform_records(self, records):
         cut = float(self.cut)
@@ -522,5 +528,5 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
                 boxes = region_boxes(
                     r.image, rows, cols, labels, boxes, self._band_of(r, i), reach
                 )
-            out.append(r.evolve(cluster_labels=labels, cluster_boxes=boxes))
+            out.append(r.evolve(**{CLUSTER_LABELS: labels, CLUSTER_BOXES: boxes}))
         return FrameSequence(out)

@@ -1,4 +1,4 @@
-"""Helpers shared by the FIR stages: input dispatch and keypoint labels."""
+"""Helpers shared by the FIR stages: input dispatch, keypoint labels, bin tables."""
 
 from __future__ import annotations
 
@@ -7,18 +7,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from tunnelsense._payload import inside_boxes
 from tunnelsense._records import FrameRecord, FrameSequence, ScanRecord, ScanSequence
 
 __all__ = [
     "bin_lut",
-    "frame_image",
     "is_record_input",
-    "keypoints_of",
     "points_in_boxes",
 ]
-
-_KEYPOINT_DTYPE = np.int32
-
 
 def is_record_input(X) -> bool:
     """Whether ``X`` is meant as frame records (frame mode) rather than a 2-D array.
@@ -43,30 +39,11 @@ def is_record_input(X) -> bool:
     return False
 
 
-def keypoints_of(record: FrameRecord, index: int, stage: str) -> np.ndarray:
-    """The ``(n, 3)`` keypoints of a record's payload, or a clear error."""
-    try:
-        kp = record.payload["keypoints"]
-    except KeyError:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-            f"payload['keypoints']: {stage} needs frame records that went through "
-            "IntensityKeypointSampler first"
-        ) from None
-    kp = np.asarray(kp)
-    if kp.ndim != 2 or kp.shape[1] != 3:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): payload['keypoints'] "
-            f"must have shape (n, 3) (row, col, intensity); got shape {kp.shape}"
-        )
-    return kp
-
-
 def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     """Whether each point ``(row, col)`` lies inside any box ``(left, top, w, h)``.
 
     A point is inside when ``left <= col < left + width`` and
-    ``top <= row < top + height`` (pixel centres of the box's pixels).
+    ``top <= row < top + height`` (:func:`tunnelsense._payload.inside_boxes`).
 
     Examples
     --------
@@ -74,14 +51,7 @@ def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     >>> points_in_boxes(np.array([5, 50]), np.array([5, 5]), np.array([[0, 0, 10, 10.]]))
     array([ True, False])
     """
-    rows = np.asarray(rows)
-    cols = np.asarray(cols)
-    inside = np.zeros(rows.shape, dtype=bool)
-    for left, top, width, height in np.asarray(boxes, dtype=np.float64).reshape(-1, 4):
-        inside |= (cols >= left) & (cols < left + width) & (rows >= top) & (
-            rows < top + height
-        )
-    return inside
+    return inside_boxes(cols, rows, boxes).any(axis=1)
 
 
 def bin_lut(dtype, bins, intensity_range=None, binning="hard"):
@@ -122,18 +92,3 @@ def _bin_lut(dtype, bins, lo, hi, binning):
     lower.flags.writeable = False
     weight.flags.writeable = False
     return lower, weight
-
-
-def frame_image(record, index) -> np.ndarray:
-    """The record's image, checked to be a 2-D ``uint8`` or ``uint16`` array."""
-    image = record.image
-    if (
-        not isinstance(image, np.ndarray)
-        or image.ndim != 2
-        or image.dtype not in (np.uint8, np.uint16)
-    ):
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): the image must be a "
-            "2-D uint8 or uint16 array"
-        )
-    return image

@@ -17,27 +17,11 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
 
+from tunnelsense._payload import KEYPOINT_BAND, KEYPOINTS, check_image, where
 from tunnelsense._records import FrameSequence, check_frames, decode_once
 from tunnelsense.exceptions import InputFormatError
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
-
-
-def _check_image(image, index, record):
-    if not isinstance(image, np.ndarray) or image.ndim != 2 or image.dtype not in (
-        np.uint8,
-        np.uint16,
-    ):
-        desc = (
-            f"an array of dtype {image.dtype} and shape {image.shape}"
-            if isinstance(image, np.ndarray)
-            else type(image).__name__
-        )
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): the image must be a "
-            f"2-D uint8 or uint16 array; got {desc}"
-        )
-    return image
 
 
 def _check_depth(image, index, record, expected, band=None):
@@ -55,7 +39,7 @@ def _check_depth(image, index, record, expected, band=None):
         f"[{band[0]:g}, {band[1]:g}] is in {expected} grey levels"
     )
     raise InputFormatError(
-        f"X[{index}] ({record.tour!r}, frame {record.frame}): a {image.dtype} frame, "
+        f"{where(record, index)}: a {image.dtype} frame, "
         f"but {told}. A 16-bit camera's raw counts are not 8-bit levels times 257 "
         "(the camera's gain decides); fit the detector on frames of this depth, or "
         "convert the frames to the fitted depth yourself"
@@ -181,12 +165,7 @@ def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
         raise ValueError(f"estimator must be 'median' or 'mean'; got {estimator!r}")
     counts = None
     for i, (image, frame_boxes) in enumerate(zip(images, boxes, strict=True)):
-        image = np.asarray(image)
-        if image.ndim != 2 or image.dtype not in (np.uint8, np.uint16):
-            raise ValueError(
-                f"indicator_band: image {i} must be a 2-D uint8 or uint16 array; got "
-                f"{image.dtype} of shape {image.shape}"
-            )
+        image = check_image(np.asarray(image), f"indicator_band: image {i}")
         h, w = image.shape
         for left, top, width, height in np.asarray(frame_boxes).reshape(-1, 4):
             c0 = max(int(np.ceil(left)), 0)
@@ -351,6 +330,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         "col_offset": [Interval(numbers.Integral, 0, None, closed="left")],
     }
 
+    _payload_reads = ()
+    _payload_adds = (KEYPOINTS, KEYPOINT_BAND)
+
     def __init__(
         self,
         low=160,
@@ -407,7 +389,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                     "the (k, 4) indicator boxes to learn the band from"
                 )
             images = [
-                _check_depth(_check_image(r.image, i, r), i, r, self.pixel_dtype_)
+                _check_depth(check_image(r.image, where(r, i)), i, r, self.pixel_dtype_)
                 for i, r in enumerate(records) if len(boxes[i])
             ]
             self.low_, self.high_ = indicator_band(
@@ -468,13 +450,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         out = []
         for i, r in enumerate(records):
             r = decode_once(r)  # the later stages of this pass read the same array
-            image = _check_image(r.image, i, r)
+            image = check_image(r.image, where(r, i))
             if fitted is not None:
                 _check_depth(image, i, r, fitted, band)
             out.append(
-                r.evolve(
-                    keypoints=sample_keypoints(image, self.low_, self.high_, **kw),
-                    keypoint_band=band,
-                )
+                r.evolve(**{
+                    KEYPOINTS: sample_keypoints(image, self.low_, self.high_, **kw),
+                    KEYPOINT_BAND: band,
+                })
             )
         return FrameSequence(out)

@@ -18,6 +18,20 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from tunnelsense._payload import (
+    APPEARANCE,
+    CLUSTER_BOXES,
+    DETECTIONS,
+    ENDED_TRACKS,
+    INDICATOR,
+    MOTION_R,
+    TRACK_IDS,
+    TRAJECTORY_LENGTH,
+    TRAJECTORY_POSITIVE,
+    boxes_of,
+    ended_tracks_of,
+    per_cluster,
+)
 from tunnelsense._records import (
     FrameRecord,
     FrameSequence,
@@ -25,7 +39,6 @@ from tunnelsense._records import (
     release_image,
 )
 from tunnelsense._streaming import StreamingMixin, StreamState
-from tunnelsense.tunnel._appearance import boxes_of
 
 __all__ = ["PCCVerifier", "pearson_r", "straightness", "trajectory_r"]
 
@@ -118,23 +131,6 @@ def trajectory_r(x, y, starts) -> np.ndarray:
     return r
 
 
-def _payload(record, index, key, m, stage, before):
-    try:
-        value = np.asarray(record.payload[key])
-    except KeyError:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-            f"payload[{key!r}]: {stage} needs frame records that went through "
-            f"{before} first"
-        ) from None
-    if value.shape != (m,):
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): payload[{key!r}] "
-            f"must have shape ({m},), one entry per cluster; got shape {value.shape}"
-        )
-    return value
-
-
 class _Released:
     """Stands in for the image source of a record released by a stream state."""
 
@@ -190,13 +186,13 @@ class _Frame:
                 self.fraction[keep],
             ]
         )
-        return dict(
-            motion_r=self.r,
-            trajectory_length=self.length,
-            indicator=self.indicator,
-            trajectory_positive=keep,
-            detections=det.reshape(-1, 6),
-        )
+        return {
+            MOTION_R: self.r,
+            TRAJECTORY_LENGTH: self.length,
+            INDICATOR: self.indicator,
+            TRAJECTORY_POSITIVE: keep,
+            DETECTIONS: det.reshape(-1, 6),
+        }
 
 
 class _Trajectory:
@@ -292,9 +288,9 @@ class _PCCStream(StreamState):
                 traj.app.append(a)
                 traj.members.append((entry, j))
         self.waiting.append(entry)
-        ended = record.payload.get("ended_tracks")
+        ended = ended_tracks_of(record)
         if ended is not None:
-            for tid in np.asarray(ended).reshape(-1).tolist():
+            for tid in ended:
                 traj = self.open.pop(tid, None)
                 if traj is not None:
                     self._decide(traj)
@@ -305,8 +301,8 @@ class _PCCStream(StreamState):
 def _frame_payload(record, index):
     b = boxes_of(record, index, "PCCVerifier")
     m = len(b)
-    app = _payload(record, index, "appearance", m, "PCCVerifier", "WeightedAdaBoost")
-    tracks = _payload(record, index, "track_ids", m, "PCCVerifier", "TrajectoryLinker")
+    app = per_cluster(record, index, APPEARANCE, m, "PCCVerifier")
+    tracks = per_cluster(record, index, TRACK_IDS, m, "PCCVerifier")
     return b, app.astype(bool), tracks.astype(np.int64)
 
 
@@ -408,6 +404,9 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         return tags
 
     _sequence = FrameSequence
+    _payload_reads = (CLUSTER_BOXES, APPEARANCE, TRACK_IDS)
+    _payload_optional = (ENDED_TRACKS,)
+    _payload_adds = (MOTION_R, TRAJECTORY_LENGTH, INDICATOR, TRAJECTORY_POSITIVE, DETECTIONS)
 
     def _check_records(self, X, y=None):
         records, _ = check_frames(X, y)

@@ -20,9 +20,16 @@ from scipy.optimize import linear_sum_assignment
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from tunnelsense._payload import (
+    CLUSTER_BOXES,
+    CLUSTER_HISTOGRAMS,
+    ENDED_TRACKS,
+    TRACK_IDS,
+    boxes_of,
+    histograms_of,
+)
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense._streaming import StreamingMixin, StreamState, stream_order
-from tunnelsense.tunnel._appearance import boxes_of
 
 __all__ = ["TrajectoryLinker", "link_log_likelihood"]
 
@@ -147,17 +154,18 @@ class _LinkerStream(StreamState):
         return frame - t.last <= self.reach and frame - t.first < self.max_length
 
     def _push(self, record):
-        boxes = boxes_of(record, self._count, "TrajectoryLinker")
+        index = self._count
         self._count += 1
-        ids, ended = self._step(record, boxes)
-        return [record.evolve(track_ids=ids, ended_tracks=ended)]
+        boxes = boxes_of(record, index, "TrajectoryLinker")
+        ids, ended = self._step(record, boxes, index)
+        return [record.evolve(**{TRACK_IDS: ids, ENDED_TRACKS: ended})]
 
     def _close(self):
         self.tour = None
         self.alive = []
         return []
 
-    def _step(self, record, boxes):
+    def _step(self, record, boxes, index):
         """Link one frame; return ``(track_ids, ended_tracks)``."""
         frame = record.frame
         if record.tour != self.tour:
@@ -167,9 +175,7 @@ class _LinkerStream(StreamState):
         m = len(boxes)
         out = np.zeros(m, dtype=np.int64)
         if m:
-            hists = record.payload.get("cluster_histograms")
-            if hists is not None and len(hists) != m:
-                hists = None
+            hists = histograms_of(record, index, m)
             bl = boxes.tolist()
             cx = [L + w / 2 for L, _, w, _ in bl]
             cy = [T + h / 2 for _, T, _, h in bl]
@@ -364,11 +370,14 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         return self
 
     _sequence = FrameSequence
+    _payload_reads = (CLUSTER_BOXES,)
+    _payload_optional = (CLUSTER_HISTOGRAMS,)
+    _payload_adds = (TRACK_IDS, ENDED_TRACKS)
 
     def _check_records(self, X, y=None):
         records, _ = check_frames(X, y)
         for i, r in enumerate(records):
-            boxes_of(r, i, "TrajectoryLinker")
+            histograms_of(r, i, len(boxes_of(r, i, "TrajectoryLinker")))
         return records
 
     def _stream_state(self, *, batch=False):

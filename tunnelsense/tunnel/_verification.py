@@ -27,14 +27,14 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
 from threadpoolctl import threadpool_limits
 
-from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import (
-    bin_lut,
+from tunnelsense._payload import (
+    KEYPOINTS,
+    SAMPLED_KEYPOINTS,
     frame_image,
-    is_record_input,
     keypoints_of,
-    points_in_boxes,
 )
+from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense.tunnel._common import bin_lut, is_record_input, points_in_boxes
 
 __all__ = [
     "KMeansHistogramVerifier",
@@ -583,6 +583,9 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
         self.random_state = random_state
         self.n_jobs = n_jobs
 
+    _payload_reads = (KEYPOINTS,)
+    _payload_adds = (KEYPOINTS, SAMPLED_KEYPOINTS)
+
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.target_tags.required = True
@@ -777,7 +780,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
             out = []
             for r, kp, H in self._frame_histograms(records, {}):
                 keep = self._verified(H)
-                out.append(r.evolve(keypoints=kp[keep], sampled_keypoints=kp))
+                out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
             return FrameSequence(out)
         X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
         X = np.asarray(X, dtype=np.float64)
