@@ -36,6 +36,7 @@ from tunnelsense._records import (
     RUN_LABELS,
     LaserGeometry,
     Run,
+    ScanSequence,
     empty_run_gt,
     geometry_problem,
 )
@@ -44,7 +45,9 @@ from tunnelsense.io._mot import LineNumbers
 
 __all__ = [
     "RunStream",
+    "ego_speed",
     "open_run_stream",
+    "read_objects",
     "read_run",
     "read_run_gt",
     "write_run",
@@ -240,7 +243,53 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
     name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=False,
                                                          range_unit=range_unit)
     ranges = _to_metres(ranges, geometry.range_max, scale)
-    return Run.from_arrays(name, ranges, stamps, geometry, gt, info=info)
+    run = Run.from_arrays(name, ranges, stamps, geometry, gt, info=info)
+    speed = ego_speed(info)
+    if speed is None:
+        return run
+    return Run(run.name, ScanSequence([r.evolve(speed=speed) for r in run.scans]),
+               run.gt, run.info)
+
+
+#: Keys of the run information that give the ego speed, and their scale to m/s.
+_SPEED_KEYS = (("speed", 1.0), ("speed_mps", 1.0), ("speed_kmh_mean", 1 / 3.6),
+               ("speed_kmh", 1 / 3.6))
+
+
+def ego_speed(info):
+    """The ego speed (m/s) a run's information gives, or None.
+
+    :func:`read_run` and :func:`open_run_stream` put it in the payload of every scan
+    (``"speed"``), where :class:`~tunnelsense.street.ScanClusterer` reads it, so that
+    a model fitted in Python on the runs read and one fitted by ``tunnelsense train
+    street`` are the same.
+
+    Parameters
+    ----------
+    info : dict or None
+        Run information: the first positive number among ``speed`` and
+        ``speed_mps`` (m/s), ``speed_kmh_mean`` and ``speed_kmh`` (km/h).
+
+    Returns
+    -------
+    speed : float or None
+
+    Examples
+    --------
+    >>> from tunnelsense.io import ego_speed
+    >>> ego_speed({"scenario": "dense", "speed_kmh_mean": 36.0})
+    10.0
+    >>> ego_speed({}) is None
+    True
+    """
+    for key, scale in _SPEED_KEYS:
+        try:
+            speed = float((info or {})[key]) * scale
+        except (KeyError, TypeError, ValueError):
+            continue
+        if speed > 0 and math.isfinite(speed):
+            return speed
+    return None
 
 
 def _as_float64(values) -> np.ndarray:
@@ -508,11 +557,13 @@ class RunStream:
         from tunnelsense._records import ScanRecord
 
         g = self.geometry
+        speed = ego_speed(self.info)
         for start, block in self._ranges.iter_chunks(self._chunk):
             block = _to_metres(block, g.range_max, self._scale)
             for i in range(len(block)):
                 s = start + i
-                yield ScanRecord(self.name, s, block[i], float(self._stamps[s]), g)
+                yield ScanRecord(self.name, s, block[i], float(self._stamps[s]), g,
+                                 {} if speed is None else {"speed": speed})
 
 
 def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
@@ -705,6 +756,40 @@ def _scan_number(path, line, column, text) -> int:
             + ("" if number is None else " of at most 18 digits")
         )
     return number
+
+
+def read_objects(path) -> pd.DataFrame:
+    """Read an object table written by ``tunnelsense detect street``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A CSV file with at least the columns ``first_scan``, ``last_scan`` and
+        ``label`` (``detect street`` writes ``id,first_scan,last_scan,label,...``).
+
+    Returns
+    -------
+    objects : DataFrame
+
+    Raises
+    ------
+    FileNotFoundError
+        The file is missing.
+    ValueError
+        It is not a CSV table or lacks a column; the message names the file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: objects file not found")
+    try:
+        objects = pd.read_csv(path)
+    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as exc:
+        raise ValueError(f"{path}: not a CSV object table ({exc})") from None
+    missing = [c for c in ("first_scan", "last_scan", "label") if c not in objects]
+    if missing:
+        raise ValueError(f"{path}: lacks column(s) {', '.join(missing)}: expected "
+                         "id,first_scan,last_scan,label,mean_depth")
+    return objects
 
 
 def write_run_gt(gt: pd.DataFrame, path) -> None:
