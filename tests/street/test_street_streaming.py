@@ -86,8 +86,11 @@ def test_stream_rejects_disorder(global_random_seed):
     run = make_street_scans(50, random_state=global_random_seed)
     state = ScanClusterer().fit(run.scans).start_stream()
     state.push(run.scans[5])
-    with pytest.raises(ValueError, match="scan 3 of run .* comes after scan 5"):
+    with pytest.raises(ValueError, match=r"in increasing scan order: \(.*, 3\) came "
+                       r"after \(.*, 5\)"):
         state.push(run.scans[3])
+    with pytest.raises(ValueError, match="scan 5 of run .* came twice"):
+        state.push(run.scans[5])
 
 
 def _cars_run(n_scans):

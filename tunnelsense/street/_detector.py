@@ -16,9 +16,9 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval
-from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
+from tunnelsense._streaming import StreamingMixin
 from tunnelsense.street._stream import FINISHED, ScanStream
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline"]
@@ -37,7 +37,7 @@ OBJECT_COLUMNS = (
     "n_points",
 )
 
-class ScanClusterer(TransformerMixin, BaseEstimator):
+class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     """Detect street-parked and passing vehicles in vertical laser scans.
 
     The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
@@ -314,35 +314,22 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         >>> len(stream.close()) + released
         300
         """
-        check_is_fitted(self)
+        return super().start_stream()
+
+    _sequence = ScanSequence
+    _sort_tours = True  # ids count over the runs in the order of their names
+
+    def _check_records(self, X):
+        return check_scans(X)[0]
+
+    def _stream_state(self, *, batch=False):
         return ScanStream(self)
 
     def _batch(self, X):
-        """Run the stream state over every run of ``X`` (sorted by run and scan).
-
-        Returns the finished records in the order of ``X`` and the object table.
-        """
-        check_is_fitted(self)
-        records, _ = check_scans(X)
-        n = len(records)
-        runs = np.array([r.run for r in records], dtype=object)
-        scans = np.array([r.scan for r in records], dtype=np.int64)
-        order = np.lexsort((scans, runs.astype(str))) if n else np.empty(0, np.int64)
-        sruns, sscans = runs[order], scans[order]
-        dup = (sruns[1:] == sruns[:-1]) & (sscans[1:] == sscans[:-1])
-        if dup.any():
-            i = int(np.flatnonzero(dup)[0])
-            raise ValueError(
-                f"X holds scan {sscans[i]} of run {sruns[i]!r} twice: "
-                "expected each (run, scan) once"
-            )
-        stream = ScanStream(self)
-        done = stream.push_many([records[i] for i in order])
-        done.extend(stream.close())
-        out = [None] * n
-        for i, rec in zip(order, done, strict=True):
-            out[i] = rec
-        rows = [row for rec in done for row in rec.payload[FINISHED]]
+        """The records of ``X`` through the stream (input order) and the object table."""
+        out, _ = self._stream_batch(X)
+        rows = sorted((row for r in out for row in r.payload[FINISHED]),
+                      key=lambda row: row[1])
         table = pd.DataFrame(rows, columns=list(OBJECT_COLUMNS))
         table = table.astype({"id": np.int64, "first_scan": np.int64,
                               "last_scan": np.int64, "mean_depth": np.float64,
@@ -352,7 +339,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         return out, table
 
     # ------------------------------------------------------------- outputs
-    def transform(self, X):
+    def transform(self, X):  # the mixin's, documented with the payload
         """Per scan, the record with its clusters and objects in the payload.
 
         Parameters
@@ -371,7 +358,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             became final by the time the record was released (see
             :meth:`start_stream`).
         """
-        return ScanSequence(self._batch(X)[0])
+        return super().transform(X)
 
     def detect(self, X, *, all_objects=False):
         """The object table: one row per detected object.
@@ -411,7 +398,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         -------
         y_pred : list of ndarray of shape (k_i, 2), int64
         """
-        return [r.payload["in_view"] for r in self._batch(X)[0]]
+        return [r.payload["in_view"] for r in self._stream_batch(X)[0]]
 
 
 def make_parking_pipeline(**params):

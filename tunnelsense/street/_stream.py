@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense._records import RUN_LABELS
+from tunnelsense._streaming import StreamState
 from tunnelsense.street._clustering import (
     _ranges_expand,
     components,
@@ -61,7 +62,7 @@ FINISHED = "finished_objects"
 CHECK_EVERY = 64
 
 
-class ScanStream:
+class ScanStream(StreamState):
     """Online state of a fitted :class:`~tunnelsense.street.ScanClusterer`.
 
     Feed scans with :meth:`push` (or :meth:`push_many`), in increasing scan order per
@@ -88,12 +89,10 @@ class ScanStream:
         """Scans held now (not yet released, plus history)."""
         return 0 if self._run is None else len(self._run.records)
 
-    def push(self, record):
-        """Take the next scan; return the records finished by it (maybe none)."""
-        return self.push_many([record])
+    def _push(self, record):
+        return self._push_many([record])
 
-    def push_many(self, records):
-        """Take consecutive scans at once (same result as pushing them one by one)."""
+    def _push_many(self, records):
         out = []
         i = 0
         while i < len(records):
@@ -117,8 +116,7 @@ class ScanStream:
             i = j
         return out
 
-    def close(self):
-        """End of the stream: return the records still held."""
+    def _close(self):
         out = self._decide(ended=True)
         self._run = None
         return out
@@ -182,7 +180,8 @@ class _RunWindow:
 
     # --------------------------------------------------------- per-scan work
     def _check_block(self, block):
-        """Validate a block of scans; return their scan numbers and stamps."""
+        """Validate a block of scans (in scan order, checked by the stream); return
+        their scan numbers, periods and whether each follows the previous scan."""
         if self.geometry is None:
             self.geometry, self.n_beams = block[0].geometry, len(block[0].ranges)
             g = self.geometry
@@ -204,11 +203,6 @@ class _RunWindow:
         stamps = np.array([r.stamp for r in block], dtype=np.float64)
         prev = np.r_[scans[0] - 1 if self.last_scan is None else self.last_scan,
                      scans[:-1]]
-        if np.any(scans <= prev):
-            i = int(np.flatnonzero(scans <= prev)[0])
-            raise ValueError(
-                f"scan {scans[i]} of run {self.name!r} comes after scan {prev[i]}: "
-                "expected each (run, scan) once, in increasing scan order")
         prev_stamps = np.r_[np.nan if self.last_stamp is None else self.last_stamp,
                             stamps[:-1]]
         periods = stamps - prev_stamps
