@@ -26,7 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["components", "first_appearance", "link_pairs", "link_scans", "single_linkage"]
+__all__ = [
+    "components",
+    "expand_ranges",
+    "first_appearance",
+    "link_pairs",
+    "link_scans",
+    "single_linkage",
+]
 
 _CHUNK = 4_000_000  # largest number of point pairs compared at once
 
@@ -69,8 +76,21 @@ def components(n, a, b):
             labels = jumped
 
 
-def _ranges_expand(starts, counts):
-    """Concatenation of ``arange(s, s + c)`` for every start/count (vectorized)."""
+def expand_ranges(starts, counts):
+    """Concatenation of ``arange(s, s + c)`` for every start/count (vectorized).
+
+    Returns
+    -------
+    index, owner : ndarray of int64
+        The concatenated ranges, and which start/count each value comes from.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import expand_ranges
+    >>> [a.tolist() for a in expand_ranges(np.array([5, 0]), np.array([2, 3]))]
+    [[5, 6, 0, 1, 2], [0, 0, 1, 1, 1]]
+    """
     total = int(counts.sum())
     if total == 0:
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
@@ -96,7 +116,7 @@ def _cross_linked(x, y, a_idx, a_own, b_idx, b_own, n_pairs, cut):
         hi = int(np.searchsorted(cum, done + _CHUNK, side="right"))
         hi = max(hi, lo + 1)
         cnt = per_a[lo:hi]
-        bi, owner = _ranges_expand(b_start[a_own[lo:hi]], cnt)
+        bi, owner = expand_ranges(b_start[a_own[lo:hi]], cnt)
         ai = a_idx[lo:hi][owner]
         bj = b_idx[bi]
         dx = x[ai] - x[bj]
@@ -135,7 +155,7 @@ def _single_linkage_groups(x, y, group, cut):
     grp_size = np.diff(np.r_[grp_first, n_chains])
     grp_end = np.repeat(grp_first + grp_size, grp_size)  # one past the group's last
     partners = grp_end - np.arange(n_chains) - 1
-    bi, ai = _ranges_expand(np.arange(n_chains) + 1, partners)
+    bi, ai = expand_ranges(np.arange(n_chains) + 1, partners)
     ea = np.empty(0, dtype=np.int64)
     eb = np.empty(0, dtype=np.int64)
     if len(ai):
@@ -146,8 +166,8 @@ def _single_linkage_groups(x, y, group, cut):
         ai, bi = ai[keep], bi[keep]
         if len(ai):
             # points of a within cut of b's box, and vice versa
-            pa, own_a = _ranges_expand(starts[ai], lengths[ai])
-            pb, own_b = _ranges_expand(starts[bi], lengths[bi])
+            pa, own_a = expand_ranges(starts[ai], lengths[ai])
+            pb, own_b = expand_ranges(starts[bi], lengths[bi])
             ina = (
                 (x[pa] >= xmin[bi][own_a] - margin)
                 & (x[pa] <= xmax[bi][own_a] + margin)
@@ -251,7 +271,7 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5):
     prev_start = np.r_[0, start[:-1]]
     # every cluster against all clusters of the previous scan, if it directly follows
     n_prev = np.where(np.asarray(follows, dtype=bool), prev_count, 0)[pos]
-    earlier, later = _ranges_expand(prev_start[pos], n_prev)
+    earlier, later = expand_ranges(prev_start[pos], n_prev)
     close = np.abs(depth[earlier] - depth[later]) < link_distance
     return earlier[close], later[close]
 
