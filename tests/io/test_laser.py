@@ -9,7 +9,7 @@ import pytest
 from tunnelsense import LaserGeometry, Run
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import describe, open_run_stream, read_run, read_run_gt, write_run
-from tunnelsense.io._laser import _write_npz
+from tunnelsense.io._npz import write_npz
 
 
 @pytest.fixture
@@ -296,7 +296,7 @@ def _arrays(**fields):
 def _write_members(folder, arrays, raw=None):
     """Write ``arrays`` as scans.npz, then ``raw`` {name: bytes} as extra members."""
     folder.mkdir(exist_ok=True)
-    _write_npz(folder / "scans.npz", arrays)
+    write_npz(folder / "scans.npz", arrays)
     with zipfile.ZipFile(folder / "scans.npz", "a") as zf:
         for name, data in (raw or {}).items():
             zf.writestr(name, data)
