@@ -69,9 +69,8 @@ def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
     soft edges and a rim of the cooler wall.  ``estimator="median"`` (default)
     estimates the plate's Gaussian robustly, by the median and ``1.4826`` times the
     median absolute deviation, so that those pixels do not widen the band;
-    ``"mean"`` uses the plain mean and standard deviation of all box pixels.  On
-    simulated tours (boxes drawn around the signs) the median gave about
-    [155, 191], the mean about [130, 209], against the paper's [160, 190].
+    ``"mean"`` uses the plain mean and standard deviation of all box pixels (see
+    ``docs/tunnel-measurements.md`` for the bands each gave).
 
     Parameters
     ----------

@@ -79,10 +79,9 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     min_r : float, default=0.95
         Smallest ``|r|`` of an indicator's trajectory.  An indicator moves along a
         straight line through the vanishing point over tens to hundreds of pixels,
-        so its centres fit a line with ``|r|`` close to 1 (0.99 and more on simulated
-        tours, where the keypoint grid quantizes the centres by up to 3 px); a vehicle
-        ahead at nearly constant distance jitters by a few pixels in both directions
-        and gets ``|r|`` far from 1.
+        so its centres fit a line with ``|r|`` close to 1; a vehicle ahead at nearly
+        constant distance jitters by a few pixels in both directions and gets
+        ``|r|`` far from 1.
     min_length : int, default=10
         Fewest clusters of an indicator's trajectory: a third of a second at 30 fps.
         An indicator stays in view for well over a second at motorway speed, while
