@@ -28,6 +28,7 @@ __all__ = [
     "CLUSTER_HISTOGRAMS",
     "CLUSTER_LABELS",
     "DETECTIONS",
+    "DETECTION_COLUMNS",
     "ENDED_TRACKS",
     "INDICATOR",
     "IN_VIEW",
@@ -85,8 +86,10 @@ TRAJECTORY_LENGTH = "trajectory_length"
 INDICATOR = "indicator"
 #: (m,) bool: whether the cluster's trajectory is positive by the vote.
 TRAJECTORY_POSITIVE = "trajectory_positive"
-#: (k, 6) float64 ``(bb_left, bb_top, bb_width, bb_height, track_id, score)``.
+#: (k, 6) float64, one row per detection, columns :data:`DETECTION_COLUMNS`.
 DETECTIONS = "detections"
+#: Columns of ``payload["detections"]``.
+DETECTION_COLUMNS = ("bb_left", "bb_top", "bb_width", "bb_height", "track_id", "score")
 
 # ------------------------------------------------------------------ street scan stage
 #: (n, 2) float64: ROI points ``(depth, height)`` of a scan.

@@ -47,8 +47,7 @@ def fit_kmeans(
       few batches.
 
     k-means runs on ``n_jobs`` OpenMP threads, one by default: on a loaded machine
-    scikit-learn's OpenMP threads spin-wait (a 512-row ``partial_fit`` took 165 ms
-    with two threads beside other jobs, 1 ms with one).
+    scikit-learn's OpenMP threads spin-wait.
 
     Parameters
     ----------
