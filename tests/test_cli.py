@@ -83,7 +83,7 @@ def test_simulate_then_info(tmp_path, capsys):
     facts = json.loads(capsys.readouterr().out)
     assert facts["kind"] == "tunnel" and facts["frames"] == 12
     assert (facts["width"], facts["height"]) == (640, 480)
-    assert facts["info"]["scenario"] == "light" and facts["info"]["seed"] == "3"
+    assert facts["info"]["scenario"] == "light" and facts["info"]["seed"] == 3
 
     assert (
         main(
@@ -149,7 +149,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from tunnelsense._cli_common import load_cli_model
+    from tunnelsense.cli._common import load_cli_model
     from tunnelsense.io import save_model
 
     other = Pipeline([("scale", StandardScaler())]).fit([[0.0], [1.0]])
@@ -178,7 +178,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
 
 
 def test_unexpected_errors_are_one_line(monkeypatch, capsys):
-    import tunnelsense._cli as cli
+    import tunnelsense.cli.info as cli
 
     def broken(args):
         raise KeyError("oops")

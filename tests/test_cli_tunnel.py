@@ -9,12 +9,12 @@ import time
 import numpy as np
 import pytest
 
-from tunnelsense import _cli_tunnel
-from tunnelsense._cli import main
+from tunnelsense.cli import main
+from tunnelsense.cli import tunnel as cli_tunnel
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.io import read_mot_results, read_tour, write_tour
+from tunnelsense.io import mot_result_lines, read_mot_results, read_tour, write_tour
 
-CLI = [sys.executable, "-c", "import sys; from tunnelsense._cli import main; sys.exit(main())"]
+CLI = [sys.executable, "-c", "import sys; from tunnelsense.cli import main; sys.exit(main())"]
 
 
 def run(argv):
@@ -24,8 +24,8 @@ def run(argv):
         v: sub.add_parser(v).add_subparsers(dest="kind", required=True)
         for v in ("train", "detect", "evaluate")
     }
-    _cli_tunnel.register(verbs)
-    _cli_tunnel.register_top(sub)
+    cli_tunnel.register(verbs)
+    cli_tunnel.register_top(sub)
     args = parser.parse_args(argv)
     return args.func(args)
 
@@ -75,7 +75,7 @@ def batch_records(models, tour_dirs):
 
 def lines_of(records):
     """Results lines of records, as detect writes them."""
-    return [line for r in records for line in _cli_tunnel._result_lines(r)]
+    return [line for r in records for line in mot_result_lines(r)]
 
 
 @pytest.fixture(scope="module")
@@ -258,7 +258,7 @@ def test_errors(tour_dirs, tmp_path):
 def test_demo_is_registered():
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    _cli_tunnel.register_top(sub)
+    cli_tunnel.register_top(sub)
     args = parser.parse_args(["demo", "--frames", "60"])
-    assert args.frames == 60 and args.func is _cli_tunnel._cmd_demo
+    assert args.frames == 60 and args.func is cli_tunnel._cmd_demo
     assert np.isfinite(args.min_height)

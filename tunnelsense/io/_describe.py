@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +11,7 @@ import numpy as np
 from tunnelsense._records import OBJECT_CLASSES, Run, Tour
 from tunnelsense.io._laser import read_run
 from tunnelsense.io._model import describe_model
-from tunnelsense.io._mot import open_tour
+from tunnelsense.io._sources import open_tour
 
 __all__ = ["describe", "open_source"]
 
@@ -95,7 +97,7 @@ def describe(source, *, range_unit="m") -> dict:
             if data.frame_rate
             else None,
             "objects": objects,
-            "info": {k: str(v) for k, v in data.info.items()},
+            "info": _plain(data.info),
         }
     g = data.geometry
     stamps = np.array([r.stamp for r in data.scans])
@@ -117,5 +119,33 @@ def describe(source, *, range_unit="m") -> dict:
         "objects": {
             str(k): int(v["id"].nunique()) for k, v in data.gt.groupby("label")
         },
-        "info": data.info,
+        "info": _plain(data.info),
     }
+
+
+#: Decimal numbers in text (an ``.ini`` file's values): given as JSON numbers.
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _plain(value):
+    """``value`` as JSON: numbers (also those written as text) as numbers.
+
+    Examples
+    --------
+    >>> from tunnelsense.io._describe import _plain
+    >>> _plain({"seed": "3", "rate": "2.5", "scenario": "light", "n": [1, "x"]})
+    {'seed': 3, 'rate': 2.5, 'scenario': 'light', 'n': [1, 'x']}
+    """
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, bool | int | float):
+        return value if not isinstance(value, float) or math.isfinite(value) else None
+    text = str(value)
+    if _INTEGER.fullmatch(text):
+        return int(text)
+    return float(text) if _DECIMAL.fullmatch(text) else text

@@ -15,6 +15,7 @@ from tunnelsense.metrics._tunnel import (
     hypotheses_from_records,
     indicator_scores,
     make_tunnel_scorer,
+    results_scores,
     tunnel_scores,
 )
 
@@ -25,6 +26,7 @@ __all__ = [
     "hypotheses_from_records",
     "indicator_scores",
     "make_tunnel_scorer",
+    "results_scores",
     "tunnel_scores",
     "interval_iou",
     "make_street_scorer",

@@ -34,6 +34,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from tunnelsense.io._results import read_hypotheses
+
 __all__ = [
     "HYPOTHESIS_COLUMNS",
     "TUNNEL_SCORER_METRICS",
@@ -41,6 +43,7 @@ __all__ = [
     "hypotheses_from_records",
     "indicator_scores",
     "make_tunnel_scorer",
+    "results_scores",
     "tunnel_scores",
 ]
 
@@ -330,6 +333,32 @@ def indicator_scores(records, y, *, min_height=14.0) -> dict:
     return tunnel_scores(
         hypotheses_from_records(records), gt_from_boxes(records, y), min_height=min_height
     )
+
+
+def results_scores(results, tour, *, min_height=14.0) -> dict:
+    """Score a results file of ``detect tunnel`` against a tour's ground truth.
+
+    The file's ``.clusters.csv`` companion, when present, gives every cluster (see
+    :func:`tunnelsense.io.read_hypotheses`); without it the false-alarm rate is
+    unknown (``None``) and ``complete`` is False.
+
+    Parameters
+    ----------
+    results : str or Path
+        The results file.
+    tour : Tour
+        The labelled tour it was detected on.
+    min_height : float, default=14.0
+
+    Returns
+    -------
+    scores : dict
+        As :func:`tunnel_scores`, with ``complete``.
+    """
+    hypotheses, complete = read_hypotheses(results, tour.name)
+    scores = tunnel_scores(hypotheses, tour.gt.assign(tour=tour.name),
+                           min_height=min_height, complete=complete)
+    return {**scores, "complete": complete}
 
 
 #: Metrics :func:`make_tunnel_scorer` knows (greater is better for every one).
