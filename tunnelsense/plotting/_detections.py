@@ -40,7 +40,7 @@ def _legend(pic, frame) -> None:
         if kind == "box":
             cv2.rectangle(pic, (5, y - 7), (15, y), colour, 1)
         else:
-            cv2.line(pic, (4, y - 3), (16, y - 3), colour, 1, cv2.LINE_AA)
+            cv2.line(pic, (4, y - 3), (16, y - 3), colour, 2)
         cv2.putText(pic, text, (22, y), font, size, (255, 255, 255), 1, cv2.LINE_AA)
 
 
