@@ -301,7 +301,9 @@ def test_info_of_a_model_is_indented_one_fact_per_line(models, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert "  summary:" in lines and "    parameters:" in lines
     assert "      motion__min_r: 0.95" in lines
-    assert "      - name: tunnel-light-0" in lines
+    first = lines.index("    tours:") + 1  # a bulleted list of tours
+    assert lines[first] == "      - frames: 120"
+    assert "        name: tunnel-light-0" in lines[first:]
     assert not any("{" in line for line in lines)
 
 

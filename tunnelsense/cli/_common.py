@@ -75,25 +75,9 @@ def signing_key(args):
 
 
 def load_cli_model(path, *, last_step, command, trust_pickle=False, key=None):
-    """Load a model named on the command line and check which detector it is.
-
-    A ``.skops`` file is verified by :func:`tunnelsense.io.load_model` (checksum,
-    trusted types, and the signature when a key is given).  A ``.joblib`` pickle runs
-    code when loaded, so it is refused unless ``trust_pickle``.
-
-    Parameters
-    ----------
-    path : str or Path
-        The model file.
-    last_step : str
-        Name of the last pipeline step the detector's models have.
-    command : str
-        The training command, for the error message (e.g. ``"train tunnel"``).
-    trust_pickle : bool, default=False
-        Load a pickle (``--trust-pickle``).
-    key : bytes or None, default=None
-        The signing key the model must be signed with.
-    """
+    """The model of ``--model`` (:func:`tunnelsense.io.load_model`), a pickle only
+    with ``--trust-pickle``; refused unless its last step is ``last_step``, as the
+    models of ``tunnelsense {command}`` are."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: model file not found")

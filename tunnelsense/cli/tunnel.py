@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
 import sys
@@ -24,7 +23,7 @@ from tunnelsense.cli._common import (
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.io import clusters_path, read_tour, save_model
 from tunnelsense.io._output import check_output
-from tunnelsense.metrics import indicator_scores, results_scores
+from tunnelsense.metrics import indicator_scores, results_scores, tunnel_report
 from tunnelsense.tunnel import (
     detect_to_files,
     detect_tour,
@@ -34,42 +33,6 @@ from tunnelsense.tunnel import (
 from tunnelsense.tunnel._detect import SEARCH_GRID
 
 _CPUS = os.cpu_count() or 1
-
-
-def _percent(rate) -> str:
-    return "n/a (0 of 0)" if rate is None else f"{100 * rate:.1f} %"
-
-
-def format_report(scores, title) -> str:
-    """The paper's cluster (Table 1) and trajectory figures as text."""
-    c, t = scores["cluster"], scores["trajectory"]
-    far = (_percent(c["false_alarm_rate"]) if scores.get("complete", True)
-           else "n/a (no .clusters.csv companion: the negatives are unknown)")
-    return "\n".join([
-        title, "keypoint clusters (Table 1)", f"  total number        {c['total']}",
-        f"  correctly labelled  {c['correct']}", f"  miss detections     {c['misses']}",
-        f"  false alarms        {c['false_alarms']}",
-        f"  detection rate      {_percent(c['detection_rate'])}",
-        f"  false alarm rate    {far}", "trajectories",
-        f"  indicators          {t['indicators']}",
-        f"  detected            {t['detected']}",
-        f"  false alarms        {t['false_alarms']}",
-        f"  detection rate      {_percent(t['detection_rate'])}",
-    ])
-
-
-def _dask(address):
-    """The search's fits on a Dask cluster (dask is imported only when asked for)."""
-    try:
-        import joblib
-        from distributed import Client
-    except ImportError:
-        raise ValueError("--dask-scheduler needs Dask's distributed scheduler: pip "
-                         "install 'tunnelsense[distributed]'") from None
-    stack = contextlib.ExitStack()
-    stack.enter_context(Client(address))
-    stack.enter_context(joblib.parallel_config(backend="dask"))
-    return stack
 
 
 def _cmd_train(args) -> int:
@@ -88,7 +51,7 @@ def _cmd_train(args) -> int:
     bar = progress(args, len(make_indicator_pipeline().steps), "fitting", unit="step")
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
-        backend=_dask(args.dask_scheduler) if args.dask_scheduler else None,
+        dask_scheduler=args.dask_scheduler,
         progress=bar and (lambda name, k, n: bar.update(k)),
         verbose=0 if args.quiet else 2)
     if args.search:
@@ -136,7 +99,7 @@ def _cmd_evaluate(args) -> int:
         raise FileNotFoundError(f"{args.results}: results file not found")
     scores = results_scores(args.results, tour, min_height=args.min_height)
     print(json.dumps(scores, indent=2) if args.json
-          else format_report(scores, f"{tour.name}: {len(tour)} frames"))
+          else tunnel_report(scores, f"{tour.name}: {len(tour)} frames"))
     return 0
 
 
@@ -162,7 +125,7 @@ def _cmd_demo(args) -> int:
         t = scores["trajectory"]
         found, total = found + t["detected"], total + t["indicators"]
         false_alarms += t["false_alarms"]
-        print("\n" + format_report(scores, f"{tour.name} ({tour.info.get('scenario')})"))
+        print("\n" + tunnel_report(scores, f"{tour.name} ({tour.info.get('scenario')})"))
     print(f"\n{found} of {total} indicators found, {false_alarms} false-alarm "
           f"trajectories ({time.perf_counter() - start:.0f} s)")
     return 0

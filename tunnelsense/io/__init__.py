@@ -10,7 +10,7 @@
   summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
-from tunnelsense.io._describe import describe, open_source
+from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
 from tunnelsense.io._laser import (
     RunStream,
@@ -60,6 +60,7 @@ __all__ = [
     "load_model",
     "save_model",
     "describe",
+    "format_description",
     "iter_video",
     "RunStream",
     "open_run_stream",

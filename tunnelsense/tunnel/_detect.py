@@ -52,7 +52,7 @@ SEARCH_GRID = {
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
-                           backend=None, progress=None, verbose=0):
+                           dask_scheduler=None, progress=None, verbose=0):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
@@ -70,8 +70,9 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         Seed of the pipeline.
     n_jobs : int, default=1
         Reader threads, the verifier's threads and the search's parallel fits.
-    backend : context manager or None, default=None
-        Entered around the search (e.g. ``joblib.parallel_config(backend="dask")``).
+    dask_scheduler : str or None, default=None
+        Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
+        needs the ``distributed`` extra); the workers must see the tours' files.
     progress : callable or None, default=None
         ``progress(step_name, k, n_steps)`` before each step of a plain fit.
     verbose : int, default=0
@@ -111,13 +112,27 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
             scoring=make_tunnel_scorer("youden"), error_score="raise", n_jobs=n_jobs,
             verbose=verbose,
         )
-        with backend or contextlib.nullcontext():
+        with _dask(dask_scheduler) if dask_scheduler else contextlib.nullcontext():
             found.fit(X, y, groups=groups)
         model = found.best_estimator_
         output = model.predict(X)
     else:
         model, output = fit_pipeline(model, X, y, progress=progress)
     return model, _summary(tours, model, output, y, found)
+
+
+def _dask(address):
+    """joblib's Dask backend on a cluster (imported only when asked for: it is slow)."""
+    try:
+        import joblib
+        from distributed import Client
+    except ImportError:
+        raise ValueError("dask_scheduler needs Dask's distributed scheduler: pip "
+                         "install 'tunnelsense[distributed]'") from None
+    stack = contextlib.ExitStack()
+    stack.enter_context(Client(address))
+    stack.enter_context(joblib.parallel_config(backend="dask"))
+    return stack
 
 
 def _summary(tours, model, output, y, search) -> dict:
