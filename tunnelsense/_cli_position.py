@@ -1,6 +1,6 @@
 """Command-line verbs of positioning: ``position`` and ``evaluate position``.
 
-``tunnelsense._cli`` calls :func:`register` with the ``train`` / ``detect`` /
+:mod:`tunnelsense.cli` calls :func:`register` with the ``train`` / ``detect`` /
 ``evaluate`` sub-parsers and :func:`register_top` with the top-level ones.
 """
 
@@ -10,7 +10,8 @@ import json
 import time
 from pathlib import Path
 
-from tunnelsense._cli_common import add_output_arguments, input_files
+from tunnelsense.cli._common import add_output_arguments
+from tunnelsense.io._output import input_files
 
 __all__ = ["register", "register_top"]
 
@@ -27,8 +28,8 @@ def _tables(args):
 
 
 def _cmd_position(args) -> int:
-    from tunnelsense._cli_common import load_cli_model, signing_key
     from tunnelsense._progress import Progress
+    from tunnelsense.cli._common import load_cli_model, signing_key
     from tunnelsense.io import open_tour, read_mot_results
     from tunnelsense.io._output import atomic_write, check_output
     from tunnelsense.positioning import (
