@@ -457,7 +457,7 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        X_new : FrameSequence or ndarray of shape (n_samples, n_clusters_)
+        X_new : FrameSequence or ndarray of shape (n_samples, n_clusters)
             Frame mode: the evolved records (see the class docstring).  Tabular mode:
             the distance from every point to the nearest member of each fitted cluster.
         """

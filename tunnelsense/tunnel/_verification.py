@@ -373,7 +373,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
     * **tabular mode** (``X`` a 2-D array of histograms, one row per keypoint;
       ``y`` equal to ``pos_label`` (1, or ``True``) for positive keypoints, any other
       value for negatives).  ``transform`` gives the distances to the
-      kept centres, shape (n, n_centers_) (as :meth:`sklearn.cluster.KMeans.transform`
+      kept centres, shape ``(n, n_centers_)`` (as :meth:`sklearn.cluster.KMeans.transform`
       does); ``predict`` gives 1 for verified rows and 0 for rejected ones.  It is not
       a :class:`~sklearn.base.ClassifierMixin`: it models the positive class only (a
       mixture of its centres and one radius), so accuracy on arbitrary labelled blobs
@@ -491,13 +491,13 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
 
     Attributes
     ----------
-    positive_centers_ : ndarray of shape (n_positive_centers, n_features_in_)
+    positive_centers_ : ndarray of shape (n_positive_centers, n_features)
         k-means centres of the positive descriptors.
-    negative_centers_ : ndarray of shape (n_negative_centers, n_features_in_)
+    negative_centers_ : ndarray of shape (n_negative_centers, n_features)
         k-means centres of the negative descriptors.
     center_scores_ : ndarray of shape (n_positive_centers,)
         ``Eu`` of every positive centre: its mean distance to the negative centres.
-    centers_ : ndarray of shape (n_centers_, n_features_in_)
+    centers_ : ndarray of shape (n_centers, n_features)
         The kept positive centres, best (largest ``Eu``) first.
     n_centers_ : int
         Number of kept centres (``n_centers``, all when None, or fewer when there are
@@ -759,7 +759,7 @@ class KMeansHistogramVerifier(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        X_new : FrameSequence or ndarray of shape (n_samples, n_centers_)
+        X_new : FrameSequence or ndarray of shape (n_samples, n_centers)
             Frame mode: the evolved records (see the class docstring).  Tabular mode:
             the distance of every histogram to every kept centre.
         """
