@@ -59,11 +59,11 @@ API_MODULES = {
     "tunnelsense.tunnel": "FIR indicator detector",
     "tunnelsense.street": "Laser parked-vehicle detector",
     "tunnelsense": "Records, tours and runs",
+    "tunnelsense.exceptions": "Exceptions",
     "tunnelsense.io": "Reading and writing files",
     "tunnelsense.datasets": "Simulated data",
     "tunnelsense.metrics": "Scores",
     "tunnelsense.plotting": "Pictures",
-    "tunnelsense.exceptions": "Exceptions",
     "tunnelsense.utils": "Checks for stage authors",
 }
 
