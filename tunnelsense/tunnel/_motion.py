@@ -17,7 +17,6 @@ from collections import deque
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import (
     FrameRecord,
@@ -25,8 +24,8 @@ from tunnelsense._records import (
     check_frames,
     release_image,
 )
+from tunnelsense._streaming import StreamingMixin, StreamState
 from tunnelsense.tunnel._appearance import boxes_of
-from tunnelsense.tunnel._tracking import tour_order
 
 __all__ = ["PCCVerifier", "pearson_r", "straightness", "trajectory_r"]
 
@@ -207,26 +206,32 @@ class _Trajectory:
         self.xs, self.ys, self.app, self.members = [], [], [], []
 
 
-class _PCCState:
-    """The verifier's state machine over the frames of one tour at a time.
+class _PCCStream(StreamState):
+    """Stream state of :class:`PCCVerifier`: open trajectories and waiting frames.
 
-    ``step(tag, record, boxes, appearance, tracks)`` adds a frame (frames of a tour in
-    increasing order; a record of another tour first ends every trajectory of the
-    previous one) and returns the ``(tag, results)`` of the frames that are final, in
-    input order.  A trajectory is decided when it ends (``payload["ended_tracks"]``
-    of :class:`TrajectoryLinker`, the end of its tour, or :meth:`finish`); a frame is
-    final when every trajectory through it is decided.
+    A frame is added with its tag (the record to evolve; a record of another tour
+    first ends every trajectory of the previous one).  A trajectory is decided when
+    it ends (``payload["ended_tracks"]`` of :class:`TrajectoryLinker`, the end of its
+    tour, or :meth:`close`); a frame is final, and returned, when every trajectory
+    through it is decided.  ``release=True`` keeps of a held frame's image only a lazy
+    source (online, where frames would otherwise pile up in memory).
     """
 
-    def __init__(self, min_r, min_length, vote, criterion="pearson"):
-        self.measure = pearson_r if criterion == "pearson" else straightness
-        self.min_r = float(min_r)
-        self.min_length = int(min_length)
-        self.vote = float(vote)
+    def __init__(self, verifier, *, release=True):
+        self.measure = pearson_r if verifier.criterion == "pearson" else straightness
+        self.min_r = float(verifier.min_r)
+        self.min_length = int(verifier.min_length)
+        self.vote = float(verifier.vote)
+        self.release = release
         self.tour = None
-        self.last_frame = None
         self.open: dict = {}
         self.waiting: deque = deque()
+        self._count = 0
+
+    @property
+    def n_waiting(self):
+        """Frames held until the trajectories through them end."""
+        return len(self.waiting)
 
     def _decide(self, traj):
         n = len(traj.xs)
@@ -248,10 +253,10 @@ class _PCCState:
         waiting = self.waiting
         while waiting and waiting[0].unresolved == 0:
             entry = waiting.popleft()
-            out.append((entry.tag, entry.results()))
+            out.append(entry.tag.evolve(**entry.results()))
         return out
 
-    def finish(self):
+    def _close(self):
         """End every open trajectory; return every frame still waiting."""
         for traj in self.open.values():
             self._decide(traj)
@@ -259,17 +264,19 @@ class _PCCState:
         self.tour = None
         return self._release()
 
-    def step(self, tag, record, boxes, appearance, tracks):
+    def _push(self, record):
+        boxes, appearance, tracks = _frame_payload(record, self._count)
+        self._count += 1
+        tag = record
+        if self.release:
+            source = release_image(record.source)
+            if source is None:
+                source = _RELEASED
+            tag = FrameRecord(record.tour, record.frame, source, record.payload)
         out = []
         if record.tour != self.tour:
-            out = self.finish()
+            out = self._close()
             self.tour = record.tour
-        elif record.frame <= self.last_frame:
-            raise ValueError(
-                f"frames of tour {record.tour!r} must arrive in increasing order: "
-                f"frame {record.frame} came after frame {self.last_frame}"
-            )
-        self.last_frame = record.frame
         entry = _Frame(tag, boxes, tracks)
         if len(boxes):
             cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
@@ -294,41 +301,6 @@ class _PCCState:
         out.extend(self._release())
         return out
 
-    @property
-    def n_waiting(self):
-        return len(self.waiting)
-
-
-class _PCCStream:
-    """Stream state of :class:`PCCVerifier` (see :meth:`PCCVerifier.start_stream`)."""
-
-    def __init__(self, verifier):
-        self._state = _PCCState(
-            verifier.min_r, verifier.min_length, verifier.vote, verifier.criterion
-        )
-        self._count = 0
-
-    @property
-    def n_waiting(self):
-        """Frames held until the trajectories through them end."""
-        return self._state.n_waiting
-
-    def push(self, record):
-        boxes, app, tracks = _frame_payload(record, self._count)
-        self._count += 1
-        source = release_image(record.source)
-        if source is None:
-            source = _RELEASED
-        kept = FrameRecord(record.tour, record.frame, source, record.payload)
-        return self._emit(self._state.step(kept, record, boxes, app, tracks))
-
-    def close(self):
-        return self._emit(self._state.finish())
-
-    @staticmethod
-    def _emit(done):
-        return [r.evolve(**res) for r, res in done]
-
 
 def _frame_payload(record, index):
     b = boxes_of(record, index, "PCCVerifier")
@@ -338,7 +310,7 @@ def _frame_payload(record, index):
     return b, app.astype(bool), tracks.astype(np.int64)
 
 
-class PCCVerifier(TransformerMixin, BaseEstimator):
+class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     """Verify trajectories by straight-line motion; give the detections (3.6-3.7).
 
     Stage 6, the last one, of the FIR indicator detector: a frame stage with nothing
@@ -435,8 +407,16 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         tags.transformer_tags.preserves_dtype = []
         return tags
 
-    def _gather(self, records):
-        return [_frame_payload(r, i) for i, r in enumerate(records)]
+    _sequence = FrameSequence
+
+    def _check_records(self, X, y=None):
+        records, _ = check_frames(X, y)
+        for i, r in enumerate(records):
+            _frame_payload(r, i)
+        return records
+
+    def _stream_state(self, *, batch=False):
+        return _PCCStream(self, release=not batch)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -452,8 +432,7 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         -------
         self : PCCVerifier
         """
-        records, _ = check_frames(X, y)
-        self._gather(records)
+        records = self._check_records(X, y)
         self.n_frames_fit_ = len(records)
         return self
 
@@ -469,21 +448,7 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         X_new : FrameSequence
             The frames in input order, evolved as the class docstring says.
         """
-        check_is_fitted(self)
-        records, _ = check_frames(X)
-        payloads = self._gather(records)
-        results = [None] * len(records)
-        for group in tour_order(records):
-            state = _PCCState(self.min_r, self.min_length, self.vote, self.criterion)
-            done = []
-            for i in group.tolist():
-                done += state.step(i, records[i], *payloads[i])
-            done += state.finish()
-            for i, res in done:
-                results[i] = res
-        return FrameSequence(
-            r.evolve(**res) for r, res in zip(records, results, strict=True)
-        )
+        return self.transform(X)
 
     def start_stream(self):
         """Verify frames online, one at a time (the streaming protocol).
@@ -521,9 +486,4 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         >>> [(r.frame, r.payload["detections"].shape) for r in out]
         [(1, (1, 6)), (2, (1, 6)), (3, (1, 6))]
         """
-        check_is_fitted(self)
-        return _PCCStream(self)
-
-    def transform(self, X):
-        """The same as :meth:`predict` (so that the stage can sit anywhere)."""
-        return self.predict(X)
+        return super().start_stream()

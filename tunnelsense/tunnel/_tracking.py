@@ -19,44 +19,12 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense._streaming import StreamingMixin, StreamState, stream_order
 from tunnelsense.tunnel._appearance import boxes_of
 
-__all__ = ["TrajectoryLinker", "link_log_likelihood", "tour_order"]
-
-
-def tour_order(records):
-    """Indices of ``records`` grouped by tour (first appearance) and sorted by frame.
-
-    Returns
-    -------
-    groups : list of ndarray of int
-        One array of record indices per tour, in frame order.
-
-    Raises
-    ------
-    ValueError
-        When a ``(tour, frame)`` appears twice.
-    """
-    by_tour: dict = {}
-    for i, r in enumerate(records):
-        by_tour.setdefault(r.tour, []).append(i)
-    groups = []
-    for tour, idx in by_tour.items():
-        idx = np.asarray(idx, dtype=np.intp)
-        frames = np.fromiter((records[i].frame for i in idx), np.int64, len(idx))
-        order = np.argsort(frames, kind="stable")
-        idx, frames = idx[order], frames[order]
-        dup = np.flatnonzero(np.diff(frames) == 0)
-        if len(dup):
-            raise ValueError(
-                f"X holds frame {int(frames[dup[0]])} of tour {tour!r} twice; every "
-                "(tour, frame) must appear once"
-            )
-        groups.append(idx)
-    return groups
+__all__ = ["TrajectoryLinker", "link_log_likelihood"]
 
 
 def link_log_likelihood(
@@ -146,13 +114,12 @@ class _Track:
         return xm + vx * (frame - tm), ym + vy * (frame - tm)
 
 
-class _LinkState:
-    """The linker's state machine over the frames of one tour at a time.
+class _LinkerStream(StreamState):
+    """Stream state of :class:`TrajectoryLinker`: its pool of trajectories, one tour at a time.
 
-    ``step(record, boxes)`` links one frame (frames of a tour in increasing order; a
-    record of another tour starts afresh) and returns ``(track_ids, ended_tracks)``.
-    A trajectory *ends* as soon as it can no longer link a later frame: it missed more
-    than ``max_gap`` frames, or its duration reached ``max_track_length`` frames.
+    A record of another tour starts afresh.  A trajectory *ends* as soon as it can no
+    longer link a later frame: it missed more than ``max_gap`` frames, or its duration
+    reached ``max_track_length`` frames.
     """
 
     def __init__(self, linker):
@@ -172,23 +139,29 @@ class _LinkState:
         )
         self.hungarian = linker.assignment == "hungarian"
         self.tour = None
-        self.last_frame = None
         self.alive: list[_Track] = []
         self.next_id = 1
+        self._count = 0
 
     def _can_link(self, t, frame):
         return frame - t.last <= self.reach and frame - t.first < self.max_length
 
-    def step(self, record, boxes):
+    def _push(self, record):
+        boxes = boxes_of(record, self._count, "TrajectoryLinker")
+        self._count += 1
+        ids, ended = self._step(record, boxes)
+        return [record.evolve(track_ids=ids, ended_tracks=ended)]
+
+    def _close(self):
+        self.tour = None
+        self.alive = []
+        return []
+
+    def _step(self, record, boxes):
+        """Link one frame; return ``(track_ids, ended_tracks)``."""
         frame = record.frame
         if record.tour != self.tour:
             self.tour, self.alive, self.next_id = record.tour, [], 1
-        elif frame <= self.last_frame:
-            raise ValueError(
-                f"frames of tour {record.tour!r} must arrive in increasing order: "
-                f"frame {frame} came after frame {self.last_frame}"
-            )
-        self.last_frame = frame
         ended = [t.id for t in self.alive if not self._can_link(t, frame)]
         alive = [t for t in self.alive if self._can_link(t, frame)]
         m = len(boxes)
@@ -237,26 +210,7 @@ class _LinkState:
         return out, np.array(sorted(ended), dtype=np.int64)
 
 
-class _LinkerStream:
-    """Stream state of :class:`TrajectoryLinker` (see :meth:`TrajectoryLinker.start_stream`)."""
-
-    def __init__(self, linker):
-        self._state = _LinkState(linker)
-        self._count = 0
-
-    def push(self, record):
-        boxes = boxes_of(record, self._count, "TrajectoryLinker")
-        self._count += 1
-        ids, ended = self._state.step(record, boxes)
-        return [record.evolve(track_ids=ids, ended_tracks=ended)]
-
-    def close(self):
-        self._state.tour = None
-        self._state.alive = []
-        return []
-
-
-class TrajectoryLinker(TransformerMixin, BaseEstimator):
+class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
     """Link keypoint clusters of consecutive frames into trajectories (section 3.5).
 
     Stage 5 of the FIR indicator detector, a frame stage with nothing to learn.  The
@@ -404,12 +358,21 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         -------
         self : TrajectoryLinker
         """
+        records = self._check_records(X, y)
+        stream_order(records)
+        self.n_frames_fit_ = len(records)
+        return self
+
+    _sequence = FrameSequence
+
+    def _check_records(self, X, y=None):
         records, _ = check_frames(X, y)
         for i, r in enumerate(records):
             boxes_of(r, i, "TrajectoryLinker")
-        tour_order(records)
-        self.n_frames_fit_ = len(records)
-        return self
+        return records
+
+    def _stream_state(self, *, batch=False):
+        return _LinkerStream(self)
 
     def transform(self, X):
         """Link the clusters of every tour into trajectories.
@@ -429,19 +392,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
             The frames in input order, with ``payload["track_ids"]`` and
             ``payload["ended_tracks"]``.
         """
-        check_is_fitted(self)
-        records, _ = check_frames(X)
-        boxes = [boxes_of(r, i, "TrajectoryLinker") for i, r in enumerate(records)]
-        ids = [None] * len(records)
-        ended = [None] * len(records)
-        for group in tour_order(records):
-            state = _LinkState(self)
-            for i in group.tolist():
-                ids[i], ended[i] = state.step(records[i], boxes[i])
-        return FrameSequence(
-            r.evolve(track_ids=t, ended_tracks=e)
-            for r, t, e in zip(records, ids, ended, strict=True)
-        )
+        return super().transform(X)
 
     def start_stream(self):
         """Link frames online, one at a time (the streaming protocol).
@@ -471,8 +422,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         2 [1] []
         5 [2] [1]
         """
-        check_is_fitted(self)
-        return _LinkerStream(self)
+        return super().start_stream()
 
     @staticmethod
     def _assign(pairs, n_tracks, m, hungarian):
