@@ -76,6 +76,19 @@ axes[0].set_ylim(-5, 15)
 plot_positioning(tour_positions, tour_estimate, tour_odometry, tour_fixes,
                  indicator_map=tour_indicators, ax=axes[1])
 axes[1].set_title("rendered tour, real detector (smoothed)")
-if plt.get_backend().lower() == "agg":
-    fig.savefig("positioning.png", dpi=100)
-plt.show()
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore
