@@ -125,10 +125,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         continuation starts a new object-cluster.  In a region labelled as vehicles
         the limit is at least ``max_length`` (it cannot be one vehicle).  This bounds
         the memory of the online detector; batch runs the same checks, so both agree.
-        The default is about 3 times the longest object-cluster of parked or passing
-        vehicles in the simulated streets (27 m: cars nose to tail, bridged behind
-        passing vehicles), which the merge split must see whole.  None: wait for
-        every object-cluster to end (memory then follows the longest one).
+        None: wait for every object-cluster to end (memory then follows the longest
+        one).  See ``docs/street.md`` for how the default was chosen.
 
     Attributes
     ----------

@@ -85,7 +85,7 @@ class History:
         tilts = np.asarray(tilts, dtype=np.float64)
         for i in range(len(tilts)):
             if np.isfinite(tilts[i]):
-                self.tilts = np.r_[self.tilts[-(HISTORY - 1):], tilts[i]]
+                self.tilts = np.append(self.tilts[-(HISTORY - 1):], tilts[i])
             else:
                 tilts[i] = float(np.median(self.tilts)) if len(self.tilts) else 0.0
         return tilts

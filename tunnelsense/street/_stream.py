@@ -32,7 +32,12 @@ import numpy as np
 
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
-from tunnelsense.street._clustering import components, expand_ranges, first_appearance
+from tunnelsense.street._clustering import (
+    components,
+    concat,
+    expand_ranges,
+    first_appearance,
+)
 from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
@@ -229,13 +234,13 @@ class _RunState(ScanWindow):
                           & (np.abs(cum[fb] - cum[first]) <= self.reach))
             for a in np.flatnonzero(candidates):
                 blocked[a] = fb <= last[a] or bridged(
-                    prof.end_depth[a], prof.start_depth[b], cum[fb] - cum[last[a] + 1],
-                    near[last[a] + 1:fb], **self.rule)
+                    prof.end_depth[a], prof.start_depth[b], last[a] + 1, fb, cum, near,
+                    **self.rule)
         # enough scans after the object-cluster to see whether its end is hidden
         last_of_root = np.full(prof.n, -1, dtype=np.int64)
         np.maximum.at(last_of_root, root, last)
         end = last_of_root[root]
-        stretch_end = np.flatnonzero(np.r_[~follows[1:], False])
+        stretch_end = np.flatnonzero(concat(~follows[1:], False))
         ends_known = np.searchsorted(stretch_end, end) < len(stretch_end)
         seen_after = (end < t) & ((cum[t + 1] - cum[np.minimum(end + 1, t)] >= self.cap)
                                   | ends_known)
