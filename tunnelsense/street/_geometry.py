@@ -22,7 +22,14 @@ from tunnelsense.street._restoration import (
 )
 from tunnelsense.street._roi import roi_mask
 
-__all__ = ["DEFAULT_SCAN_PERIOD", "History", "RoiPoints", "roi_points", "running_median"]
+__all__ = [
+    "DEFAULT_SCAN_PERIOD",
+    "DEFAULT_SPEED",
+    "History",
+    "RoiPoints",
+    "roi_points",
+    "running_median",
+]
 
 #: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
 #: the paper's measurement vehicle drove at about 40 km/h.
