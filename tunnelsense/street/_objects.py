@@ -33,7 +33,14 @@ MIN_VISIBLE = 0.5
 
 
 def depth_region(depth, edges):
-    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``."""
+    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``.
+
+    Examples
+    --------
+    >>> from tunnelsense.street._objects import depth_region
+    >>> depth_region([2.5, 5.0, 7.0], (4.0, 6.6)).tolist()
+    [0, 1, 2]
+    """
     return np.searchsorted(edges, depth, side="right")
 
 
@@ -137,6 +144,38 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     (the paper's rule), or when ``b`` starts after ``a`` ends and :func:`bridged`
     joins them; fragments starting more than ``reach`` metres apart never join.
     ``rule`` holds the keywords of :func:`bridged`.
+
+    Parameters
+    ----------
+    prof : ObjectProfiles
+        The fragments.
+    region : ndarray of shape (n_fragments,) of int
+        Region of every fragment's mean depth (:func:`depth_region`).
+    cum, near, follows : ndarray
+        The window's distances, nearest depths and scan continuity.
+    reach : float
+        ``max_length + merge_gap``.
+
+    Returns
+    -------
+    root : ndarray of shape (n_fragments,) of int64
+        The smallest fragment of every fragment's merged object-cluster.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import (ObjectProfiles, depth_region,
+    ...                                          merge_fragments)
+    >>> # two fragments of a car 0.2 m apart, and a passing vehicle nearer
+    >>> prof = ObjectProfiles(np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 4, 5, 5]),
+    ...                       np.array([5.0, 5.0, 5.0, 5.1, 5.1, 2.0]), np.full(6, 1.4),
+    ...                       np.full(6, 20.0))
+    >>> merge_fragments(prof, depth_region(prof.depth, (4.0, 6.6)), np.arange(7) * 0.2,
+    ...                 np.array([5.0, 5.0, 5.0, np.inf, 2.0, 2.0]),
+    ...                 np.array([False, True, True, True, True, True]), reach=25.5,
+    ...                 link_distance=0.5, merge_gap=0.5, occlusion_margin=1.0,
+    ...                 bridge_occluded=True).tolist()
+    [0, 0, 2]
     """
     first, last = prof.first, prof.last
     stretch = np.cumsum(~follows) - 1
@@ -266,7 +305,17 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance)
 def hidden_ends(near, follows, first, last, depth, cum, cap):
     """Scans right before ``first`` and after ``last`` (within one stretch of
     consecutive scans) whose nearest cluster is nearer than ``depth``; each walk stops
-    once it covers ``cap`` metres (no decision looks farther)."""
+    once it covers ``cap`` metres (no decision looks farther).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import hidden_ends
+    >>> near = np.array([5.0, 2.0, 2.0, 5.0, 5.0])  # something nearer in scans 1, 2
+    >>> hidden_ends(near, np.array([False, True, True, True, True]), 3, 4, 4.0,
+    ...             np.arange(6) * 0.5, 4.0)
+    (2, 0)
+    """
     before = 0
     p = first - 1
     while (p >= 0 and follows[p + 1] and near[p] < depth

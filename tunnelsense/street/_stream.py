@@ -171,10 +171,11 @@ class _RunState(ScanWindow):
         if len(pending):
             lookup = np.full(len(self.object_id), -1, dtype=np.int64)
             lookup[pending] = np.arange(len(pending))
-            a = lookup[self.links[0] - self.cluster_base]
-            b = lookup[self.links[1] - self.cluster_base]
-            keep = (a >= 0) & (b >= 0)
-            fragment = first_appearance(components(len(pending), a[keep], b[keep]))
+            earlier = lookup[self.links[0] - self.cluster_base]
+            later = lookup[self.links[1] - self.cluster_base]
+            keep = (earlier >= 0) & (later >= 0)
+            fragment = first_appearance(
+                components(len(pending), earlier[keep], later[keep]))
             position = self.position[pending] - self.base
             prof = ObjectProfiles(fragment, position, self.depth[pending],
                                   self.top[pending], self.n_points[pending])
@@ -189,9 +190,9 @@ class _RunState(ScanWindow):
             if not final_fragment.all():
                 frontier = self.base + int(prof.first[~final_fragment].min())
             if final_fragment.any():
-                sel = final_fragment[fragment]
-                _, objects = np.unique(root[fragment[sel]], return_inverse=True)
-                self._finalize(pending[sel], objects.ravel(), position[sel], ended)
+                done = final_fragment[fragment]  # clusters of final object-clusters
+                _, objects = np.unique(root[fragment[done]], return_inverse=True)
+                self._finalize(pending[done], objects.ravel(), position[done], ended)
         return self._number_and_release(frontier, ended, next_id)
 
     def _overdue(self, prof, root, region, final):
