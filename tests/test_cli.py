@@ -1,3 +1,4 @@
+import argparse
 import json
 
 import numpy as np
@@ -6,6 +7,7 @@ import pytest
 
 from tunnelsense import LaserGeometry, Run, Tour, __version__
 from tunnelsense._cli import main
+from tunnelsense.cli import build_parser
 from tunnelsense.io import write_run, write_tour
 
 
@@ -83,7 +85,7 @@ def test_simulate_then_info(tmp_path, capsys):
     facts = json.loads(capsys.readouterr().out)
     assert facts["kind"] == "tunnel" and facts["frames"] == 12
     assert (facts["width"], facts["height"]) == (640, 480)
-    assert facts["info"]["scenario"] == "light" and facts["info"]["seed"] == "3"
+    assert facts["info"]["scenario"] == "light" and facts["info"]["seed"] == 3
 
     assert (
         main(
@@ -149,7 +151,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from tunnelsense._cli_common import load_cli_model
+    from tunnelsense.cli._common import load_cli_model
     from tunnelsense.io import save_model
 
     other = Pipeline([("scale", StandardScaler())]).fit([[0.0], [1.0]])
@@ -178,7 +180,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
 
 
 def test_unexpected_errors_are_one_line(monkeypatch, capsys):
-    import tunnelsense._cli as cli
+    import tunnelsense.cli.info as cli
 
     def broken(args):
         raise KeyError("oops")
@@ -197,3 +199,68 @@ def test_unexpected_errors_are_one_line(monkeypatch, capsys):
 def test_demo_with_too_few_frames_says_so(capsys):
     assert main(["demo", "--frames", "5"]) == 1
     assert "--frames 5 is too short" in capsys.readouterr().err
+
+
+def _actions(parser, path=()):
+    """Every argument of every command, and every command, with its command path."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:
+                yield (*path, choice.dest), choice
+            for name, sub in action.choices.items():
+                yield from _actions(sub, (*path, name))
+        elif not isinstance(action, argparse._HelpAction):
+            yield path, action
+
+
+def test_every_command_and_argument_has_help():
+    actions = list(_actions(build_parser()))
+    assert len(actions) > 60  # every command was walked
+    missing = [(" ".join(p), a.dest) for p, a in actions if not a.help]
+    assert missing == []
+
+
+def test_info_help_mentions_model_files(capsys):
+    with pytest.raises(SystemExit):
+        main(["info", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "model file (.skops, .joblib)" in text and "never loaded" in text
+
+
+def test_info_prints_one_fact_per_line_and_json_numbers(tmp_path, capsys):
+    tour = Tour.from_array("t", np.zeros((2, 8, 10), np.uint8),
+                           info={"seed": "7", "rate": "2.5", "site": "A9"})
+    write_tour(tour, tmp_path / "t")
+    assert main(["info", str(tmp_path / "t"), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["info"] == {"seed": 7, "rate": 2.5, "site": "A9"}
+    assert main(["info", str(tmp_path / "t")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert not any("{" in line for line in lines)  # no dict on one line
+    assert "  info:" in lines and "    seed: 7" in lines and "    site: A9" in lines
+
+
+@pytest.mark.parametrize("kind", ["tunnel", "street"])
+def test_simulate_never_writes_over_a_folder_without_force(kind, tmp_path, capsys):
+    out = tmp_path / "data"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep me")
+    size = ["--frames", "3"] if kind == "tunnel" else ["--scans", "50"]
+    assert main(["simulate", kind, str(out), *size]) == 1
+    assert "pass --force" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["mine.txt"]
+    assert main(["simulate", kind, str(out / "mine.txt"), *size]) == 1  # a file
+    assert main(["simulate", kind, str(out), *size, "--force"]) == 0
+    assert len(list(out.iterdir())) > 1
+
+
+def test_demo_help_describes_the_scenarios(capsys):
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "heavy traffic" in text and "curving tunnel" in text
+    assert "--frames" in text and "--seed" in text
+    with pytest.raises(SystemExit):
+        main(["simulate", "tunnel", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "{light,heavy,curved}" in text and "curving tunnel" in text

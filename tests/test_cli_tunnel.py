@@ -9,12 +9,12 @@ import time
 import numpy as np
 import pytest
 
-from tunnelsense import _cli_tunnel
-from tunnelsense._cli import main
+from tunnelsense.cli import main
+from tunnelsense.cli import tunnel as cli_tunnel
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.io import read_mot_results, read_tour, write_tour
+from tunnelsense.io import mot_result_lines, read_mot_results, read_tour, write_tour
 
-CLI = [sys.executable, "-c", "import sys; from tunnelsense._cli import main; sys.exit(main())"]
+CLI = [sys.executable, "-c", "import sys; from tunnelsense.cli import main; sys.exit(main())"]
 
 
 def run(argv):
@@ -24,8 +24,8 @@ def run(argv):
         v: sub.add_parser(v).add_subparsers(dest="kind", required=True)
         for v in ("train", "detect", "evaluate")
     }
-    _cli_tunnel.register(verbs)
-    _cli_tunnel.register_top(sub)
+    cli_tunnel.register(verbs)
+    cli_tunnel.register_top(sub)
     args = parser.parse_args(argv)
     return args.func(args)
 
@@ -75,7 +75,7 @@ def batch_records(models, tour_dirs):
 
 def lines_of(records):
     """Results lines of records, as detect writes them."""
-    return [line for r in records for line in _cli_tunnel._result_lines(r)]
+    return [line for r in records for line in mot_result_lines(r)]
 
 
 @pytest.fixture(scope="module")
@@ -258,7 +258,67 @@ def test_errors(tour_dirs, tmp_path):
 def test_demo_is_registered():
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    _cli_tunnel.register_top(sub)
+    cli_tunnel.register_top(sub)
     args = parser.parse_args(["demo", "--frames", "60"])
-    assert args.frames == 60 and args.func is _cli_tunnel._cmd_demo
+    assert args.frames == 60 and args.func is cli_tunnel._cmd_demo
     assert np.isfinite(args.min_height)
+
+
+def _learned(estimator):
+    return {k: v for k, v in vars(estimator).items() if k.endswith("_")
+            and not k.startswith("_")}
+
+
+def test_train_gives_the_model_fit_gives(models, tour_dirs):
+    """'train tunnel' with its defaults equals make_indicator_pipeline().fit(X, y).
+
+    The command's default ``--jobs`` (the number of CPUs) is the verifier's k-means
+    threads, whose sums round in another order than on one thread.
+    """
+    from tunnelsense import to_xy
+    from tunnelsense.io import load_model
+    from tunnelsense.tunnel import make_indicator_pipeline
+
+    X, y, _ = to_xy([read_tour(tour_dirs[0])])
+    fitted = make_indicator_pipeline(random_state=0,
+                                     verifier__n_jobs=os.cpu_count() or 1).fit(X, y)
+    trained = load_model(models["skops"])
+    for (name, a), (_, b) in zip(fitted.steps, trained.steps, strict=True):
+        learned_a, learned_b = _learned(a), _learned(b)
+        assert learned_a.keys() == learned_b.keys() and learned_a, name
+        for key, value in learned_a.items():
+            if isinstance(value, np.ndarray) and value.dtype.kind in "fiub":
+                np.testing.assert_array_equal(value, learned_b[key], f"{name}.{key}")
+            elif not hasattr(value, "get_params"):
+                assert repr(value) == repr(learned_b[key]), f"{name}.{key}"
+    test = read_tour(tour_dirs[1]).frames
+    assert lines_of(fitted.predict(test)) == lines_of(trained.predict(test))
+    assert any(lines_of(trained.predict(test)))  # something to compare
+
+
+def test_info_of_a_model_is_indented_one_fact_per_line(models, capsys):
+    assert main(["info", str(models["skops"])]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "  summary:" in lines and "    parameters:" in lines
+    assert "      motion__min_r: 0.95" in lines
+    first = lines.index("    tours:") + 1  # a bulleted list of tours
+    assert lines[first] == "      - frames: 120"
+    assert "        name: tunnel-light-0" in lines[first:]
+    assert not any("{" in line for line in lines)
+
+
+def test_evaluate_spells_a_missing_rate_n_a(tmp_path, capsys):
+    """A tour without indicators: rates of 0 of 0 are n/a (JSON null), never a number."""
+    from tunnelsense import Tour
+
+    write_tour(Tour.from_array("empty", np.zeros((3, 16, 16), np.uint8)), tmp_path / "t")
+    results = tmp_path / "r.txt"
+    results.write_text("")
+    assert main(["evaluate", "tunnel", str(tmp_path / "t"), str(results)]) == 0
+    text = capsys.readouterr().out
+    assert text.count("n/a") == 3 and "nan" not in text.lower()
+    assert "0.0 %" not in text and "100.0 %" not in text
+    assert main(["evaluate", "tunnel", str(tmp_path / "t"), str(results), "--json"]) == 0
+    scores = json.loads(capsys.readouterr().out)
+    assert scores["cluster"]["detection_rate"] is None
+    assert scores["trajectory"]["detection_rate"] is None

@@ -46,6 +46,12 @@ class Progress:
     def __call__(self, done, total=None):
         self.update(done)
 
+    def set_total(self, total):
+        """Change the units of work (once the job knows them)."""
+        self.total = max(int(total), 1)
+        self._bar.total = self.total
+        self._bar.refresh()
+
     def update(self, done):
         """Set the work done so far; the bar closes when it reaches ``total``."""
         done = min(int(done), self.total)

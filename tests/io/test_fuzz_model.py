@@ -15,13 +15,18 @@ from sklearn.linear_model import LogisticRegression
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
-from tunnelsense._cli_tunnel import CLUSTERS_HEADER, read_hypotheses
 from tunnelsense.exceptions import (
     InputFormatError,
     ModelVersionWarning,
     UntrustedModelError,
 )
-from tunnelsense.io import describe_model, load_model, save_model
+from tunnelsense.io import (
+    CLUSTERS_HEADER,
+    describe_model,
+    load_model,
+    read_hypotheses,
+    save_model,
+)
 
 #: Examples per fuzz test; set TUNNELSENSE_FUZZ_EXAMPLES higher for a long search.
 FUZZ = settings(max_examples=int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 60)),

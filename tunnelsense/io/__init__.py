@@ -2,14 +2,15 @@
 
 * Far-infrared tours: MOTChallenge sequence folders (``seqinfo.ini``, ``img1/``,
   ``gt/gt.txt``), plain image folders and video files through OpenCV (8- and 16-bit);
-  detections as MOTChallenge results files.
+  detections as MOTChallenge results files with their ``.clusters.csv`` companion,
+  written line by line (:class:`ResultsWriter`).
 * Laser runs: ``scans.npz`` with ROS ``sensor_msgs/LaserScan`` field names, and
   ``gt.csv`` (``id,first_scan,last_scan,label``).
 * Fitted models: a safe ``.skops`` format (no code runs on load; versions, training
   summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
-from tunnelsense.io._describe import describe, open_source
+from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
 from tunnelsense.io._laser import (
     RunStream,
@@ -29,21 +30,31 @@ from tunnelsense.io._model import (
     load_model,
     save_model,
 )
-from tunnelsense.io._mot import (
+from tunnelsense.io._mot import read_tour, write_tour
+from tunnelsense.io._results import (
+    CLUSTERS_HEADER,
+    CLUSTERS_SUFFIX,
     MOT_RESULT_COLUMNS,
-    open_tour,
-    read_image_folder,
-    read_mot_gt,
+    cluster_lines,
+    clusters_path,
+    mot_result_lines,
+    read_hypotheses,
     read_mot_results,
-    read_tour,
-    read_video,
-    write_mot_gt,
     write_mot_results,
-    write_tour,
 )
+from tunnelsense.io._sources import open_tour, read_image_folder, read_video
+from tunnelsense.io._tables import read_mot_gt, write_mot_gt
+from tunnelsense.io._writer import ResultsWriter
 
 __all__ = [
+    "CLUSTERS_HEADER",
+    "CLUSTERS_SUFFIX",
     "MOT_RESULT_COLUMNS",
+    "ResultsWriter",
+    "cluster_lines",
+    "clusters_path",
+    "mot_result_lines",
+    "read_hypotheses",
     "TRUSTED_TYPES",
     "ModelVersionWarning",
     "UntrustedModelError",
@@ -51,6 +62,7 @@ __all__ = [
     "load_model",
     "save_model",
     "describe",
+    "format_description",
     "iter_video",
     "RunStream",
     "ego_speed",

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -9,9 +11,10 @@ import numpy as np
 from tunnelsense._records import OBJECT_CLASSES, Run, Tour
 from tunnelsense.io._laser import read_run
 from tunnelsense.io._model import describe_model
-from tunnelsense.io._mot import open_tour
+from tunnelsense.io._rosbag import is_bag
+from tunnelsense.io._sources import open_tour
 
-__all__ = ["describe", "open_source"]
+__all__ = ["describe", "format_description", "open_source"]
 
 _MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 
@@ -33,8 +36,6 @@ def open_source(source, *, range_unit="m") -> Tour | Run:
     -------
     data : Tour or Run
     """
-    from tunnelsense.io._rosbag import is_bag
-
     source = Path(source)
     if (
         source.is_dir() and (source / "scans.npz").exists()
@@ -95,7 +96,7 @@ def describe(source, *, range_unit="m") -> dict:
             if data.frame_rate
             else None,
             "objects": objects,
-            "info": {k: str(v) for k, v in data.info.items()},
+            "info": _plain(data.info),
         }
     g = data.geometry
     stamps = np.array([r.stamp for r in data.scans])
@@ -117,5 +118,109 @@ def describe(source, *, range_unit="m") -> dict:
         "objects": {
             str(k): int(v["id"].nunique()) for k, v in data.gt.groupby("label")
         },
-        "info": data.info,
+        "info": _plain(data.info),
     }
+
+
+#: Decimal numbers in text (an ``.ini`` file's values): given as JSON numbers.
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def _plain(value):
+    """``value`` as JSON: numbers (also those written as text) as numbers.
+
+    Examples
+    --------
+    >>> from tunnelsense.io._describe import _plain
+    >>> _plain({"seed": "3", "rate": "2.5", "scenario": "light", "n": [1, "x"]})
+    {'seed': 3, 'rate': 2.5, 'scenario': 'light', 'n': [1, 'x']}
+    """
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, bool | int | float):
+        return value if not isinstance(value, float) or math.isfinite(value) else None
+    text = str(value)
+    if _INTEGER.fullmatch(text):
+        return int(text)
+    return float(text) if _DECIMAL.fullmatch(text) else text
+
+
+def format_description(facts) -> str:
+    """A description (:func:`describe`) as text: a headline, then one fact per line.
+
+    Nested facts are indented below their key; a list of them is a bulleted list.
+
+    Parameters
+    ----------
+    facts : dict
+        From :func:`describe`.
+
+    Returns
+    -------
+    text : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import Tour
+    >>> from tunnelsense.io import describe, format_description
+    >>> tour = Tour.from_array("t", np.zeros((2, 8, 10), np.uint8), info={"seed": 7})
+    >>> print(format_description(describe(tour)))
+    t: far-infrared tour, 2 frames of 10x8 px (uint8), 30 fps
+      objects: none in the ground truth
+      frames: 2
+      width: 10
+      height: 8
+      dtype: uint8
+      frame_rate: 30.0
+      duration_s: 0.067
+      info:
+        seed: 7
+    """
+    facts = dict(facts)
+    lines = [_headline(facts)]
+    if facts["kind"] != "model":
+        objects = facts.pop("objects")
+        lines.append("  objects: " + (", ".join(
+            f"{n} {k}" for k, n in sorted(objects.items())) or "none in the ground truth"))
+    for name, version in sorted(facts.get("versions", {}).items()):
+        lines.append(f"  trained under {name} {version}")
+    shown = {"kind", "path", "format", "bytes", "name", "versions"}
+    lines += _tree({k: v for k, v in facts.items() if k not in shown})
+    return "\n".join(lines)
+
+
+def _tree(facts, indent="  ") -> list[str]:
+    """One fact per line; nested dicts (and lists of them) indented below their key."""
+    lines = []
+    for key, value in facts.items():
+        if isinstance(value, dict) and value:
+            lines += [f"{indent}{key}:", *_tree(value, indent + "  ")]
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            lines.append(f"{indent}{key}:")
+            for item in value:
+                sub = _tree(item, indent + "    ")
+                lines += [indent + "  - " + sub[0].lstrip(), *sub[1:]]
+        elif isinstance(value, list):
+            lines.append(f"{indent}{key}: {', '.join(map(str, value))}")
+        else:
+            lines.append(f"{indent}{key}: {value}")
+    return lines
+
+
+def _headline(facts) -> str:
+    if facts["kind"] == "model":
+        return f"{facts['path']}: {facts['format']} model file, {facts['bytes']} bytes"
+    if facts["kind"] == "tunnel":
+        return (f"{facts['name']}: far-infrared tour, {facts['frames']} frames of "
+                f"{facts['width']}x{facts['height']} px ({facts['dtype']}), "
+                f"{facts['frame_rate']:g} fps")
+    rate = facts["scan_rate"]
+    return (f"{facts['name']}: laser run, {facts['scans']} scans of {facts['beams']} "
+            f"beams" + (f", {rate:g} scans/s" if rate else "")
+            + f", mount height {facts['mount_height']:g} m")

@@ -29,20 +29,26 @@ code and less trust.
 from __future__ import annotations
 
 import hashlib
-import hmac
-import io
-import json
-import platform
 import warnings
-import zipfile
-import zlib
-from datetime import UTC, datetime
 from pathlib import Path
+
+import joblib
+from sklearn.base import BaseEstimator
 
 from tunnelsense.exceptions import (
     InputFormatError,
     ModelVersionWarning,
     UntrustedModelError,
+)
+from tunnelsense.io._model_file import (
+    _COMMENT_PREFIX,
+    _DIGEST_LEN,
+    _as_key,
+    _hmac,
+    _versions,
+    read_metadata,
+    skops_bytes,
+    verified_bytes,
 )
 from tunnelsense.io._output import atomic_write, check_output
 
@@ -56,10 +62,6 @@ __all__ = [
     "save_model",
 ]
 
-_METADATA = "tunnelsense.json"
-_COMMENT_PREFIX = b"tunnelsense-sha256:"
-_SIGNATURE_PREFIX = b"tunnelsense-hmac-sha256:"
-_DIGEST_LEN = 64
 _PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
 
 #: Environment variable holding the fleet's signing key (the command line reads it).
@@ -81,49 +83,6 @@ TRUSTED_TYPES = frozenset(
     ]
 )
 
-
-def _versions() -> dict:
-    import numpy
-    import scipy
-    import sklearn
-
-    from tunnelsense._version import __version__
-
-    return {
-        "tunnelsense": __version__,
-        "scikit-learn": sklearn.__version__,
-        "numpy": numpy.__version__,
-        "scipy": scipy.__version__,
-        "python": platform.python_version(),
-    }
-
-
-def _json_safe(value):
-    """Parameters and scores as JSON (estimators and other objects as their repr)."""
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, str | int | float | bool) or value is None:
-        return value
-    if hasattr(value, "item") and getattr(value, "ndim", 1) == 0:
-        return value.item()
-    return repr(value)
-
-
-def _as_key(key):
-    """A signing key as bytes (a str is taken as UTF-8); None stays None."""
-    if key is None:
-        return None
-    if isinstance(key, str):
-        key = key.encode("utf-8")
-    if not isinstance(key, bytes | bytearray) or len(key) < 16:
-        raise ValueError(
-            "key must be a secret of at least 16 bytes (str or bytes); got "
-            + (f"{len(key)} bytes" if isinstance(key, bytes | bytearray) else
-               type(key).__name__)
-        )
-    return bytes(key)
 
 
 def _model_format(path: Path) -> str:
@@ -187,12 +146,10 @@ def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
     if suffix in _PICKLE_SUFFIXES:
         if key is not None:
             raise ValueError(f"{path}: only .skops files can be signed")
-        import joblib
-
         with atomic_write(path) as f:
             joblib.dump(model, f)
         return path
-    data = _skops_bytes(model, summary, signed=key is not None)
+    data = skops_bytes(model, summary, signed=key is not None)
     if key is not None:
         start = len(data) - 2 * _DIGEST_LEN - len(_COMMENT_PREFIX)
         data[start:start + _DIGEST_LEN] = _hmac(key, data[: start]).encode()
@@ -202,100 +159,6 @@ def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
         f.write(bytes(data))
     return path
 
-
-def _hmac(key: bytes, data) -> str:
-    return hmac.new(key, data, hashlib.sha256).hexdigest()
-
-
-def _skops_bytes(model, summary, *, signed) -> bytearray:
-    """The skops file with metadata and a zip comment of zeros to fill in."""
-    import skops.io
-
-    payload = skops.io.dumps(model, compression=zipfile.ZIP_DEFLATED)
-    metadata = {
-        "file_format": "tunnelsense-model",
-        "file_format_version": 1,
-        "created": datetime.now(UTC).isoformat(timespec="seconds"),
-        "model": type(model).__name__,
-        "signed": signed,
-        "versions": _versions(),
-        "summary": _json_safe(summary or {}),
-    }
-    buffer = io.BytesIO(payload)
-    with zipfile.ZipFile(buffer, "a", compression=zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr(_METADATA, json.dumps(metadata, indent=2, sort_keys=True))
-        comment = _COMMENT_PREFIX + b"0" * _DIGEST_LEN
-        if signed:
-            comment = _SIGNATURE_PREFIX + b"0" * _DIGEST_LEN + comment
-        zf.comment = comment
-    return bytearray(buffer.getvalue())
-
-
-def _verified_bytes(path: Path, key=None) -> tuple[bytes, bool]:
-    """The file's bytes after the checksum (and, with a key, signature) check.
-
-    Returns the bytes and whether the file carries a signature.
-    """
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: model file not found")
-    data = path.read_bytes()
-    tail = data[-(len(_COMMENT_PREFIX) + _DIGEST_LEN) :]
-    if not tail.startswith(_COMMENT_PREFIX):
-        hint = ""
-        if data[:1] == b"\x80" or data[:2] == b"\x78\x9c" or data[:2] == b"\x1f\x8b":
-            hint = (
-                " It looks like a pickle: pickles run code when loaded; save it as "
-                ".joblib and load it with allow_pickle=True only if you trust its source."
-            )
-        raise UntrustedModelError(
-            f"{path}: not a tunnelsense model file, or truncated (no checksum at the "
-            f"end).{hint}"
-        )
-    body = len(data) - _DIGEST_LEN
-    digest = hashlib.sha256(data[:body]).hexdigest().encode()
-    if not hmac.compare_digest(digest, data[body:]):
-        raise UntrustedModelError(
-            f"{path}: checksum mismatch, the file was changed after it was written "
-            "(tampered or corrupted); refusing to load it"
-        )
-    end = len(data) - len(tail)
-    start = end - _DIGEST_LEN
-    signed = data[start - len(_SIGNATURE_PREFIX) : start] == _SIGNATURE_PREFIX
-    if key is not None:
-        if not signed:
-            raise UntrustedModelError(
-                f"{path}: the model is not signed, and a signing key was given; "
-                "refusing a model this key did not sign"
-            )
-        expected = _hmac(key, data[:start]).encode()
-        if not hmac.compare_digest(expected, data[start:end]):
-            raise UntrustedModelError(
-                f"{path}: signature mismatch: the model was not signed with this key, "
-                "or was changed after it was signed; refusing to load it"
-            )
-    return data, signed
-
-
-def _read_metadata(path: Path, data: bytes) -> dict:
-    try:
-        with zipfile.ZipFile(io.BytesIO(data)) as zf:
-            metadata = json.loads(zf.read(_METADATA))
-    except (zipfile.BadZipFile, zlib.error, KeyError, ValueError, OSError, EOFError,
-            NotImplementedError, RuntimeError) as exc:  # what a broken zip raises
-        raise UntrustedModelError(f"{path}: malformed model file ({exc})") from None
-    versions = metadata.get("versions") if isinstance(metadata, dict) else None
-    if (
-        not isinstance(metadata, dict)
-        or metadata.get("file_format") != "tunnelsense-model"
-        or not isinstance(versions, dict)
-        or not all(isinstance(v, str) for v in versions.values())
-    ):
-        raise UntrustedModelError(
-            f"{path}: malformed model file ({_METADATA} is not the JSON object "
-            "tunnelsense writes: file_format 'tunnelsense-model' and a 'versions' "
-            "object of strings)"
-        )
-    return metadata
 
 
 def load_model(path, *, allow_pickle=False, key=None):
@@ -342,15 +205,13 @@ def load_model(path, *, allow_pickle=False, key=None):
                 f"{path}: a pickle cannot be signed; a signing key was given, so only "
                 "signed .skops models are accepted"
             )
-        import joblib
-
         model = joblib.load(path)
         _check_parameters(model, path)
         return model
-    import skops.io
+    import skops.io  # slow to import: only when a model is read
 
-    data, _ = _verified_bytes(path, key)
-    metadata = _read_metadata(path, data)
+    data, _ = verified_bytes(path, key)
+    metadata = read_metadata(path, data)
     untrusted = _trusted_types_of(path, data)
     _warn_versions(path, metadata)
     try:
@@ -368,7 +229,7 @@ def _trusted_types_of(path: Path, data: bytes) -> list[str]:
 
     Nothing is built: skops reads the schema only.
     """
-    import skops.io
+    import skops.io  # slow to import: only when a model is read
 
     try:
         untrusted = skops.io.get_untrusted_types(data=data)
@@ -407,8 +268,6 @@ def _check_parameters(model, path: Path) -> None:
     A model saved by an older tunnelsense has no attribute for a parameter added
     since; it would fail deep inside ``predict``.  Say so when it is loaded instead.
     """
-    from sklearn.base import BaseEstimator
-
     stack = [model]
     while stack:
         est = stack.pop()
@@ -450,8 +309,8 @@ def describe_model(path) -> dict:
             "bytes": path.stat().st_size,
             "note": "pickles run code when loaded; not opened",
         }
-    data, signed = _verified_bytes(path)
-    metadata = _read_metadata(path, data)
+    data, signed = verified_bytes(path)
+    metadata = read_metadata(path, data)
     _trusted_types_of(path, data)
     return {
         "kind": "model",

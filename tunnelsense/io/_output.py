@@ -12,14 +12,22 @@
 
 from __future__ import annotations
 
+import configparser
 import contextlib
 import os
 import tempfile
 from pathlib import Path
 
 from tunnelsense.exceptions import OutputExistsError
+from tunnelsense.io._rosbag import is_bag
 
-__all__ = ["atomic_write", "check_output", "output_error"]
+__all__ = [
+    "atomic_write",
+    "check_draw_dir",
+    "check_output",
+    "input_files",
+    "output_error",
+]
 
 #: Folders of the operating system's devices and kernel tables: never written.
 _DEVICE_ROOTS = (Path("/dev"), Path("/proc"), Path("/sys"))
@@ -28,6 +36,21 @@ _DEVICE_ROOTS = (Path("/dev"), Path("/proc"), Path("/sys"))
 def _is_device_path(path: Path) -> bool:
     resolved = path.resolve()
     return any(resolved.is_relative_to(root) for root in _DEVICE_ROOTS)
+
+
+def _refuse_inputs(path, inputs, what, *, folder=False) -> None:
+    """Raise when ``path`` is one of ``inputs`` or inside an input folder.
+
+    A picture folder (``folder=True``) may not even hold an input file.
+    """
+    target = path.resolve()
+    for item in map(Path, inputs):
+        item = item.resolve()
+        if target == item or ((folder or item.is_dir()) and target.is_relative_to(item)):
+            raise OutputExistsError(
+                f"{what} {path}: is (or is inside) an input of this command ({item}); "
+                "refusing to write over it"
+            )
 
 
 def check_output(path, *, overwrite=False, inputs=(), what="output") -> Path:
@@ -62,14 +85,7 @@ def check_output(path, *, overwrite=False, inputs=(), what="output") -> Path:
         raise ValueError(f"{what} {path}: refusing to write into a device folder")
     if path.exists() and not path.is_file():
         raise ValueError(f"{what} {path}: exists and is not a regular file")
-    target = path.resolve()
-    for item in inputs:
-        item = Path(item).resolve()
-        if target == item or (item.is_dir() and target.is_relative_to(item)):
-            raise OutputExistsError(
-                f"{what} {path}: is an input of this command ({item}); refusing to "
-                "write over it"
-            )
+    _refuse_inputs(path, inputs, what)
     if path.exists() and not overwrite:
         raise OutputExistsError(
             f"{what} {path}: exists; refusing to overwrite it (pass --force, or "
@@ -146,3 +162,63 @@ def atomic_write(path, mode="wb"):
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def input_files(source) -> list[Path]:
+    """The files (and folders) a command reads from a tour, video or laser run.
+
+    An output is never written over any of them, even with ``--force``.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense.io._output import input_files
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> (folder / "gt").mkdir()
+    >>> [p.name for p in input_files(folder)]
+    ['gt']
+    """
+    source = Path(source)
+    if not source.is_dir() or is_bag(source):
+        return [source]  # a file, or a ROS 2 bag folder: every file in it
+    names = ["seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv", "metadata.yaml"]
+    names.append(_image_dir(source / "seqinfo.ini"))
+    present = [source / n for n in names if n and (source / n).exists()]
+    return present or [source]  # a plain image folder: every file in it
+
+
+def _image_dir(seqinfo) -> str | None:
+    """The ``imDir`` a ``seqinfo.ini`` names (its frames), if it can be read."""
+    parser = configparser.ConfigParser(interpolation=None)
+    try:
+        parser.read(seqinfo, encoding="utf-8")
+        return parser.get("Sequence", "imDir", fallback=None)
+    except (configparser.Error, UnicodeDecodeError, OSError):
+        return None
+
+
+def check_draw_dir(path, *, force, inputs=()) -> Path:
+    """A folder for pictures: new or empty, or ``force`` to draw over its files.
+
+    Never a device folder, and never one of the command's inputs (or inside one),
+    even with ``force``.
+
+    Raises
+    ------
+    ValueError
+        A device folder, or a path that is not a folder.
+    OutputExistsError
+        A folder that holds files (without ``force``), or one of ``inputs``.
+    """
+    path = Path(path)
+    if _is_device_path(path):
+        raise ValueError(f"--draw {path}: refusing to write into a device folder")
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"--draw {path}: exists and is not a folder")
+    _refuse_inputs(path, inputs, "--draw", folder=True)
+    if path.is_dir() and any(path.iterdir()) and not force:
+        raise OutputExistsError(
+            f"--draw {path}: the folder is not empty; refusing to draw over its files "
+            "(pass --force)"
+        )
+    return path

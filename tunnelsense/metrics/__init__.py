@@ -11,12 +11,16 @@ from tunnelsense.metrics._street import (
 )
 from tunnelsense.metrics._tunnel import (
     HYPOTHESIS_COLUMNS,
-    TUNNEL_SCORER_METRICS,
     gt_from_boxes,
     hypotheses_from_records,
     indicator_scores,
-    make_tunnel_scorer,
     tunnel_scores,
+)
+from tunnelsense.metrics._tunnel_scoring import (
+    TUNNEL_SCORER_METRICS,
+    make_tunnel_scorer,
+    results_scores,
+    tunnel_report,
 )
 
 __all__ = [
@@ -26,6 +30,8 @@ __all__ = [
     "hypotheses_from_records",
     "indicator_scores",
     "make_tunnel_scorer",
+    "results_scores",
+    "tunnel_report",
     "tunnel_scores",
     "interval_iou",
     "make_street_scorer",

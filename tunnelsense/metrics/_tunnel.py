@@ -36,11 +36,9 @@ import pandas as pd
 
 __all__ = [
     "HYPOTHESIS_COLUMNS",
-    "TUNNEL_SCORER_METRICS",
     "gt_from_boxes",
     "hypotheses_from_records",
     "indicator_scores",
-    "make_tunnel_scorer",
     "tunnel_scores",
 ]
 
@@ -330,68 +328,3 @@ def indicator_scores(records, y, *, min_height=14.0) -> dict:
     return tunnel_scores(
         hypotheses_from_records(records), gt_from_boxes(records, y), min_height=min_height
     )
-
-
-#: Metrics :func:`make_tunnel_scorer` knows (greater is better for every one).
-TUNNEL_SCORER_METRICS = (
-    "youden",
-    "cluster_detection_rate",
-    "cluster_false_alarm_rate",
-    "trajectory_detection_rate",
-    "trajectory_false_alarms",
-)
-
-
-class _TunnelScorer:
-    """A picklable ``scorer(estimator, X, y)`` for GridSearchCV."""
-
-    def __init__(self, metric, min_height):
-        self.metric = metric
-        self.min_height = min_height
-
-    def __repr__(self):
-        return f"make_tunnel_scorer({self.metric!r}, min_height={self.min_height})"
-
-    def __call__(self, estimator, X, y):
-        s = indicator_scores(estimator.predict(X), y, min_height=self.min_height)
-        c, t = s["cluster"], s["trajectory"]
-        # a fold with nothing to detect (or no negative) cannot lower the score
-        detection = 1.0 if c["detection_rate"] is None else c["detection_rate"]
-        false_alarm = 0.0 if c["false_alarm_rate"] is None else c["false_alarm_rate"]
-        if self.metric == "youden":
-            return detection - false_alarm
-        if self.metric == "cluster_detection_rate":
-            return detection
-        if self.metric == "cluster_false_alarm_rate":
-            return -false_alarm
-        if self.metric == "trajectory_detection_rate":
-            return 1.0 if t["detection_rate"] is None else t["detection_rate"]
-        return -float(t["false_alarms"])
-
-
-def make_tunnel_scorer(metric="youden", *, min_height=14.0):
-    """A scorer for :class:`~sklearn.model_selection.GridSearchCV` over the detector.
-
-    Parameters
-    ----------
-    metric : str, default="youden"
-        ``"youden"``: cluster detection rate minus cluster false-alarm rate;
-        ``"cluster_detection_rate"``; ``"cluster_false_alarm_rate"`` (negated);
-        ``"trajectory_detection_rate"``; ``"trajectory_false_alarms"`` (negated
-        count).  Greater is better for all.
-    min_height : float, default=14.0
-        Indicator boxes at least this tall count.
-
-    Returns
-    -------
-    scorer : callable ``scorer(estimator, X, y) -> float``
-
-    Examples
-    --------
-    >>> from tunnelsense.metrics import make_tunnel_scorer
-    >>> make_tunnel_scorer("cluster_detection_rate")
-    make_tunnel_scorer('cluster_detection_rate', min_height=14.0)
-    """
-    if metric not in TUNNEL_SCORER_METRICS:
-        raise ValueError(f"metric must be one of {list(TUNNEL_SCORER_METRICS)}; got {metric!r}")
-    return _TunnelScorer(metric, float(min_height))

@@ -6,7 +6,7 @@ import numpy as np
 
 from tunnelsense._records import LaserGeometry, Run, ScanRecord, ScanSequence
 
-__all__ = ["plot_range_image", "plot_scan", "scan_points"]
+__all__ = ["interval_bars", "plot_range_image", "plot_scan", "scan_points"]
 
 
 def _pyplot():
@@ -138,6 +138,44 @@ def plot_scan(record_or_ranges, geometry=None, *, ax=None, labels=None, roi=(0.1
     return ax
 
 
+#: Where :func:`interval_bars` draws, in axes fractions (bottom, top) per label.
+_BAR_ROWS = {("parked", "gt"): (0.0, 0.035), ("parked", "detected"): (0.045, 0.08),
+             ("passing", "gt"): (0.965, 1.0), ("passing", "detected"): (0.92, 0.955)}
+_BAR_COLOURS = {"parked": "tab:green", "passing": "tab:purple"}
+
+
+def interval_bars(ax, intervals, source, *, alpha=1.0):
+    """Mark scan intervals on a range image: parked along the bottom, passing the top.
+
+    The bars are drawn inside the axes (clipped to them), in a band per ``source``, so
+    that a picture of part of a run keeps its size.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        A range image (:func:`plot_range_image`): x is the scan.
+    intervals : DataFrame
+        ``first_scan``, ``last_scan`` and ``label`` (other labels are not drawn).
+    source : {"gt", "detected"}
+        The band, and the legend's words.
+    alpha : float, default=1.0
+
+    Returns
+    -------
+    ax : matplotlib Axes
+    """
+    for label, colour in _BAR_COLOURS.items():
+        lo, hi = _BAR_ROWS[label, source]
+        rows = intervals[intervals["label"] == label]
+        for first, last in zip(rows["first_scan"], rows["last_scan"], strict=True):
+            ax.fill_between([first, last + 1], lo, hi, color=colour, alpha=alpha,
+                            transform=ax.get_xaxis_transform(), linewidth=0)
+        ax.plot([], [], color=colour, alpha=alpha, lw=3, label=f"{label} ({source})")
+    ax.legend(loc="lower right", fontsize="small", bbox_to_anchor=(1.0, 1.0), ncol=4,
+              frameon=False)
+    return ax
+
+
 def plot_range_image(run_or_ranges, *, ax=None, gt=None, geometry=None, max_depth=8.0):
     """Plot the panoramic range image of a run: beams up, scans along, coloured by depth.
 
@@ -189,16 +227,8 @@ def plot_range_image(run_or_ranges, *, ax=None, gt=None, geometry=None, max_dept
     im = ax.imshow(value.T, origin="lower", aspect="auto", cmap=cmap, vmin=0, vmax=max_depth,
                    interpolation="nearest")
     ax.figure.colorbar(im, ax=ax, label=what, pad=0.01)
-    n_beams = ranges.shape[1]
     if gt is not None and gt is not False and len(gt):
-        for row in gt.itertuples(index=False):
-            parked = row.label == "parked"
-            y = -0.02 * n_beams if parked else 1.02 * n_beams
-            ax.plot([row.first_scan, row.last_scan + 1], [y, y], lw=3, clip_on=False,
-                    color="tab:green" if parked else "tab:purple", solid_capstyle="butt")
-        ax.plot([], [], color="tab:green", lw=3, label="parked (gt)")
-        ax.plot([], [], color="tab:purple", lw=3, label="passing (gt)")
-        ax.legend(loc="upper right", fontsize="small", bbox_to_anchor=(1.0, 1.25), ncol=2)
+        interval_bars(ax, gt, "gt")
     ax.set_xlabel("scan")
     ax.set_ylabel("beam (bottom = road)")
     ax.set_title(name, loc="left")

@@ -20,6 +20,12 @@ from tunnelsense.tunnel._clustering import (
     mst_partition,
     region_boxes,
 )
+from tunnelsense.tunnel._detect import (
+    detect_to_files,
+    detect_tour,
+    fit_indicator_detector,
+    stream_detect,
+)
 from tunnelsense.tunnel._keypoints import (
     IntensityKeypointSampler,
     indicator_band,
@@ -47,6 +53,9 @@ __all__ = [
     "box_histograms",
     "centres_in_boxes",
     "cluster_boxes",
+    "detect_to_files",
+    "detect_tour",
+    "fit_indicator_detector",
     "fit_kmeans",
     "indicator_band",
     "keypoint_descriptors",
@@ -59,4 +68,5 @@ __all__ = [
     "verify_histograms",
     "region_boxes",
     "sample_keypoints",
+    "stream_detect",
 ]

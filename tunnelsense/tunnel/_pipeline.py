@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
 from sklearn.pipeline import Pipeline
 
+from tunnelsense.plotting._detections import DRAW_COLOURS, draw_detections  # noqa: F401 (moved)
 from tunnelsense.tunnel._appearance import WeightedAdaBoost
 from tunnelsense.tunnel._clustering import MSTClusterer
 from tunnelsense.tunnel._keypoints import IntensityKeypointSampler
@@ -13,10 +13,8 @@ from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import KMeansHistogramVerifier
 
 __all__ = [
-    "DRAW_COLOURS",
     "INDICATOR_STEPS",
     "PIPELINE_DEFAULTS",
-    "draw_detections",
     "make_indicator_pipeline",
 ]
 
@@ -130,62 +128,3 @@ def make_indicator_pipeline(*, verifier=True, **params):
                 f"parameters are {sorted(owners)}"
             )
     return pipe.set_params(**resolved)
-
-
-#: BGR colours of :func:`draw_detections`, as in the paper's Figs. 1b, 4 and 5.
-DRAW_COLOURS = {
-    "appearance_positive": (0, 0, 255),  # red rectangle
-    "appearance_negative": (0, 200, 0),  # green rectangle
-    "trajectory_positive": (0, 255, 255),  # yellow trajectory
-    "trajectory_negative": (255, 255, 255),  # white trajectory
-}
-
-
-def draw_detections(records, *, scale=1):
-    """Draw the detector's output like the paper's Figs. 1b, 4 and 5.
-
-    Keypoint clusters are drawn as rectangles, red when their appearance label is
-    positive and green when negative; trajectories (the centres of their clusters up
-    to the frame) as polylines, yellow when the trajectory is positive by motion (the
-    vote of :class:`PCCVerifier`) and white when negative.
-
-    Parameters
-    ----------
-    records : sequence of FrameRecord
-        Output of the indicator pipeline's ``predict`` for one tour, in frame order.
-    scale : int, default=1
-        Enlarge the frames by this factor (nearest neighbour) before drawing.
-
-    Yields
-    ------
-    record : FrameRecord
-    picture : ndarray of shape (height * scale, width * scale, 3), uint8 (BGR)
-    """
-    import cv2
-
-    history: dict = {}
-    for r in records:
-        image = r.image
-        if image.dtype != np.uint8:
-            image = cv2.normalize(image, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
-        if scale != 1:
-            image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
-        pic = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-        p = r.payload
-        boxes = np.asarray(p.get("cluster_boxes", np.empty((0, 4)))).reshape(-1, 4)
-        app = np.asarray(p.get("appearance", np.zeros(len(boxes), bool)))
-        tracks = np.asarray(p.get("track_ids", np.zeros(len(boxes), np.int64)))
-        tpos = np.asarray(p.get("trajectory_positive", np.zeros(len(boxes), bool)))
-        for b, a, t, tp in zip(boxes, app, tracks, tpos, strict=True):
-            pts = history.setdefault((r.tour, int(t)), [])
-            pts.append(((b[0] + b[2] / 2) * scale, (b[1] + b[3] / 2) * scale))
-            colour = DRAW_COLOURS["trajectory_positive" if tp else "trajectory_negative"]
-            if len(pts) > 1:
-                poly = np.round(np.array(pts)).astype(np.int32).reshape(-1, 1, 2)
-                cv2.polylines(pic, [poly], False, colour, 1, cv2.LINE_AA)
-            colour = DRAW_COLOURS["appearance_positive" if a else "appearance_negative"]
-            x0, y0 = int(round(b[0] * scale)), int(round(b[1] * scale))
-            x1 = int(round((b[0] + b[2]) * scale)) - 1
-            y1 = int(round((b[1] + b[3]) * scale)) - 1
-            cv2.rectangle(pic, (x0 - 2, y0 - 2), (x1 + 2, y1 + 2), colour, 1)
-        yield r, pic

@@ -1,0 +1,86 @@
+"""The ``tunnelsense`` command: a thin layer over the library.
+
+Each command module parses its arguments and calls library functions; it holds no
+logic of its own.  A module adds its commands through ``register_top(sub)`` (top-level
+commands) and ``register(verbs)`` (a kind of the ``train`` / ``detect`` / ``evaluate``
+verbs).  Heavy optional libraries (matplotlib, dask) are imported by the library only
+when used, so that ``tunnelsense --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import os
+import sys
+
+from tunnelsense._version import __version__
+
+__all__ = ["build_parser", "main"]
+
+#: The command modules, in the order of the help text.
+_MODULES = ("info", "simulate", "tunnel", "street")
+#: The street commands' module before it joins this package.
+_STREET_FALLBACK = "tunnelsense._cli_street"
+
+
+def _modules():
+    names = [f"tunnelsense.cli.{m}" for m in _MODULES]
+    if importlib.util.find_spec("tunnelsense.cli.street") is None:
+        names.append(_STREET_FALLBACK)
+    return [importlib.import_module(n) for n in names if importlib.util.find_spec(n)]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command's argument parser, every command registered."""
+    parser = argparse.ArgumentParser(
+        prog="tunnelsense",
+        description="Find roadside landmarks in vehicle sensor data: emergency-telephone "
+        "indicators in far-infrared tunnel video, street-parked vehicles in laser scans.",
+    )
+    parser.add_argument("--version", action="version", version=f"tunnelsense {__version__}",
+                        help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    modules = _modules()
+    for module in modules:
+        if hasattr(module, "register_top"):
+            module.register_top(sub)
+    verbs = {}
+    for verb, text in (("train", "fit a detector on labelled tours or runs"),
+                       ("detect", "run a fitted detector"),
+                       ("evaluate", "score detections against ground truth")):
+        kinds = sub.add_parser(verb, help=text, description=text.capitalize() + ".")
+        verbs[verb] = kinds.add_subparsers(dest="kind", metavar="KIND", required=True)
+    for module in modules:
+        if hasattr(module, "register"):
+            module.register(verbs)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command; return its exit status (0 done, 1 bad input, 3 a defect)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.func(args) or 0)
+    except BrokenPipeError:  # e.g. `tunnelsense info ... | head -1`: not an error
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes
+        return 0
+    except (FileNotFoundError, ValueError, OSError) as exc:
+        print(f"tunnelsense: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("tunnelsense: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a defect, not bad input: one line, traceback on request
+        if os.environ.get("TUNNELSENSE_DEBUG"):
+            raise
+        print(f"tunnelsense: internal error: {type(exc).__name__}: {exc} "
+              "(set TUNNELSENSE_DEBUG=1 to see the traceback, and please report it)",
+              file=sys.stderr)
+        return 3

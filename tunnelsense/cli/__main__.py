@@ -1,0 +1,5 @@
+import sys
+
+from tunnelsense.cli import main
+
+sys.exit(main())

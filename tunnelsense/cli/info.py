@@ -1,0 +1,30 @@
+"""``tunnelsense info``: what a tour, laser run or model file holds."""
+
+from __future__ import annotations
+
+import json
+
+from tunnelsense.io import describe, format_description
+
+_HELP = ("describe a tour (MOTChallenge folder, image folder, video), a laser run or "
+         "a model file (.skops, .joblib)")
+
+
+def _cmd_info(args) -> int:
+    facts = describe(args.source)
+    print(json.dumps(facts, indent=2, sort_keys=True) if args.json
+          else format_description(facts))
+    return 0
+
+
+def register_top(sub) -> None:
+    """Add the ``info`` command."""
+    p = sub.add_parser("info", help=_HELP, description=_HELP[0].upper() + _HELP[1:]
+                       + "; a model file is described by its model card (versions, "
+                       "training summary), never loaded.")
+    p.add_argument("source", help="MOTChallenge folder, image folder, video file, laser "
+                   "run folder (scans.npz + gt.csv), ROS bag, or model file (.skops, "
+                   ".joblib)")
+    p.add_argument("--json", action="store_true",
+                   help="print the facts as JSON (numbers as numbers)")
+    p.set_defaults(func=_cmd_info)

@@ -1,0 +1,204 @@
+"""``tunnelsense train|detect|evaluate tunnel`` and ``tunnelsense demo``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from tunnelsense._records import to_xy
+from tunnelsense.cli._common import (
+    add_model_arguments,
+    add_output_arguments,
+    add_quiet,
+    check_draw_dir,
+    input_files,
+    load_cli_model,
+    progress,
+    signing_key,
+)
+from tunnelsense.datasets import make_tunnel_tour
+from tunnelsense.io import clusters_path, read_tour, save_model
+from tunnelsense.io._output import check_output
+from tunnelsense.metrics import indicator_scores, results_scores, tunnel_report
+from tunnelsense.tunnel import (
+    detect_to_files,
+    detect_tour,
+    fit_indicator_detector,
+    make_indicator_pipeline,
+)
+from tunnelsense.tunnel._detect import SEARCH_GRID
+
+_CPUS = os.cpu_count() or 1
+
+
+def _cmd_train(args) -> int:
+    start, out = time.perf_counter(), Path(args.model)
+    if out.suffix.lower() not in (".skops", ".joblib", ".pkl", ".pickle"):
+        raise ValueError(f"--model {out}: the extension chooses the format: .skops "
+                         "(safe, no code runs on load) or .joblib (pickle)")
+    inputs = [f for d in args.seqdirs for f in input_files(d)]
+    check_output(out, overwrite=args.force, what="--model",
+                 inputs=inputs + list(filter(None, [args.key_file])))
+    key = signing_key(args)
+    tours = [read_tour(d) for d in args.seqdirs]
+    n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
+    print(f"training on {len(tours)} tour(s), {sum(map(len, tours))} frames, {n_ind} "
+          "indicators")
+    bar = progress(args, len(make_indicator_pipeline().steps), "fitting", unit="step")
+    model, summary = fit_indicator_detector(
+        tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
+        dask_scheduler=args.dask_scheduler,
+        progress=bar and (lambda name, k, n: bar.update(k)),
+        verbose=0 if args.quiet else 2)
+    if args.search:
+        s = summary["search"]
+        print(f"best parameters: {s['best_parameters']} (score {s['best_score']:.4f})")
+    kp = model.named_steps["keypoints"]
+    print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
+    save_model(model, out, summary=summary, key=key, overwrite=args.force)
+    kind = ("safe skops" if out.suffix.lower() == ".skops" else "pickle") + (
+        ", signed" if key is not None else "")
+    print(f"wrote {out} ({kind}; {time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def _cmd_detect(args) -> int:
+    start, out = time.perf_counter(), Path(args.out)
+    inputs = [args.model, *input_files(args.source), *filter(None, [args.key_file])]
+    for path in (out, clusters_path(out)):
+        check_output(path, overwrite=args.force or args.resume, inputs=inputs,
+                     what="--out")
+    if args.draw is not None:
+        check_draw_dir(args.draw, force=args.force, inputs=inputs)
+    model = load_cli_model(args.model, last_step="motion", command="train tunnel",
+                           trust_pickle=args.trust_pickle, key=signing_key(args))
+    facts = detect_to_files(
+        model, args.source, out, resume=args.resume, overwrite=args.force,
+        n_threads=args.jobs, progress=progress(args, 1, "detecting"),
+        draw=args.draw, draw_every=args.draw_every)
+    if facts["resumed_lines"]:
+        print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
+              "was replayed and they were checked, not rewritten)", file=sys.stderr)
+    if facts["drawn"]:
+        print(f"drew {len(facts['drawn'])} pictures ({sum(facts['drawn']) / 1e6:.1f} "
+              f"MB) in {args.draw}")
+    print(f"wrote {out}: {facts['detections']} detections on {facts['frames']} frames, "
+          f"{facts['trajectories']} indicator trajectories, and every keypoint cluster "
+          f"to {clusters_path(out)} (for 'evaluate tunnel') "
+          f"({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def _cmd_evaluate(args) -> int:
+    tour = read_tour(args.seqdir)
+    if not Path(args.results).is_file():
+        raise FileNotFoundError(f"{args.results}: results file not found")
+    scores = results_scores(args.results, tour, min_height=args.min_height)
+    print(json.dumps(scores, indent=2) if args.json
+          else tunnel_report(scores, f"{tour.name}: {len(tour)} frames"))
+    return 0
+
+
+def _cmd_demo(args) -> int:
+    start, n = time.perf_counter(), args.frames
+    train, *tests = [
+        make_tunnel_tour(n, scenario=scenario, random_state=args.seed + k,
+                         progress=progress(args, n, f"simulating a {scenario} tour"))
+        for k, scenario in enumerate(("light", "light", "heavy", "curved"))
+    ]
+    X, y, _ = to_xy([train])
+    if not any(len(b) for b in train.boxes(min_height=args.min_height)):
+        raise ValueError(f"--frames {n} is too short: the simulated training tour holds "
+                         f"no indicator at least {args.min_height:g} px tall to learn "
+                         "from (use --frames 300 or more)")
+    print("training the indicator detector")
+    model = make_indicator_pipeline(random_state=args.seed).fit(X, y)
+    found = total = false_alarms = 0
+    for tour in tests:
+        X, y, _ = to_xy([tour])
+        records = detect_tour(model, X, progress=progress(args, n, f"detecting {tour.name}"))
+        scores = indicator_scores(records, y, min_height=args.min_height)
+        t = scores["trajectory"]
+        found, total = found + t["detected"], total + t["indicators"]
+        false_alarms += t["false_alarms"]
+        print("\n" + tunnel_report(scores, f"{tour.name} ({tour.info.get('scenario')})"))
+    print(f"\n{found} of {total} indicators found, {false_alarms} false-alarm "
+          f"trajectories ({time.perf_counter() - start:.0f} s)")
+    return 0
+
+
+def register(verbs) -> None:
+    """Add the ``tunnel`` kind to the ``train``, ``detect`` and ``evaluate`` verbs."""
+    p = verbs["train"].add_parser(
+        "tunnel", help="fit the indicator detector on MOTChallenge tour folders",
+        description="Fit the indicator detector (make_indicator_pipeline) on labelled "
+        "tours and write it as a model file.")
+    p.add_argument("seqdirs", nargs="+", metavar="SEQDIR", help="labelled tour folders")
+    p.add_argument("--model", required=True, help="where to write the model: .skops "
+                   "(safe, no code runs on load) or .joblib (pickle), by extension")
+    p.add_argument("--search", action="store_true", help="grid-search "
+                   f"{', '.join(SEARCH_GRID)} with GroupKFold over the tours (>= 2 tours)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--jobs", type=int, default=_CPUS, help="threads decoding the "
+                   "frames, and parallel fits of --search (default: the number of CPUs)")
+    p.add_argument("--dask-scheduler", metavar="ADDRESS", help="run the fits of "
+                   "--search on this Dask cluster (e.g. tcp://10.0.0.5:8786; needs the "
+                   "'distributed' extra); the workers must see the tour folders at the "
+                   "same paths")
+    add_quiet(p)
+    add_output_arguments(p, signs=True)
+    p.set_defaults(func=_cmd_train)
+
+    p = verbs["detect"].add_parser(
+        "tunnel", help="find indicators in a tour or video",
+        description="Find indicators in a tour or video, frame by frame; write "
+        "MOTChallenge results and every keypoint cluster beside them (.clusters.csv).")
+    add_model_arguments(p, help_model="model written by 'train tunnel' (.skops, or a "
+                        ".joblib pickle with --trust-pickle)")
+    p.add_argument("source", help="MOTChallenge folder, image folder or video file")
+    p.add_argument("--out", required=True, help="MOTChallenge results file to write")
+    p.add_argument("--draw", metavar="DIR", help="also draw frames into DIR (clusters, "
+                   "trajectories, a legend and the frame number)")
+    p.add_argument("--draw-every", type=int, default=1, metavar="N", help="with --draw, "
+                   "draw every N-th frame (default 1: every frame, about 0.4 MB each at "
+                   "640x480)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run: "
+                   "keep the lines of --out (and its .clusters.csv) and append the rest")
+    add_output_arguments(p)
+    p.add_argument("--jobs", type=int, default=_CPUS, help="reader threads that decode "
+                   "the next frames while the detector works (0: decode in the "
+                   "detector's thread; default: the number of CPUs)")
+    add_quiet(p)
+    p.set_defaults(func=_cmd_detect)
+
+    p = verbs["evaluate"].add_parser(
+        "tunnel", help="score indicator detections against a tour's ground truth",
+        description="Score a results file of 'detect tunnel' (and its .clusters.csv) "
+        "with the paper's cluster and trajectory figures; n/a marks a rate of 0 of 0.")
+    p.add_argument("seqdir", help="labelled tour folder (gt/gt.txt)")
+    p.add_argument("results", help="results file written by 'detect tunnel'")
+    p.add_argument("--json", action="store_true", help="print JSON (null for n/a)")
+    p.add_argument("--min-height", type=float, default=14.0, help="indicator boxes at "
+                   "least this tall (px) count (default 14)")
+    p.set_defaults(func=_cmd_evaluate)
+
+
+def register_top(sub) -> None:
+    """Add the top-level ``demo`` command."""
+    text = ("simulate tunnel tours, train the indicator detector, detect and report")
+    p = sub.add_parser(
+        "demo", help=text, description="Simulate a light-traffic training tour and "
+        "three test tours (light traffic, heavy traffic with trucks, another camera in "
+        "a curving tunnel), train the indicator detector on the first, detect on the "
+        "others and print the paper's cluster and trajectory figures for each. Nothing "
+        "is written to disk.")
+    p.add_argument("--frames", type=int, default=900,
+                   help="frames per simulated tour (default 900)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the training "
+                   "tour; the test tours take the next three (default 0)")
+    p.add_argument("--min-height", type=float, default=14.0, help=argparse.SUPPRESS)
+    p.set_defaults(func=_cmd_demo)

@@ -1,0 +1,193 @@
+"""The simulated far-infrared camera: pinhole projection along a (curving) tunnel,
+and the rendered tunnel background (lining, joints, stains, road markings)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tunnelsense.datasets._tunnel_scene import (
+    _ARCH_R,
+    _ARCH_X,
+    _ARCH_Y,
+    _LANE_WIDTH,
+    _LINING_SPAN,
+    _WALL_HEIGHT,
+    _WALL_LEFT,
+    _WALL_RIGHT,
+    _Z_FAR,
+)
+
+
+# --------------------------------------------------------------------------------------
+# camera and geometry
+# --------------------------------------------------------------------------------------
+class _Camera:
+    """Pinhole camera; pose: lateral offset ``e``, height ``h``, pitch ``phi`` (up)."""
+
+    def __init__(self, f, shape, kappa):
+        self.f = float(f)
+        self.height, self.width = shape
+        self.cx = self.width / 2.0
+        self.cy = self.height / 2.0
+        self.kappa = float(kappa)
+
+    def to_camera(self, ds, d, y):
+        """Road coordinates (arc length ahead, lateral, height) -> straight frame."""
+        ds = np.asarray(ds, dtype=np.float64)
+        d = np.asarray(d, dtype=np.float64)
+        k = self.kappa
+        if k == 0.0:
+            return d + 0.0 * ds, ds + 0.0 * d, y
+        theta = k * ds
+        x = d * np.cos(theta) + ds * np.sin(theta / 2) * np.sinc(theta / (2 * np.pi))
+        z = ds * np.sinc(theta / np.pi) - d * np.sin(theta)
+        return x, z, y
+
+    def project(self, x, z, y, pose):
+        """Straight-frame points (x lateral, z ahead, y height) -> pixels, depth."""
+        e, h, phi = pose
+        xr = np.asarray(x) - e
+        yr = np.asarray(y) - h
+        c, s = math.cos(phi), math.sin(phi)
+        zc = z * c + yr * s
+        yc = yr * c - z * s
+        u = self.cx + self.f * xr / zc
+        v = self.cy - self.f * yc / zc
+        return u, v, zc
+
+
+class _Background:
+    """Per-pixel ray casting of the tunnel surfaces at half resolution."""
+
+    def __init__(self, cam, s_lo, s_hi, rng):
+        self.cam = cam
+        hh, ww = cam.height // 2, cam.width // 2
+        self.shape = (hh, ww)
+        # half-resolution pixel centres in full-resolution coordinates
+        u = (np.arange(ww, dtype=np.float32) * 2 + 1.0 - cam.cx) / cam.f
+        v = (cam.cy - (np.arange(hh, dtype=np.float32) * 2 + 1.0)) / cam.f
+        self.xc, self.yc = np.meshgrid(u, v)
+        # textures along the tunnel (1-D tables, 5 cm steps)
+        self.ds = 0.05
+        self.s0 = s_lo - 10.0
+        n = int((s_hi - self.s0) / self.ds) + 10
+        s = self.s0 + self.ds * np.arange(n)
+        self.tables = {
+            "wall": self._stains(rng, n, 3.5) + self._joints(s, rng, -7.0),
+            "arch": self._stains(rng, n, 3.0) + self._joints(s, rng, -5.0),
+            "road": self._stains(rng, n, 2.5) + self._dashes(s),
+        }
+        self.lane_line = self._dashes(s) < -1.0
+        self.base = {"wall": 112.0, "arch": 97.0, "road": 104.0}
+        self.far_value = 101.0
+
+    @staticmethod
+    def _stains(rng, n, amp):
+        """Smooth 1-D noise: sum of random sinusoids of 2-60 m period."""
+        idx = np.arange(n) * 0.05
+        out = np.zeros(n)
+        for _ in range(6):
+            period = rng.uniform(2.0, 60.0)
+            out += np.sin(2 * np.pi * idx / period + rng.uniform(0, 2 * np.pi))
+        return (amp / 2.5 * out).astype(np.float32)
+
+    @staticmethod
+    def _joints(s, rng, amp):
+        phase = rng.uniform(0, _LINING_SPAN)
+        d = np.abs(((s - phase) % _LINING_SPAN) - _LINING_SPAN / 2) - (
+            _LINING_SPAN / 2 - 0.12
+        )
+        return (amp * np.clip(d / 0.12, 0, 1)).astype(np.float32)
+
+    @staticmethod
+    def _dashes(s):
+        # lane-line dashes: 8 m painted, 12 m gap (paint is slightly cooler in FIR)
+        return np.where((s % 20.0) < 8.0, -7.0, 0.0).astype(np.float32)
+
+    def render(self, s_cam, pose):
+        cam = self.cam
+        e, h, phi = pose
+        k = cam.kappa
+        c, sn = math.cos(phi), math.sin(phi)
+        dz = c - self.yc * sn
+        dx = self.xc / dz
+        dy = (self.yc * c + sn) / dz
+        inf = np.float32(np.inf)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            z_road = np.where(dy < 0, h / -dy, inf)
+            if k == 0.0:
+                z_l = np.where(dx < 0, (_WALL_LEFT + e) / -dx, inf)
+                z_r = np.where(dx > 0, (_WALL_RIGHT - e) / dx, inf)
+            else:
+                z_l = self._curved_wall(dx, -_WALL_LEFT - e, k)
+                z_r = self._curved_wall(dx, _WALL_RIGHT - e, k)
+            z_wall = np.minimum(z_l, z_r)
+            y_wall = h + dy * z_wall
+            # circular arch, centre shifted by the curve at the hit depth
+            a = dx * dx + dy * dy
+            cy = _ARCH_Y - h
+            z_arch = None
+            shift = 0.0
+            for _ in range(1 if k == 0.0 else 3):
+                cx = _ARCH_X - e + shift
+                b = dx * cx + dy * cy
+                cc = cx * cx + cy * cy - _ARCH_R**2
+                disc = b * b - a * cc
+                z_arch = (b + np.sqrt(np.maximum(disc, 0))) / a
+                z_arch = np.where((disc >= 0) & (z_arch > 0), z_arch, _Z_FAR)
+                shift = 0.5 * k * np.minimum(z_arch, _Z_FAR) ** 2
+        road = z_road <= z_wall
+        arch = ~road & (y_wall > _WALL_HEIGHT)
+        z = np.where(road, z_road, np.where(arch, z_arch, z_wall))
+        z = np.minimum(z, _Z_FAR).astype(np.float32)
+        y = h + dy * z  # height of the hit point
+        x = e + dx * z - 0.5 * k * z * z  # lateral, relative to the ego lane centre
+        idx = np.clip(((s_cam + z - self.s0) / self.ds).astype(np.int32), 0, None)
+        idx = np.minimum(idx, len(self.lane_line) - 1)
+        fade = np.exp(-z / 70.0)  # texture averages out at long range
+
+        t = self.tables
+        # road: warm wheel paths, lane lines
+        wheel = np.zeros_like(x)
+        for lane in (0.0, _LANE_WIDTH):
+            for side in (-0.8, 0.8):
+                wheel += np.exp(-(((x - lane - side) / 0.35) ** 2))
+        road_i = (
+            self.base["road"]
+            + 7.0 * wheel
+            + t["road"][idx] * 0.4
+            + np.where(np.abs(x - _LANE_WIDTH / 2) < 0.08, 1.0, 0.0)
+            * np.where(self.lane_line[idx], -7.0, 0.0)
+            + np.where(
+                (np.abs(x + _LANE_WIDTH / 2) < 0.1)
+                | (np.abs(x - 1.5 * _LANE_WIDTH) < 0.1),
+                -6.0,
+                0.0,
+            )
+        )
+        # lower wall panels (warmer, up to 3 m), concrete arch above
+        wall_i = self.base["wall"] + t["wall"][idx] + np.where(y < 0.3, 4.0, 0.0)
+        arch_i = (
+            self.base["arch"]
+            + t["arch"][idx]
+            + 6.0 * np.clip((3.0 - y) / 1.0, 0, 1)
+            + 3.0 * np.clip((y - 5.5) / 1.5, 0, 1)
+        )
+        surf = np.where(road, road_i, np.where(arch, arch_i, wall_i))
+        out = self.far_value + (surf - self.far_value) * (0.35 + 0.65 * fade)
+        return out.astype(np.float32)
+
+    @staticmethod
+    def _curved_wall(dx, w, k):
+        """Depth where the ray ``x = dx z`` meets the wall ``x = w + k z^2 / 2``."""
+        disc = dx * dx - 2.0 * k * w
+        root = np.sqrt(np.maximum(disc, 0))
+        # the two roots; keep the smallest positive
+        den1 = dx + np.where(dx >= 0, root, -root)
+        z1 = 2.0 * w / den1
+        z2 = np.where(np.abs(k) > 0, den1 / k, np.inf)
+        z1 = np.where((z1 > 0) & (disc >= 0), z1, np.inf)
+        z2 = np.where((z2 > 0) & (disc >= 0), z2, np.inf)
+        return np.minimum(z1, z2)

@@ -1,0 +1,222 @@
+"""Frames that are not a MOTChallenge folder: image folders and video files.
+
+:func:`open_tour` reads any frame source: a MOTChallenge sequence folder, a plain
+image folder or a video file.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import cv2
+
+from tunnelsense._records import (
+    FrameRecord,
+    FrameSequence,
+    ImageFile,
+    Tour,
+    VideoFrame,
+    empty_mot_gt,
+)
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io._images import (
+    IMAGE_EXTENSIONS,
+    open_video,
+    read_image,
+    read_png_size,
+    stated_frame_count,
+    video_length_error,
+)
+from tunnelsense.io._mot import _check_sizes, read_tour
+from tunnelsense.io._tables import _MAX_INT
+
+__all__ = ["open_tour", "read_image_folder", "read_video"]
+
+
+def _natural_key(path):
+    """``frame_2`` before ``frame_10``: runs of ASCII digits compare as numbers."""
+    parts = re.split(r"([0-9]+)", path.name)  # odd items are the digit runs
+    return [int(t) if i % 2 else t for i, t in enumerate(parts)]
+
+
+def read_image_folder(path, *, frame_rate=30.0) -> Tour:
+    """Read a plain folder of image files as a tour without ground truth.
+
+    Files are ordered by name with runs of digits compared as numbers (``f_2.png``
+    before ``f_10.png``); hidden files are skipped.  When every name ends in a number
+    (ASCII digits before the extension), that number is the frame's: a missing file
+    leaves a gap in the frame numbers, which the trajectory linker respects (it ends
+    the tracks there); a folder numbered from 0 is shifted to start at 1; two files
+    of one number (``1.png`` and ``001.png``) are refused.  When not every name ends
+    in a number, the frames are numbered 1..n in that order.
+
+    Parameters
+    ----------
+    path : str or Path
+        A folder of frames (PNG, TIFF, JPEG, BMP, PGM; 8-bit or 16-bit).
+    frame_rate : float, default=30.0
+        Frames per second (a folder does not say).
+
+    Returns
+    -------
+    tour : Tour
+        Named after the folder; frames numbered from 1, decoded on access.
+
+    Raises
+    ------
+    FileNotFoundError
+        There is no such folder.
+    InputFormatError
+        The folder holds no image file, two files of one frame number, a frame number
+        of ``2**53`` or more, or a PNG frame of another size than the first.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"{path}: image folder not found")
+    files = sorted(
+        (
+            p
+            for p in path.iterdir()
+            if p.suffix.lower() in IMAGE_EXTENSIONS
+            and not p.name.startswith(".")
+            and p.is_file()
+        ),
+        key=_natural_key,
+    )
+    if not files:
+        raise InputFormatError(
+            f"{path}: no image files (expected files ending in {', '.join(IMAGE_EXTENSIONS)})"
+        )
+    first = files[0]
+    shape = (
+        read_png_size(first)
+        if first.suffix.lower() == ".png"
+        else read_image(first).shape
+    )
+    _check_sizes(files, shape)
+    name = path.resolve().name
+    numbers = _frame_numbers(path, files)
+    frames = FrameSequence(
+        FrameRecord(name, k, ImageFile(f, shape))
+        for k, f in sorted(zip(numbers, files, strict=True), key=lambda kf: kf[0])
+    )
+    return Tour(name, frames, empty_mot_gt(), float(frame_rate), {"source": str(path)})
+
+
+def _frame_numbers(folder, files) -> list[int]:
+    """Frame numbers from the files' names: the ASCII digits each name ends with.
+
+    A missing file leaves a gap (the trajectory linker sees it); a folder numbered
+    from 0 is shifted to start at 1.  Names that do not all end in a number are
+    numbered 1..n in order.
+    """
+    found = [re.search(r"([0-9]+)$", f.stem) for f in files]
+    if not all(found):
+        return list(range(1, len(files) + 1))
+    numbers = [int(m.group(1)) for m in found]
+    seen = {}
+    for f, k in zip(files, numbers, strict=True):
+        if k >= _MAX_INT - 1:
+            raise InputFormatError(
+                f"{f}: frame number out of range (expected a number below 2**53 - 1)"
+            )
+        if k in seen:
+            raise InputFormatError(
+                f"{folder}: {seen[k].name} and {f.name} both hold frame {k}"
+            )
+        seen[k] = f
+    shift = 1 if min(numbers) == 0 else 0
+    return [k + shift for k in numbers]
+
+
+def read_video(path, *, check_length=True) -> Tour:
+    """Read a video file (through OpenCV) as a tour without ground truth.
+
+    The frames are counted here (without decoding them) and decoded on access, a
+    seek per frame; for a pass over the whole video, :func:`iter_video` decodes
+    sequentially and is much faster.  Colour video is converted to grey.
+
+    Parameters
+    ----------
+    path : str or Path
+        A video file OpenCV can open.
+    check_length : bool, default=True
+        Whether to refuse a video that ends before the number of frames its header
+        states (a truncated or damaged file).  A shortfall of up to 1 % of that
+        number (at least one frame) is tolerated, since some containers only
+        estimate it; pass ``False`` to read the frames there are.
+
+    Returns
+    -------
+    tour : Tour
+        Named after the file; frames numbered from 1; the frame rate the file states
+        (30 when it states none).
+
+    Raises
+    ------
+    InputFormatError
+        OpenCV cannot open the file, it holds no frame, or (with ``check_length``) it
+        ends before the frame count in its header.
+    """
+    path = Path(path)
+    capture = open_video(path)
+    try:
+        fps = capture.get(cv2.CAP_PROP_FPS)
+        stated = stated_frame_count(capture)
+        n = 0
+        while capture.grab():
+            n += 1
+    finally:
+        capture.release()
+    if n == 0:
+        raise InputFormatError(f"{path}: the video holds no frames OpenCV can decode")
+    error = video_length_error(path, n, stated)
+    if check_length and error is not None:
+        raise error
+    name = path.stem
+    frames = FrameSequence(
+        FrameRecord(name, i + 1, VideoFrame(path, i)) for i in range(n)
+    )
+    rate = float(fps) if math.isfinite(fps) and fps > 0 else 30.0
+    return Tour(name, frames, empty_mot_gt(), rate, {"source": str(path)})
+
+
+def open_tour(source) -> Tour:
+    """Read a tour from a MOTChallenge folder, an image folder or a video file.
+
+    Parameters
+    ----------
+    source : str or Path
+        A folder with ``seqinfo.ini`` (:func:`read_tour`), another folder
+        (:func:`read_image_folder`) or a file (:func:`read_video`).
+
+    Returns
+    -------
+    tour : Tour
+
+    Raises
+    ------
+    FileNotFoundError
+        ``source`` does not exist, or a file the tour needs is missing.
+    InputFormatError
+        ``source`` is a single file that is not a video, or it does not hold what
+        its reader expects (a truncated video included; see :func:`read_video`).
+    """
+    source = Path(source)
+    if source.is_dir():
+        if (source / "seqinfo.ini").exists():
+            return read_tour(source)
+        return read_image_folder(source)
+    if source.is_file():
+        if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):
+            raise InputFormatError(
+                f"{source}: a single file of this kind is not a tour (expected a "
+                "MOTChallenge folder, an image folder or a video file)"
+            )
+        return read_video(source)
+    raise FileNotFoundError(
+        f"{source}: not found (expected a MOTChallenge folder, an image folder or a "
+        "video file)"
+    )

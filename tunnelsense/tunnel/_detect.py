@@ -1,0 +1,333 @@
+"""Training and running the indicator detector over whole tours, as the command does.
+
+:func:`fit_indicator_detector` is ``train tunnel``: the frames decoded once in reader
+threads, then :func:`~tunnelsense.tunnel.make_indicator_pipeline` fitted (or its
+thresholds grid-searched with ``GroupKFold`` over tours).  :func:`detect_to_files` is
+``detect tunnel``: frames streamed through the fitted pipeline
+(:func:`stream_detect`), results and their ``.clusters.csv`` companion written as each
+frame is final, an interrupted run resumed by replay.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+from sklearn.model_selection import GridSearchCV, GroupKFold
+from threadpoolctl import threadpool_limits
+
+from tunnelsense._fitting import fit_pipeline
+from tunnelsense._records import FrameRecord, FrameSequence, to_xy
+from tunnelsense._streaming import StreamingPipeline, decode_ahead
+from tunnelsense.io._results import (
+    CLUSTERS_HEADER,
+    RESULT_LINE,
+    cluster_lines,
+    clusters_path,
+    mot_result_lines,
+)
+from tunnelsense.io._sources import open_tour
+from tunnelsense.io._writer import ResultsWriter
+from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
+from tunnelsense.plotting._detections import draw_detections
+from tunnelsense.tunnel._pipeline import make_indicator_pipeline
+
+__all__ = [
+    "SEARCH_GRID",
+    "detect_to_files",
+    "detect_tour",
+    "fit_indicator_detector",
+    "open_frames",
+    "stream_detect",
+]
+
+#: The small grid ``fit_indicator_detector(search=True)`` explores.
+SEARCH_GRID = {
+    "appearance__positive_weight": [1.0, 7.0],
+    "motion__min_r": [0.9, 0.95],
+    "motion__min_length": [5, 10],
+}
+
+
+def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
+                           dask_scheduler=None, progress=None, verbose=0):
+    """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
+
+    The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
+    ``make_indicator_pipeline(random_state=random_state).fit(X, y)`` on
+    ``X, y = to_xy(tours)``.
+
+    Parameters
+    ----------
+    tours : list of Tour
+        Labelled tours.
+    search : bool, default=False
+        Grid-search :data:`SEARCH_GRID` with ``GroupKFold`` over the tours (at least
+        2), then refit the best setting on all of them.
+    random_state : int, default=0
+        Seed of the pipeline.
+    n_jobs : int, default=1
+        Reader threads, the verifier's threads and the search's parallel fits.
+    dask_scheduler : str or None, default=None
+        Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
+        needs the ``distributed`` extra); the workers must see the tours' files.
+    progress : callable or None, default=None
+        ``progress(step_name, k, n_steps)`` before each step of a plain fit.
+    verbose : int, default=0
+        Verbosity of the search.
+
+    Returns
+    -------
+    model : Pipeline
+        The fitted pipeline.
+    summary : dict
+        Tours, parameters, keypoint band and training scores (a model card).
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.tunnel import fit_indicator_detector
+    >>> tour = make_tunnel_tour(60, random_state=0, first_indicator_m=20.0)
+    >>> model, summary = fit_indicator_detector([tour])
+    >>> summary["tours"][0]["frames"]
+    60
+    """
+    if search and len(tours) < 2:
+        raise ValueError("search needs at least 2 tours (folds are whole tours)")
+    X, y, groups = to_xy(tours)
+    frames = decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1))
+    decoded = [first] if (first := next(frames, None)) is not None else []
+    # every frame is queued now: the model writer's import (about 1 s, in this
+    # thread) overlaps the reader threads, which run without the interpreter lock
+    import skops.io  # noqa: F401
+    X = FrameSequence(decoded + list(frames))
+    model = make_indicator_pipeline(random_state=random_state,
+                                    verifier__n_jobs=n_jobs)
+    found = None
+    if search:
+        found = GridSearchCV(
+            model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
+            scoring=make_tunnel_scorer("youden"), error_score="raise", n_jobs=n_jobs,
+            verbose=verbose,
+        )
+        with _dask(dask_scheduler) if dask_scheduler else contextlib.nullcontext():
+            found.fit(X, y, groups=groups)
+        model = found.best_estimator_
+        output = model.predict(X)
+    else:
+        model, output = fit_pipeline(model, X, y, progress=progress)
+    return model, _summary(tours, model, output, y, found)
+
+
+def _dask(address):
+    """joblib's Dask backend on a cluster (imported only when asked for: it is slow)."""
+    try:
+        import joblib
+        from distributed import Client
+    except ImportError:
+        raise ValueError("dask_scheduler needs Dask's distributed scheduler: pip "
+                         "install 'tunnelsense[distributed]'") from None
+    stack = contextlib.ExitStack()
+    stack.enter_context(Client(address))
+    stack.enter_context(joblib.parallel_config(backend="dask"))
+    return stack
+
+
+def _summary(tours, model, output, y, search) -> dict:
+    """Tours, parameters and scores stored in a model file (``tunnelsense info``)."""
+    kp = model.named_steps["keypoints"]
+    summary = {
+        "detector": "tunnel indicator (make_indicator_pipeline)",
+        "tours": [
+            {"name": t.name, "frames": len(t),
+             "indicators": int(t.gt.loc[t.gt["class"] == 1, "id"].nunique()),
+             **{k: t.info[k] for k in ("scenario", "seed") if k in t.info}}
+            for t in tours
+        ],
+        "parameters": {k: v for k, v in model.get_params(deep=True).items()
+                       if "__" in k and not hasattr(v, "get_params")},
+        # the band in use (learned from the training tours by default)
+        "keypoint_band": [round(float(kp.low_), 2), round(float(kp.high_), 2)],
+        "training_scores": indicator_scores(output, y),
+    }
+    if search is not None:
+        summary["search"] = {
+            "grid": SEARCH_GRID, "best_parameters": search.best_params_,
+            "best_score": float(search.best_score_),
+            "scoring": "youden (GroupKFold over tours)",
+        }
+    return summary
+
+
+def detect_tour(model, frames, *, progress=None, chunk=256):
+    """Run a fitted indicator pipeline over frames, stages 1-4 in chunks.
+
+    Parameters
+    ----------
+    model : Pipeline
+        From :func:`~tunnelsense.tunnel.make_indicator_pipeline`, fitted.
+    frames : FrameSequence
+    progress : Progress or None, default=None
+        Its ``update(done)`` is called after each chunk.
+    chunk : int, default=256
+        Frames per chunk of the first four stages (bounds their memory).
+
+    Returns
+    -------
+    records : FrameSequence
+        The output of ``model.predict(frames)``.
+    """
+    head, tail = model[:-2], model[-2:]
+    parts = []
+    for lo in range(0, len(frames), chunk):
+        parts.append(head.transform(frames[lo:lo + chunk]))
+        if progress is not None:
+            progress.update(min(lo + chunk, len(frames)))
+    return tail.predict(FrameSequence.concat(parts))
+
+
+def open_frames(source):
+    """The frames of a source, read lazily, and their number.
+
+    A MOTChallenge or image folder gives records that decode their PNG on access; a
+    video file is decoded sequentially, records built on the fly.
+
+    Returns
+    -------
+    frames : iterable of FrameRecord
+    total : int
+        Number of frames (for a video, as its header states).
+    """
+    source = Path(source)
+    if not source.is_file():
+        tour = open_tour(source)
+        return iter(tour.frames), len(tour)
+    from tunnelsense.io._images import iter_video, open_video
+
+    capture = open_video(source)
+    total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+    capture.release()
+    frames = (FrameRecord(source.stem, i, image)
+              for i, image in enumerate(iter_video(source), 1))
+    return frames, total
+
+
+def stream_detect(model, frames, *, progress=None, n_threads=0):
+    """Run a fitted indicator pipeline online; yield the frames as they are final.
+
+    Parameters
+    ----------
+    model : Pipeline
+        From :func:`~tunnelsense.tunnel.make_indicator_pipeline`, fitted.
+    frames : iterable of FrameRecord
+        In frame order within each tour.
+    progress : Progress or None, default=None
+    n_threads : int, default=0
+        Reader threads decoding the next frames while this one is detected (0: none).
+
+    Yields
+    ------
+    record : FrameRecord
+        As ``model.predict`` gives them, in input order, each as soon as every
+        trajectory through it has ended (in-memory images are released).
+    """
+    stream = StreamingPipeline(model)
+    if n_threads > 0:
+        frames = decode_ahead(frames, n_threads=n_threads)
+    # one frame's matrix products are small: BLAS threads would only contend with
+    # the reader threads
+    with threadpool_limits(limits=1, user_api="blas"):
+        for k, record in enumerate(frames, 1):
+            yield from stream.push(record)
+            if progress is not None:
+                progress.update(k)
+        yield from stream.close()
+
+
+def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
+                    progress=None, draw=None, draw_every=1):
+    """Detect indicators in a tour or video, writing results as frames are final.
+
+    ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
+    line by line and flushed after every frame, so an interrupted run keeps its
+    lines; ``resume=True`` replays the source and appends the rest.
+
+    Parameters
+    ----------
+    model : Pipeline
+        A fitted indicator pipeline.
+    source : str or Path
+        MOTChallenge folder, image folder or video file.
+    out : str or Path
+        The results file.
+    resume, overwrite : bool, default=False
+        Continue an interrupted ``out``; replace an existing one.
+    n_threads : int, default=0
+        Reader threads (see :func:`stream_detect`).
+    progress : Progress or None, default=None
+        Its total is set to the number of frames, then updated after each frame.
+    draw : str, Path or None, default=None
+        A folder to draw every ``draw_every``-th frame into
+        (:func:`tunnelsense.plotting.draw_detections`), as ``000001.png``...
+    draw_every : int, default=1
+
+    Returns
+    -------
+    facts : dict
+        ``frames``, ``detections``, ``trajectories`` (indicator trajectories),
+        ``resumed_lines`` and ``drawn`` (bytes of each picture drawn).
+    """
+    if draw_every < 1:
+        raise ValueError(f"draw_every must be at least 1; got {draw_every}")
+    frames, total = open_frames(source)
+    if progress is not None:
+        progress.set_total(total)
+    results = ResultsWriter(out, resume=resume, overwrite=overwrite,
+                            line_pattern=RESULT_LINE)
+    clusters = ResultsWriter(clusters_path(out), header=CLUSTERS_HEADER, resume=resume,
+                             overwrite=overwrite)
+    images = {}
+    if draw is not None and Path(source).is_file():
+        frames = _keep_images(frames, images)  # video frames are decoded once
+    released = stream_detect(model, frames, progress=progress, n_threads=n_threads)
+    if draw is not None:
+        Path(draw).mkdir(parents=True, exist_ok=True)
+        pictures = draw_detections(_with_images(released, images))
+    else:
+        pictures = ((r, None) for r in released)
+    facts = {"frames": 0, "detections": 0, "resumed_lines": results.resumed_lines,
+             "drawn": []}
+    ids = set()
+    with results, clusters:
+        for r, pic in pictures:
+            lines = mot_result_lines(r)
+            for line in lines:
+                results.write(line)
+            for line in cluster_lines(r):
+                clusters.write(line)
+            results.flush()
+            clusters.flush()
+            facts["frames"] += 1
+            facts["detections"] += len(lines)
+            ids.update(np.asarray(r.payload["detections"]).reshape(-1, 6)[:, 4].tolist())
+            if pic is not None and (r.frame - 1) % draw_every == 0:
+                target = Path(draw) / f"{r.frame:06d}.png"
+                if not cv2.imwrite(str(target), pic):
+                    raise OSError(f"{target}: OpenCV could not write the picture")
+                facts["drawn"].append(target.stat().st_size)
+    facts["trajectories"] = len(ids)
+    return facts
+
+
+def _keep_images(frames, images):
+    for r in frames:
+        images[r.frame] = r.image
+        yield r
+
+
+def _with_images(records, images):
+    for r in records:
+        image = images.pop(r.frame, None)
+        yield r if image is None else FrameRecord(r.tour, r.frame, image, r.payload)
