@@ -106,7 +106,7 @@ def _cmd_detect(args) -> int:
           + ", ".join(f"{c} {k}" for k, c in sorted(counts.items()))
           + f" -> {args.out}" + (f" (resumed after {resumed} rows)" if resumed else ""))
     if args.draw:
-        from tunnelsense.street._plotting import draw_run
+        from tunnelsense.plotting import draw_run
 
         run = _read_runs([args.rundir], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans

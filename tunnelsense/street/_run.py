@@ -11,7 +11,8 @@ to a CSV file line by line, flushed, so that an interrupted run keeps them.
 from __future__ import annotations
 
 from tunnelsense._records import RUN_LABELS, to_xy
-from tunnelsense._streaming import ResultsWriter, StreamingPipeline
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.street._detector import OBJECT_COLUMNS, make_parking_pipeline
 from tunnelsense.street._stream import FINISHED
 
@@ -165,7 +166,7 @@ def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
     Every line is flushed as soon as its object is final.  An existing file is
     refused unless ``overwrite`` (replaced when complete) or ``resume`` (continued:
     the replayed lines are checked against it; see
-    :class:`~tunnelsense._streaming.ResultsWriter`).
+    :class:`~tunnelsense.io.ResultsWriter`).
 
     Parameters
     ----------
