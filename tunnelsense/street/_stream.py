@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
 from tunnelsense.street._clustering import (
@@ -50,10 +51,9 @@ from tunnelsense.street._objects import (
 )
 from tunnelsense.street._window import ScanWindow
 
-__all__ = ["FINISHED", "ScanStream"]
+__all__ = ["ScanStream"]
 
 #: Payload key of the object-table rows that became final by a released record.
-FINISHED = "finished_objects"
 #: Every this many scans of a run (absolute positions), object-clusters pending for
 #: longer than ``max_pending_length`` are closed (the same scans in batch and online).
 CHECK_EVERY = 64
@@ -337,8 +337,8 @@ class _RunState(ScanWindow):
                     points=points, beams=beams, clusters=local,
                     objects=self.object_id[c0:c0 + self.n_clusters[i]].copy(),
                     tilt=float(self.tilt[i]), in_view=in_view[p - self.released],
-                    **{FINISHED: ()}))
-            out[-1] = out[-1].evolve(**{FINISHED: tuple(self.rows)})
+                    **{FINISHED_OBJECTS: ()}))
+            out[-1] = out[-1].evolve(**{FINISHED_OBJECTS: tuple(self.rows)})
             self.rows = []
             self.released = release_end
             self.spans = [s for s in self.spans if s[1] >= release_end]
