@@ -139,7 +139,7 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     -------
     gt : DataFrame with columns tour, frame, id, bb_left, bb_top, bb_width, bb_height
     """
-    from tunnelsense.tunnel._tracking import tour_order
+    from tunnelsense.tunnel._tracking import tour_order  # tunnel imports metrics
 
     records = list(records)
     y = [np.asarray(b, dtype=np.float64).reshape(-1, 4) for b in y]
