@@ -23,7 +23,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tunnelsense.datasets import STREET_SCENARIOS, make_street_scans  # noqa: E402
-from tunnelsense.datasets._street import _cross_sections, _simulate  # noqa: E402
+from tunnelsense.datasets._street import _simulate  # noqa: E402
+from tunnelsense.datasets._street_shapes import cross_sections as _cross_sections  # noqa: E402
 
 N_SCANS = 4000
 LOOP_SCANS = 200  # scans ray-cast by the naive loop

@@ -4,7 +4,15 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.pipeline import Pipeline
 
 from tunnelsense import FrameSequence
-from tunnelsense._streaming import ResultsWriter, StreamingPipeline, start_stream
+from tunnelsense._streaming import (
+    ResultsWriter,
+    StreamingMixin,
+    StreamingPipeline,
+    StreamState,
+    start_stream,
+    stream_order,
+    tour_groups,
+)
 
 
 class Brightness(TransformerMixin, BaseEstimator):
@@ -236,3 +244,64 @@ def test_writer_error_when_the_disk_is_full_names_the_file(tmp_path):
     out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "r.csv")],
                          capture_output=True, text=True, check=True).stdout
     assert "r.csv: cannot write (File too large)" in out
+
+
+class _RunningSum(StreamState):
+    """Holds nothing: each record gets the sum of its tour's means so far."""
+
+    def __init__(self):
+        self.tour, self.total = None, 0.0
+
+    def _push(self, record):
+        if record.tour != self.tour:
+            self.tour, self.total = record.tour, 0.0
+        self.total += float(record.image.mean())
+        return [record.evolve(total=self.total)]
+
+
+class RunningSum(StreamingMixin, TransformerMixin, BaseEstimator):
+    _sequence = FrameSequence
+
+    def fit(self, X, y=None):
+        self.fitted_ = True
+        return self
+
+    def _check_records(self, X):
+        return list(X)
+
+    def _stream_state(self, *, batch=False):
+        return _RunningSum()
+
+
+def test_streaming_mixin_groups_sorts_and_restores_order(global_random_seed):
+    X = _frames("a", 4) + _frames("b", 3, offset=10)
+    perm = np.random.default_rng(global_random_seed).permutation(len(X))
+    shuffled = FrameSequence(X[i] for i in perm)
+    out = RunningSum().fit(X).transform(shuffled)
+    assert [r.key for r in out] == [r.key for r in shuffled]
+    expected = {("a", 1): 0.0, ("a", 2): 1.0, ("a", 3): 3.0, ("a", 4): 6.0,
+                ("b", 1): 10.0, ("b", 2): 21.0, ("b", 3): 33.0}
+    assert {r.key: r.payload["total"] for r in out} == expected
+    streamed = list(StreamingPipeline(RunningSum().fit(X)).run(X))
+    assert {r.key: r.payload["total"] for r in streamed} == expected
+
+
+def test_one_order_check_for_batch_state_and_pipeline():
+    X = _frames("a", 3)
+    with pytest.raises(ValueError, match=r"frame 2 of tour 'a' came twice"):
+        RunningSum().fit(X).transform([X[1], X[0], X[1]])
+    state = RunningSum().fit(X)._stream_state()
+    state.push(X[1])
+    with pytest.raises(ValueError, match=r"\('a', 1\) came after \('a', 2\)"):
+        state.push(X[0])
+    with pytest.raises(ValueError, match="came twice"):
+        state.push_many([X[2], X[2]])
+    state.close()
+    assert state.push(X[0])[0].key == ("a", 1)  # a closed state starts afresh
+
+
+def test_tour_groups_by_first_appearance_or_by_name():
+    X = _frames("b", 2) + _frames("a", 2)
+    assert [g.tolist() for g in tour_groups(X)] == [[0, 1], [2, 3]]
+    assert [g.tolist() for g in tour_groups(X, sort_tours=True)] == [[2, 3], [0, 1]]
+    assert stream_order(X[::-1]).tolist() == [1, 0, 3, 2]

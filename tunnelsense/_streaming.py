@@ -15,9 +15,14 @@ A record stage may offer ``start_stream()``, returning a *stream state* with
 
 A stage without ``start_stream`` is stateless per record: :func:`start_stream` wraps
 it so that ``push(r)`` returns ``stage.transform([r])`` (``predict`` for a final step
-that has no ``transform``).  A stateful stage (trajectory linking, inter-scan linking)
-implements its batch ``transform`` by running its own stream state over each tour, so
-streaming and batch give identical results by construction.
+that has no ``transform``).
+
+A stateful stage (trajectory linking, motion verification, inter-scan linking) derives
+from :class:`StreamingMixin` and supplies only its state, a :class:`StreamState`; the
+mixin's batch ``transform`` groups the records by tour, sorts them by frame, runs them
+through one state and restores the input order, so streaming and batch give identical
+results by construction.  The order of a tour's records is checked in one place,
+:func:`check_next_key`, for batch and streaming alike.
 
 :class:`StreamingPipeline` chains the states of a fitted ``Pipeline``'s steps.
 """
@@ -26,11 +31,258 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 
+import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.io._writer import ResultsWriter  # its home is tunnelsense.io
 
-__all__ = ["ResultsWriter", "StreamingPipeline", "decode_ahead", "start_stream"]
+__all__ = [
+    "ResultsWriter",
+    "StreamState",
+    "StreamingMixin",
+    "StreamingPipeline",
+    "check_next_key",
+    "decode_ahead",
+    "start_stream",
+    "stream_order",
+    "tour_groups",
+]
+
+
+def _key_names(record):
+    """What the two parts of a record's key are called: (tour, frame) or (run, scan)."""
+    return ("run", "scan") if hasattr(record, "scan") else ("tour", "frame")
+
+
+def check_next_key(last, record):
+    """Check that ``record`` may follow the record whose key is ``last``; return its key.
+
+    The one order check of the package: the records of one tour (run) arrive in
+    increasing frame (scan) order, each once; a record of another tour may follow
+    any record.
+
+    Parameters
+    ----------
+    last : tuple or None
+        The key ``(tour, frame)`` (or ``(run, scan)``) of the previous record.
+    record : FrameRecord or ScanRecord
+
+    Returns
+    -------
+    key : tuple
+        ``record.key``.
+
+    Raises
+    ------
+    ValueError
+        When ``record`` repeats or precedes ``last`` in the same tour.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import FrameRecord
+    >>> from tunnelsense._streaming import check_next_key
+    >>> img = np.zeros((2, 2), np.uint8)
+    >>> check_next_key(("a", 1), FrameRecord("a", 2, img))
+    ('a', 2)
+    >>> check_next_key(("a", 2), FrameRecord("a", 2, img))
+    Traceback (most recent call last):
+    ...
+    ValueError: frame 2 of tour 'a' came twice: the records of one tour must arrive once each, in increasing frame order
+    """
+    key = record.key
+    if last is not None and key[0] == last[0] and key[1] <= last[1]:
+        tour, frame = _key_names(record)
+        if key[1] == last[1]:
+            raise ValueError(
+                f"{frame} {key[1]} of {tour} {key[0]!r} came twice: the records of "
+                f"one {tour} must arrive once each, in increasing {frame} order"
+            )
+        raise ValueError(
+            f"the records of one {tour} must arrive once each, in increasing {frame} "
+            f"order: {key} came after {last}"
+        )
+    return key
+
+
+def tour_groups(records, *, sort_tours=False):
+    """Indices of ``records`` grouped by tour (run) and sorted by frame (scan).
+
+    Parameters
+    ----------
+    records : sequence of FrameRecord or ScanRecord
+    sort_tours : bool, default=False
+        Order the groups by the tours' names (as strings) rather than by their first
+        appearance.
+
+    Returns
+    -------
+    groups : list of ndarray of int
+        One array of record indices per tour, in frame order.
+
+    Raises
+    ------
+    ValueError
+        When a key ``(tour, frame)`` appears twice (:func:`check_next_key`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import FrameRecord
+    >>> from tunnelsense._streaming import tour_groups
+    >>> img = np.zeros((2, 2), np.uint8)
+    >>> X = [FrameRecord(t, f, img) for t, f in [("b", 2), ("a", 1), ("b", 1)]]
+    >>> [g.tolist() for g in tour_groups(X)]
+    [[2, 0], [1]]
+    >>> [g.tolist() for g in tour_groups(X, sort_tours=True)]
+    [[1], [2, 0]]
+    """
+    keys = [r.key for r in records]
+    by_tour: dict = {}
+    for i, key in enumerate(keys):
+        by_tour.setdefault(key[0], []).append(i)
+    tours = sorted(by_tour, key=str) if sort_tours else list(by_tour)
+    groups = []
+    for tour in tours:
+        idx = np.asarray(by_tour[tour], dtype=np.intp)
+        frames = np.fromiter((keys[i][1] for i in idx), np.int64, len(idx))
+        idx = idx[np.argsort(frames, kind="stable")]
+        last = None
+        for i in idx.tolist():
+            last = check_next_key(last, records[i])
+        groups.append(idx)
+    return groups
+
+
+def stream_order(records, *, sort_tours=False):
+    """The order in which a stream state sees ``records``: by tour, then by frame.
+
+    Parameters
+    ----------
+    records : sequence of FrameRecord or ScanRecord
+    sort_tours : bool, default=False
+        As in :func:`tour_groups`.
+
+    Returns
+    -------
+    order : ndarray of int
+        Indices of ``records``; ``records[order]`` is a valid stream.
+
+    Raises
+    ------
+    ValueError
+        When a key ``(tour, frame)`` appears twice (:func:`check_next_key`).
+    """
+    groups = tour_groups(records, sort_tours=sort_tours)
+    return np.concatenate(groups) if groups else np.empty(0, np.intp)
+
+
+class StreamState:
+    """Base of a stage's stream state: the order check, then the stage's own step.
+
+    A subclass supplies ``_push(record) -> list`` (and, when it holds records,
+    ``_close() -> list``; when taking several records at once is faster,
+    ``_push_many(records) -> list``).  The public :meth:`push`, :meth:`push_many` and
+    :meth:`close` check the order of the records (:func:`check_next_key`) first.
+    """
+
+    _last_key = None
+
+    def push(self, record) -> list:
+        """Take the next record; return the records finished by it, in input order."""
+        self._last_key = check_next_key(self._last_key, record)
+        return self._push(record)
+
+    def push_many(self, records) -> list:
+        """Take consecutive records at once (the same result as pushing them one by one)."""
+        last = self._last_key
+        for r in records:
+            last = check_next_key(last, r)
+        self._last_key = last
+        return self._push_many(records)
+
+    def close(self) -> list:
+        """End the stream; return the records still held."""
+        self._last_key = None
+        return self._close()
+
+    def _push(self, record) -> list:
+        raise NotImplementedError
+
+    def _push_many(self, records) -> list:
+        out = []
+        for r in records:
+            out.extend(self._push(r))
+        return out
+
+    def _close(self) -> list:
+        return []
+
+
+class StreamingMixin:
+    """Batch ``transform`` of a record stage defined by its stream state.
+
+    A stage supplies
+
+    * ``_stream_state(*, batch)``: a new :class:`StreamState` (``batch=True`` when the
+      mixin runs it over records that are all in memory anyway, so that the state
+      need not release images);
+    * ``_check_records(X) -> list``: the records of ``X``, validated (record type and
+      what the stage reads of the payload), errors naming ``X[i]``;
+    * ``_sequence``: the container of ``transform``'s output
+      (:class:`~tunnelsense.FrameSequence` or :class:`~tunnelsense.ScanSequence`);
+    * ``_sort_tours`` (default ``False``): run the tours in the order of their names
+      rather than of their first appearance (when ids count across tours).
+
+    :meth:`start_stream` returns a new state for online use; :meth:`transform`
+    checks the records once, runs them through one state
+    tour by tour in frame order (a repeated key is refused) and returns them in input
+    order; :meth:`_stream_batch` gives the records and the state, for ``predict`` and
+    the stage's own outputs.
+    """
+
+    _sort_tours = False
+
+    def start_stream(self):
+        """A new stream state: ``push(record) -> list``, ``close() -> list``.
+
+        Returns
+        -------
+        state : StreamState
+        """
+        check_is_fitted(self)
+        return self._stream_state()
+
+    def _stream_batch(self, X):
+        """Run ``X`` through a new stream state; the records in input order, and the state."""
+        check_is_fitted(self)
+        records = self._check_records(X)
+        order = stream_order(records, sort_tours=self._sort_tours)
+        state = self._stream_state(batch=True)
+        done = state.push_many([records[i] for i in order.tolist()])
+        done.extend(state.close())
+        if len(done) != len(records):
+            raise RuntimeError(
+                f"{type(self).__name__}'s stream state returned {len(done)} records "
+                f"for {len(records)}"
+            )
+        out = [None] * len(records)
+        for i, r in zip(order.tolist(), done, strict=True):
+            out[i] = r
+        return out, state
+
+    def transform(self, X):
+        """The records of ``X`` through the stage, in input order.
+
+        Parameters
+        ----------
+        X : sequence of records
+
+        Returns
+        -------
+        X_new : FrameSequence or ScanSequence
+        """
+        return self._sequence(self._stream_batch(X)[0])
 
 
 class _StatelessStream:
@@ -113,14 +365,7 @@ class StreamingPipeline:
 
     def push(self, record) -> list:
         """Feed the next record; return the finished records of the last step."""
-        key = record.key
-        last = self._last_key
-        if last is not None and key[0] == last[0] and key[1] <= last[1]:
-            raise ValueError(
-                f"records of one tour must arrive in increasing frame order: {key} "
-                f"came after {last}"
-            )
-        self._last_key = key
+        self._last_key = check_next_key(self._last_key, record)
         batch = [record]
         for state in self._states:
             out = []

@@ -9,7 +9,8 @@ import pytest
 
 from tunnelsense import RUN_GT_COLUMNS, LaserGeometry, Run
 from tunnelsense.datasets import STREET_SCENARIOS, make_street_scans
-from tunnelsense.datasets._street import HIT_ROAD, MAX_RANGE, MEASURE_LIMIT, _simulate
+from tunnelsense.datasets._street import _simulate
+from tunnelsense.datasets._street_sensor import HIT_ROAD, MAX_RANGE, MEASURE_LIMIT
 
 N = 2000
 

@@ -17,7 +17,7 @@ from hypothesis.extra import numpy as hnp
 
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import describe, open_run_stream, read_run, read_run_gt, write_run
-from tunnelsense.io._laser import _write_npz
+from tunnelsense.io._npz import write_npz
 
 EXAMPLES = int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 250))
 FUZZ = settings(max_examples=EXAMPLES, deadline=None,
@@ -139,7 +139,7 @@ def test_npz_members_of_any_dtype_and_shape(tmp_path, members, keep_valid, fortr
     if fortran:
         arrays = {k: np.asfortranarray(v) for k, v in arrays.items()}
     folder = _folder(tmp_path)
-    _write_npz(folder / "scans.npz", arrays)
+    write_npz(folder / "scans.npz", arrays)
     _every_reader(folder)
 
 

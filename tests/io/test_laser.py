@@ -9,7 +9,7 @@ import pytest
 from tunnelsense import LaserGeometry, Run
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import describe, open_run_stream, read_run, read_run_gt, write_run
-from tunnelsense.io._laser import _write_npz
+from tunnelsense.io._npz import write_npz
 
 
 @pytest.fixture
@@ -240,6 +240,26 @@ def test_stream_equals_read_run_with_bounded_chunks(run, tmp_path):
     assert [s.stamp for s in scans] == [s.stamp for s in run.scans]
 
 
+@pytest.mark.parametrize("info, speed", [
+    ({"speed_kmh_mean": 36.0}, 10.0),
+    ({"speed": 8.5, "speed_kmh": 99.0}, 8.5),
+    ({"speed_mps": "7.25"}, 7.25),
+    ({"speed": -3.0, "speed_kmh": 18.0}, 5.0),  # the first positive number
+    ({"speed": "fast", "speed_kmh": float("nan")}, None),
+    ({}, None),
+])
+def test_scans_carry_the_ego_speed_of_the_run_information(run, tmp_path, info,
+                                                          speed):
+    """read_run and open_run_stream give every scan the run's ego speed alike."""
+    from tunnelsense.io import ego_speed
+
+    write_run(Run(run.name, run.scans, run.gt, info), tmp_path)
+    assert ego_speed(info) == (None if speed is None else pytest.approx(speed))
+    for scans in (read_run(tmp_path).scans, list(open_run_stream(tmp_path))):
+        got = [r.payload.get("speed") for r in scans]
+        assert got == [None if speed is None else pytest.approx(speed)] * 12
+
+
 def test_stream_keeps_float32_no_returns_and_reports_truncation(run, tmp_path):
     from tunnelsense.io import open_run_stream
 
@@ -276,7 +296,7 @@ def _arrays(**fields):
 def _write_members(folder, arrays, raw=None):
     """Write ``arrays`` as scans.npz, then ``raw`` {name: bytes} as extra members."""
     folder.mkdir(exist_ok=True)
-    _write_npz(folder / "scans.npz", arrays)
+    write_npz(folder / "scans.npz", arrays)
     with zipfile.ZipFile(folder / "scans.npz", "a") as zf:
         for name, data in (raw or {}).items():
             zf.writestr(name, data)

@@ -11,7 +11,7 @@ from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import describe, open_run_stream, read_run, write_run
-from tunnelsense.io._laser import _write_npz
+from tunnelsense.io._npz import write_npz
 
 GEOMETRY = LaserGeometry(-1.4, 0.0087, 0.05, 8.191, 2.0)
 
@@ -32,7 +32,7 @@ def arrays():
 
 def _write(folder, arrays):
     folder.mkdir(exist_ok=True)
-    _write_npz(folder / "scans.npz", arrays)
+    write_npz(folder / "scans.npz", arrays)
     return folder
 
 
@@ -151,7 +151,7 @@ def test_range_unit_on_the_command_line(tmp_path, capsys):
     r = arrays["ranges"]
     arrays["ranges"] = np.where(np.isfinite(r), np.round(r * 1000), 65535).astype(
         np.uint16)
-    _write_npz(mm / "scans.npz", arrays)
+    write_npz(mm / "scans.npz", arrays)
     (mm / "gt.csv").write_bytes((folder / "gt.csv").read_bytes())
     out = tmp_path / "mm.csv"
     assert main(["detect", "street", "--model", str(model), str(mm), "--out",

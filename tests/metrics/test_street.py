@@ -94,3 +94,18 @@ def test_bad_tables():
         street_scores(table([(5, 1, "parked")]), table([]))
     with pytest.raises(TypeError, match="DataFrame"):
         street_scores([(0, 1, "parked")], table([]))
+
+
+def test_report_prints_undefined_rates_as_na():
+    from tunnelsense.metrics import street_report
+
+    gt = pd.DataFrame({"first_scan": [0, 20], "last_scan": [9, 29],
+                       "label": ["parked", "parked"]})
+    det = pd.DataFrame({"first_scan": [1], "last_scan": [10], "label": ["parked"]})
+    report = street_report(gt, det)
+    parked, passing = report.splitlines()[:2]
+    assert "recall 0.500" in parked and "precision 1.000" in parked
+    # no passing vehicle in the truth nor the detections: rates undefined, not 0
+    assert passing.split()[-4:] == ["recall", "n/a", "precision", "n/a"]
+    assert "NaN" not in report and "nan" not in report and "N/A" not in report
+    assert street_scores(gt, det, zero_division=None)["passing"]["recall"] is None

@@ -12,11 +12,21 @@ from tunnelsense import ScanSequence
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.datasets import STREET_SCENARIOS, make_street_scans
 from tunnelsense.metrics import street_scores
-from tunnelsense.street import OBJECT_COLUMNS, ScanClusterer, make_parking_pipeline
+from tunnelsense.street import (
+    OBJECT_COLUMNS,
+    ScanClusterer,
+    make_parking_pipeline,
+    stream_objects,
+)
 
 
 def _rows(table):
     return [tuple(r) for r in table[list(OBJECT_COLUMNS)].itertuples(index=False)]
+
+
+def _finished(records):
+    """The object-table rows the released records carry, in release order."""
+    return [row for r in records for row in r.payload["finished_objects"]]
 
 
 @pytest.mark.parametrize("scenario", STREET_SCENARIOS)
@@ -28,13 +38,12 @@ def test_streaming_equals_batch(scenario, global_random_seed):
     batch = pipe.transform(X)
     table = est.detect(X, all_objects=True)
     stream = StreamingPipeline(pipe)
-    state = stream._states[0]
-    out, rows = [], []
-    for record in X:  # one scan at a time, rows collected as objects finish
+    out = []
+    for record in X:  # one scan at a time, rows carried by the released records
         out.extend(stream.push(record))
-        rows.extend(state.pop_objects())
     out.extend(stream.close())
-    rows.extend(state.pop_objects())
+    rows = _finished(out)
+    assert list(stream_objects(pipe, X, all_objects=True)) == rows
     assert [r.scan for r in out] == [r.scan for r in batch]
     for a, b in zip(out, batch, strict=True):
         assert np.array_equal(a.payload["objects"], b.payload["objects"])
@@ -68,7 +77,7 @@ def test_chunking_and_runs(global_random_seed):
             out.extend(state.push_many(ordered[i:i + chunk]))
         out.extend(state.close())
         assert len(out) == len(X)
-        assert state.pop_objects() == _rows(table)
+        assert _finished(out) == _rows(table)
     assert set(table["run"]) == {"a", "b"}
     assert (table.groupby("run")["id"].min()["a"] == 1)
 
@@ -77,8 +86,11 @@ def test_stream_rejects_disorder(global_random_seed):
     run = make_street_scans(50, random_state=global_random_seed)
     state = ScanClusterer().fit(run.scans).start_stream()
     state.push(run.scans[5])
-    with pytest.raises(ValueError, match="scan 3 of run .* comes after scan 5"):
+    with pytest.raises(ValueError, match=r"in increasing scan order: \(.*, 3\) came "
+                       r"after \(.*, 5\)"):
         state.push(run.scans[3])
+    with pytest.raises(ValueError, match="scan 5 of run .* came twice"):
+        state.push(run.scans[5])
 
 
 def _cars_run(n_scans):
@@ -96,12 +108,13 @@ def test_memory_follows_objects_not_run_length():
     held = []
     for run in (short, long_):
         state = est.start_stream()
-        n_out = 0
+        n_out = most = 0
         for record in run.scans:
             n_out += len(state.push(record))
+            most = max(most, state.n_held)
         n_out += len(state.close())
         assert n_out == len(run.scans)
-        held.append(state.max_window)
+        held.append(most)
     # a car is 30 scans; a decision needs 4 m more (27 scans) and the history
     assert held[0] == held[1]
     assert held[1] < 120
@@ -119,10 +132,11 @@ def test_long_wall_is_other():
     table = est.detect(run.scans, all_objects=True)
     assert table["label"].tolist() == ["other", "parked"]
     state = est.start_stream()
+    out = []
     for record in run.scans:
-        state.push(record)
-    state.close()
-    assert state.pop_objects() == _rows(table)
+        out.extend(state.push(record))
+    out.extend(state.close())
+    assert _finished(out) == _rows(table)
 
 
 _FRESH = textwrap.dedent("""
@@ -190,13 +204,14 @@ def test_roadside_wall_memory_bounded():
     for run in (short, long_):
         table = est.detect(run.scans, all_objects=True)
         state = est.start_stream()
-        n_out = 0
+        out, most = [], 0
         for i in range(0, len(run.scans), 32):
-            n_out += len(state.push_many(run.scans[i:i + 32]))
-        n_out += len(state.close())
-        assert n_out == len(run.scans)
-        assert state.pop_objects() == _rows(table)
-        held.append(state.max_window)
+            out.extend(state.push_many(run.scans[i:i + 32]))
+            most = max(most, state.n_held)
+        out.extend(state.close())
+        assert len(out) == len(run.scans)
+        assert _finished(out) == _rows(table)
+        held.append(most)
         # the wall comes out in pieces of about max_pending_length, never a vehicle
         wall = table[table["mean_depth"] > 6.6]
         assert len(wall) >= 3
@@ -211,10 +226,12 @@ def test_roadside_wall_memory_bounded():
     assert held[1] < 800
     # without the limit the wall holds everything after its start
     state = ScanClusterer(max_pending_length=None).fit(short.scans).start_stream()
+    most = 0
     for i in range(0, len(short.scans), 32):
         state.push_many(short.scans[i:i + 32])
+        most = max(most, state.n_held)
     state.close()
-    assert state.max_window > 1500
+    assert most > 1500
 
 
 @pytest.mark.parametrize("scenario", ["dense", "crowded"])
@@ -234,7 +251,7 @@ def test_pending_limit_any_chunking(scenario, global_random_seed):
         for i in range(0, len(X), chunk):
             out.extend(state.push_many(X[i:i + chunk]))
         out.extend(state.close())
-        assert state.pop_objects() == _rows(table)
+        assert _finished(out) == _rows(table)
         assert all(np.array_equal(a.payload["objects"], b.payload["objects"])
                    and np.array_equal(a.payload["in_view"], b.payload["in_view"])
                    for a, b in zip(out, batch, strict=True))

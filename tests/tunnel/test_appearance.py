@@ -7,11 +7,13 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 from tunnelsense import FrameRecord, FrameSequence
 from tunnelsense.tunnel import WeightedAdaBoost, box_histograms, centres_in_boxes
 from tunnelsense.tunnel._appearance import stump_decision
+from tunnelsense.tunnel._stumps import WeightedAdaBoostCore
 from tunnelsense.utils import record_stage_checks
 
 
 @parametrize_with_checks(
-    [WeightedAdaBoost(n_estimators=10), WeightedAdaBoost(positive_weight=1.0)]
+    [WeightedAdaBoost(n_estimators=10), WeightedAdaBoost(positive_weight=1.0),
+     WeightedAdaBoostCore(n_estimators=10)]
 )
 def test_sklearn_compatible(estimator, check):
     check(estimator)

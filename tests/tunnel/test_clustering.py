@@ -10,8 +10,9 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from tunnelsense import FrameRecord, FrameSequence
 from tunnelsense.tunnel import MSTClusterer, cluster_boxes, mst_partition, region_boxes
-from tunnelsense.tunnel._clustering import (
+from tunnelsense.tunnel._mst import (
     DENSE_MAX_POINTS,
+    MSTClustererCore,
     _delaunay_partition,
     _pair_bound,
     _pair_partition,
@@ -35,7 +36,7 @@ def scipy_partition(points, cut):
     return canonical(fcluster(single(pdist(points)), cut, criterion="distance"))
 
 
-@parametrize_with_checks([MSTClusterer(), MSTClusterer(cut=0.5)])
+@parametrize_with_checks([MSTClusterer(), MSTClusterer(cut=0.5), MSTClustererCore()])
 def test_sklearn_compatible(estimator, check):
     check(estimator)
 

@@ -119,7 +119,7 @@ def test_grouped_median_between_two_levels():
 
 
 def test_indicator_band_needs_8_or_16_bit_frames():
-    with pytest.raises(ValueError, match="image 0 must be a 2-D uint8 or uint16"):
+    with pytest.raises(ValueError, match="image 0: the image must be a 2-D uint8 or uint16"):
         indicator_band([np.array([[170, 180]])], [np.array([[0, 0, 2, 1.]])])
     # 8- and 16-bit frames together are counted on the longer histogram
     band = indicator_band(

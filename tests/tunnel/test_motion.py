@@ -3,7 +3,6 @@ import pytest
 
 from tunnelsense import FrameRecord
 from tunnelsense.tunnel import PCCVerifier, pearson_r
-from tunnelsense.tunnel._motion import trajectory_r
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
 
 IMG = np.zeros((120, 160), np.uint8)
@@ -48,15 +47,6 @@ def test_pearson_r_matches_numpy(global_random_seed):
     x, y = rng.normal(size=30), rng.normal(size=30)
     assert pearson_r(x, y) == pytest.approx(np.corrcoef(x, y)[0, 1])
     assert pearson_r([1, 2, 3], [7, 7, 7]) == 0.0
-
-
-def test_trajectory_r_equals_segment_by_segment(global_random_seed):
-    rng = np.random.default_rng(global_random_seed)
-    lengths = rng.integers(1, 12, 20)
-    x, y = rng.normal(size=lengths.sum()), rng.normal(size=lengths.sum())
-    starts = np.r_[0, np.cumsum(lengths)[:-1]]
-    expected = [pearson_r(x[s : s + n], y[s : s + n]) for s, n in zip(starts, lengths, strict=True)]
-    np.testing.assert_allclose(trajectory_r(x, y, starts), expected, atol=1e-12)
 
 
 def test_straight_track_detected_still_track_not(global_random_seed):

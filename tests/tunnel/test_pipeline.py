@@ -8,6 +8,7 @@ from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.tunnel import (
     KMeansHistogramVerifier,
+    MSTClusterer,
     PCCVerifier,
     TrajectoryLinker,
     WeightedAdaBoost,
@@ -196,3 +197,21 @@ def test_frames_of_another_bit_depth_are_refused(tours):
         pipe.predict(frames)
     with pytest.raises(InputFormatError, match=match):
         StreamingPipeline(pipe).push(frames[0])
+
+
+@pytest.mark.parametrize(
+    "estimator, method",
+    [
+        (MSTClusterer(), "fit_predict"),
+        (KMeansHistogramVerifier(), "predict"),
+        (KMeansHistogramVerifier(), "distances"),
+        (WeightedAdaBoost(), "predict"),
+        (WeightedAdaBoost(), "decision_function"),
+    ],
+)
+def test_tabular_methods_refuse_frame_records(estimator, method):
+    from tunnelsense import FrameRecord
+
+    records = [FrameRecord("t", 1, np.zeros((8, 8), np.uint8))]
+    with pytest.raises(TypeError, match=rf"{type(estimator).__name__}\.{method} takes a 2-D"):
+        getattr(estimator, method)(records)

@@ -3,7 +3,7 @@ import pytest
 
 from tunnelsense import FrameRecord
 from tunnelsense.tunnel import TrajectoryLinker
-from tunnelsense.tunnel._tracking import link_log_likelihood
+from tunnelsense.tunnel._linking import assign_pairs, link_log_likelihood
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
 
 IMG = np.zeros((120, 160), np.uint8)
@@ -115,8 +115,8 @@ def test_link_log_likelihood_gates():
 def test_greedy_and_hungarian_assignment():
     # A-1 is the best pair; greedy takes it and leaves B unlinked, Hungarian links both.
     pairs = [(-0.1, 0, 0), (-1.0, 0, 1), (-1.0, 1, 0)]
-    assert TrajectoryLinker._assign(list(pairs), 2, 2, hungarian=False) == [(0, 0)]
-    assert sorted(TrajectoryLinker._assign(list(pairs), 2, 2, hungarian=True)) == [
+    assert assign_pairs(list(pairs), 2, 2, hungarian=False) == [(0, 0)]
+    assert sorted(assign_pairs(list(pairs), 2, 2, hungarian=True)) == [
         (0, 1),
         (1, 0),
     ]
@@ -126,6 +126,15 @@ def test_duplicate_frames_rejected():
     X = [rec(1, [[0, 0, 4, 8]]), rec(1, [[0, 0, 4, 8]])]
     with pytest.raises(ValueError, match="twice"):
         TrajectoryLinker().fit(X)
+
+
+def test_histograms_of_the_wrong_length_are_refused():
+    X = [rec(f, [[10.0 + f, 20, 4, 8]]) for f in (1, 2)]
+    X[1] = X[1].evolve(cluster_histograms=np.full((2, 32), 1 / 32))
+    with pytest.raises(ValueError, match=r"X\[1\].*cluster_histograms.*\(1, bins\)"):
+        TrajectoryLinker().fit(X)
+    with pytest.raises(ValueError, match="cluster_histograms"):
+        TrajectoryLinker().fit(X[:1]).start_stream().push_many(X)
 
 
 def test_missing_clusters_is_a_clear_error():

@@ -15,6 +15,7 @@ from tunnelsense.tunnel import (
     rank_positive_centers,
 )
 from tunnelsense.tunnel._common import points_in_boxes
+from tunnelsense.tunnel._kmeans import KMeansHistogramCore
 from tunnelsense.tunnel._verification import verify_histograms
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
 
@@ -23,6 +24,7 @@ from tunnelsense.utils import record_stage_checks, sklearn_api_checks
     [
         KMeansHistogramVerifier(),
         KMeansHistogramVerifier(n_positive_clusters=3, n_negative_clusters=5, n_centers=2),
+        KMeansHistogramCore(n_positive_clusters=3, n_negative_clusters=5, n_centers=2),
         KMeansHistogramVerifier(max_full_samples=5, batch_size=8, n_steps=5),
     ]
 )

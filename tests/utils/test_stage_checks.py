@@ -107,6 +107,42 @@ class SortsFrames(FrameMean):
         return FrameSequence(sorted(out, key=lambda r: -r.frame))
 
 
+class Declared(FrameMean):
+    """Declares what it adds and reads: the mean, from payload "offset"."""
+
+    _payload_reads = ("offset",)
+    _payload_adds = ("mean",)
+
+    def transform(self, X):
+        check_is_fitted(self)
+        records, _ = check_frames(X)
+        for i, r in enumerate(records):
+            if "offset" not in r.payload:
+                raise ValueError(f"X[{i}] has no payload['offset']")
+        return FrameSequence(
+            r.evolve(mean=float(r.image.mean()) + r.payload["offset"]) for r in records
+        )
+
+
+class AddsUndeclared(Declared):
+    def transform(self, X):
+        return FrameSequence(r.evolve(extra=1) for r in super().transform(X))
+
+
+class ChangesUndeclared(Declared):
+    def transform(self, X):
+        return FrameSequence(r.evolve(offset=0.0) for r in super().transform(X))
+
+
+class IgnoresMissingRead(Declared):
+    def transform(self, X):
+        records, _ = check_frames(X)
+        return FrameSequence(
+            r.evolve(mean=float(r.image.mean()) + r.payload.get("offset", 0.0))
+            for r in records
+        )
+
+
 def frames(n=4):
     images = np.random.default_rng(0).integers(0, 256, (n, 12, 16)).astype(np.uint8)
     return FrameSequence.from_array(images, tour="t"), [np.empty((0, 4))] * n
@@ -125,6 +161,22 @@ def test_good_frame_stage_passes():
     X, y = frames()
     check_record_stage(FrameMean(), X, y)
     check_record_stage(FrameMean(random_state=3), X, None)
+
+
+@pytest.mark.parametrize(
+    "stage, ok",
+    [(Declared(), True), (AddsUndeclared(), False), (ChangesUndeclared(), False),
+     (IgnoresMissingRead(), False)],
+)
+def test_payload_contract_is_checked(stage, ok):
+    X, y = frames()
+    X = FrameSequence(r.evolve(offset=1.0) for r in X)
+    check = dict(record_stage_checks(stage, X, y))["check_payload_contract"]
+    if ok:
+        check()
+    else:
+        with pytest.raises(AssertionError, match="payload"):
+            check()
 
 
 def test_good_scan_stage_passes():

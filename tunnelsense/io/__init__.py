@@ -14,7 +14,9 @@ from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
 from tunnelsense.io._laser import (
     RunStream,
+    ego_speed,
     open_run_stream,
+    read_objects,
     read_run,
     read_run_gt,
     write_run,
@@ -63,6 +65,7 @@ __all__ = [
     "format_description",
     "iter_video",
     "RunStream",
+    "ego_speed",
     "open_run_stream",
     "open_source",
     "open_tour",
@@ -70,6 +73,7 @@ __all__ = [
     "read_image_folder",
     "read_mot_gt",
     "read_mot_results",
+    "read_objects",
     "read_run",
     "read_run_gt",
     "read_tour",

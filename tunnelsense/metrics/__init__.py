@@ -6,6 +6,7 @@ from tunnelsense.metrics._street import (
     match_objects,
     objects_from_targets,
     street_confusion_matrix,
+    street_report,
     street_scores,
 )
 from tunnelsense.metrics._tunnel import (
@@ -37,5 +38,6 @@ __all__ = [
     "match_objects",
     "objects_from_targets",
     "street_confusion_matrix",
+    "street_report",
     "street_scores",
 ]

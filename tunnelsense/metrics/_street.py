@@ -23,6 +23,7 @@ __all__ = [
     "match_objects",
     "objects_from_targets",
     "street_confusion_matrix",
+    "street_report",
     "street_scores",
 ]
 
@@ -154,8 +155,9 @@ def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.
     min_iou : float, default=0.5
         Smallest scan-interval IoU of a match.
     labels : sequence of str, default=("parked", "passing")
-    zero_division : float, default=0.0
-        Recall (precision) when there is no ground truth (no detection) of a label.
+    zero_division : float or None, default=0.0
+        Recall (precision) when there is no ground truth (no detection) of a label;
+        None: undefined (``n/a`` in :func:`street_report`).
 
     Returns
     -------
@@ -177,6 +179,7 @@ def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.
     if "run" not in gt or "run" not in detected:
         g["run"] = ""
         d["run"] = ""
+    undefined = None if zero_division is None else float(zero_division)
     m = match_objects(g, d, min_iou=min_iou)
     gl = g["label"].to_numpy()[m["gt"].to_numpy()]
     dl = d["label"].to_numpy()[m["detected"].to_numpy()]
@@ -189,8 +192,8 @@ def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.
             "tp": tp,
             "fp": n_det - tp,
             "fn": n_gt - tp,
-            "recall": tp / n_gt if n_gt else float(zero_division),
-            "precision": tp / n_det if n_det else float(zero_division),
+            "recall": tp / n_gt if n_gt else undefined,
+            "precision": tp / n_det if n_det else undefined,
         }
     return out
 
@@ -199,12 +202,13 @@ def street_confusion_matrix(gt, detected, *, label="parked", min_iou=0.5):
     """The paper's confusion matrix (TABLE 1) of one label.
 
     Rows are the truth, columns the prediction, both ``negative, positive``; the true
-    negatives are not defined for object detection (NaN, the paper's "N/A").
+    negatives are not defined for object detection (NaN; ``n/a`` in
+    :func:`street_report`).
 
     Returns
     -------
     matrix : DataFrame
-        ``[[N/A, fp], [fn, tp]]``.
+        ``[[NaN, fp], [fn, tp]]``.
 
     Examples
     --------
@@ -227,6 +231,55 @@ def street_confusion_matrix(gt, detected, *, label="parked", min_iou=0.5):
         dtype=np.float64,
     )
     return m
+
+
+def street_report(gt, detected, *, min_iou=0.5, label="parked"):
+    """Scores per label and the confusion matrix of ``label``, as text.
+
+    A rate without a denominator (no ground truth, no detection) and the undefined
+    true negatives print as ``n/a``.
+
+    Parameters
+    ----------
+    gt, detected : DataFrame
+        Object tables (see :func:`match_objects`).
+    min_iou : float, default=0.5
+        Smallest scan-interval IoU of a match.
+    label : str, default="parked"
+        The label of the confusion matrix.
+
+    Returns
+    -------
+    report : str
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.metrics import street_report
+    >>> gt = pd.DataFrame({"first_scan": [0], "last_scan": [9], "label": ["parked"]})
+    >>> print(street_report(gt, gt))
+    parked   tp    1  fp    0  fn    0  recall 1.000  precision 1.000
+    passing  tp    0  fp    0  fn    0  recall n/a    precision n/a
+    <BLANKLINE>
+    parked vehicles, the paper's confusion matrix (rows: truth):
+    truth \\ predicted  negative  positive
+    negative                n/a         0
+    positive                  0         1
+    """
+    def rate(value):
+        return "n/a  " if value is None else f"{value:.3f}"
+
+    lines = [f"{name:8s} tp {s['tp']:4d}  fp {s['fp']:4d}  fn {s['fn']:4d}  "
+             f"recall {rate(s['recall'])}  precision {rate(s['precision'])}".rstrip()
+             for name, s in street_scores(gt, detected, min_iou=min_iou,
+                                          zero_division=None).items()]
+    matrix = street_confusion_matrix(gt, detected, label=label, min_iou=min_iou)
+    lines += ["", f"{label} vehicles, the paper's confusion matrix (rows: truth):",
+              "truth \\ predicted  negative  positive"]
+    for name, values in matrix.iterrows():
+        cells = ["n/a" if v != v else str(int(v)) for v in values]
+        lines.append(f"{name:18s} {cells[0]:>8s}  {cells[1]:>8s}")
+    return "\n".join(lines)
 
 
 def objects_from_targets(X, y):

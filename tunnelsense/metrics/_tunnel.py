@@ -139,7 +139,7 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     -------
     gt : DataFrame with columns tour, frame, id, bb_left, bb_top, bb_width, bb_height
     """
-    from tunnelsense.tunnel._tracking import tour_order  # tunnel imports metrics
+    from tunnelsense._streaming import tour_groups
 
     records = list(records)
     y = [np.asarray(b, dtype=np.float64).reshape(-1, 4) for b in y]
@@ -147,7 +147,7 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
         raise ValueError(f"y has {len(y)} entries for {len(records)} frames")
     grow = 0.5
     rows = []
-    for group in tour_order(records):
+    for group in tour_groups(records):
         next_id = 1
         prev_frame, prev_boxes, prev_ids = None, np.empty((0, 4)), []
         for i in group.tolist():

@@ -2,6 +2,9 @@
 
 Section III of Hirahara and Ikeuchi's method (``lrf-street-parking-detection.txt``) as
 array functions and scikit-learn estimators on scan records; see ``docs/street.md``.
+The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
+clustering (``_clustering``), objects (``_sections``, ``_objects``), the online state
+(``_stream``), the estimator (``_detector``) and whole runs (``_run``).
 """
 
 from tunnelsense.street._clustering import link_scans, single_linkage
@@ -9,8 +12,8 @@ from tunnelsense.street._detector import (
     OBJECT_COLUMNS,
     ScanClusterer,
     make_parking_pipeline,
-    split_profile,
 )
+from tunnelsense.street._objects import split_profile
 from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
 from tunnelsense.street._restoration import (
     compensate_tilt,
@@ -19,15 +22,26 @@ from tunnelsense.street._restoration import (
     restore_points,
 )
 from tunnelsense.street._roi import roi_mask
+from tunnelsense.street._run import (
+    OBJECT_CSV_COLUMNS,
+    SEARCH_GRID,
+    format_object,
+    stream_objects,
+    train_detector,
+    write_objects,
+)
 from tunnelsense.street._sections import section_evidence
 
 __all__ = [
     "OBJECT_COLUMNS",
+    "OBJECT_CSV_COLUMNS",
+    "SEARCH_GRID",
     "ScanClusterer",
     "make_parking_pipeline",
     "split_profile",
     "compensate_tilt",
     "estimate_tilt",
+    "format_object",
     "link_scans",
     "no_return",
     "plot_clusters",
@@ -37,4 +51,7 @@ __all__ = [
     "roi_mask",
     "section_evidence",
     "single_linkage",
+    "stream_objects",
+    "train_detector",
+    "write_objects",
 ]

@@ -25,24 +25,72 @@ inter-cluster that finds nothing to link in the next scan is finished (an
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
-__all__ = ["link_scans", "single_linkage"]
+__all__ = [
+    "components",
+    "expand_ranges",
+    "first_appearance",
+    "link_pairs",
+    "link_scans",
+    "single_linkage",
+]
 
 _CHUNK = 4_000_000  # largest number of point pairs compared at once
 
 
-def _components(n, a, b):
-    """Labels of the connected components of ``n`` nodes with edges ``a``-``b``."""
+def components(n, a, b):
+    """Connected components of the graph of ``n`` nodes and edges ``a - b``.
+
+    Hooking and pointer jumping in NumPy: a few passes even for long chains (the
+    links of an object-cluster join consecutive scans), without the set-up cost of a
+    sparse matrix, which dominates on the small graphs of a stream's decisions.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,) of int64
+        The smallest node of every node's component.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import components
+    >>> components(5, np.array([3, 1]), np.array([4, 3])).tolist()
+    [0, 1, 2, 1, 1]
+    """
+    labels = np.arange(n)
     if len(a) == 0:
-        return np.arange(n)
-    g = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(n, n))
-    return connected_components(g, directed=False)[1]
+        return labels
+    while True:
+        la, lb = labels[a], labels[b]
+        differ = la != lb
+        if not differ.any():
+            return labels
+        la, lb = la[differ], lb[differ]
+        low = np.minimum(la, lb)
+        np.minimum.at(labels, la, low)  # hook the larger root under the smaller label
+        np.minimum.at(labels, lb, low)
+        while True:  # pointer jumping: every node to its root
+            jumped = labels[labels]
+            if np.array_equal(jumped, labels):
+                break
+            labels = jumped
 
 
-def _ranges_expand(starts, counts):
-    """Concatenation of ``arange(s, s + c)`` for every start/count (vectorized)."""
+def expand_ranges(starts, counts):
+    """Concatenation of ``arange(s, s + c)`` for every start/count (vectorized).
+
+    Returns
+    -------
+    index, owner : ndarray of int64
+        The concatenated ranges, and which start/count each value comes from.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import expand_ranges
+    >>> [a.tolist() for a in expand_ranges(np.array([5, 0]), np.array([2, 3]))]
+    [[5, 6, 0, 1, 2], [0, 0, 1, 1, 1]]
+    """
     total = int(counts.sum())
     if total == 0:
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
@@ -57,9 +105,9 @@ def _cross_linked(x, y, a_idx, a_own, b_idx, b_own, n_pairs, cut):
     hit = np.zeros(n_pairs, dtype=bool)
     if len(a_idx) == 0 or len(b_idx) == 0:
         return hit
-    nb = np.bincount(b_own, minlength=n_pairs)
-    b_start = np.cumsum(nb) - nb
-    per_a = nb[a_own]
+    b_count = np.bincount(b_own, minlength=n_pairs)
+    b_start = np.cumsum(b_count) - b_count
+    per_a = b_count[a_own]
     # process the a-points in chunks to bound memory
     cum = np.cumsum(per_a)
     lo = 0
@@ -68,7 +116,7 @@ def _cross_linked(x, y, a_idx, a_own, b_idx, b_own, n_pairs, cut):
         hi = int(np.searchsorted(cum, done + _CHUNK, side="right"))
         hi = max(hi, lo + 1)
         cnt = per_a[lo:hi]
-        bi, owner = _ranges_expand(b_start[a_own[lo:hi]], cnt)
+        bi, owner = expand_ranges(b_start[a_own[lo:hi]], cnt)
         ai = a_idx[lo:hi][owner]
         bj = b_idx[bi]
         dx = x[ai] - x[bj]
@@ -107,7 +155,7 @@ def _single_linkage_groups(x, y, group, cut):
     grp_size = np.diff(np.r_[grp_first, n_chains])
     grp_end = np.repeat(grp_first + grp_size, grp_size)  # one past the group's last
     partners = grp_end - np.arange(n_chains) - 1
-    bi, ai = _ranges_expand(np.arange(n_chains) + 1, partners)
+    bi, ai = expand_ranges(np.arange(n_chains) + 1, partners)
     ea = np.empty(0, dtype=np.int64)
     eb = np.empty(0, dtype=np.int64)
     if len(ai):
@@ -118,8 +166,8 @@ def _single_linkage_groups(x, y, group, cut):
         ai, bi = ai[keep], bi[keep]
         if len(ai):
             # points of a within cut of b's box, and vice versa
-            pa, own_a = _ranges_expand(starts[ai], lengths[ai])
-            pb, own_b = _ranges_expand(starts[bi], lengths[bi])
+            pa, own_a = expand_ranges(starts[ai], lengths[ai])
+            pb, own_b = expand_ranges(starts[bi], lengths[bi])
             ina = (
                 (x[pa] >= xmin[bi][own_a] - margin)
                 & (x[pa] <= xmax[bi][own_a] + margin)
@@ -137,11 +185,7 @@ def _single_linkage_groups(x, y, group, cut):
             )
             ea, eb = ai[hit], bi[hit]
     # 3. components of the chain graph, numbered by first appearance within each group
-    comp = _components(n_chains, ea, eb)[chain]
-    _, first = np.unique(comp, return_index=True)
-    order = np.empty(len(first), dtype=np.int64)
-    order[np.argsort(first)] = np.arange(len(first))
-    glob = order[comp]
+    glob = first_appearance(components(n_chains, ea, eb)[chain])
     pgroup_first = np.r_[True, group[1:] != group[:-1]]
     base = np.maximum.accumulate(np.where(pgroup_first, glob, 0))
     return glob - base
@@ -200,6 +244,38 @@ def single_linkage(points, cut=0.6, *, groups=None):
     return _single_linkage_groups(pts[:, 0].copy(), pts[:, 1].copy(), g, float(cut))
 
 
+def link_pairs(position, mean_depth, follows, link_distance=0.5):
+    """Inter-scan links: the pairs of intra-clusters of consecutive scans that link.
+
+    Parameters are those of :func:`link_scans`; ``position`` must be non-decreasing.
+
+    Returns
+    -------
+    earlier, later : ndarray of shape (n_links,) of int64
+        Indices of the linked clusters, ``earlier`` in the scan before ``later``'s.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import link_pairs
+    >>> link_pairs(np.array([0, 0, 1]), np.array([2.0, 5.0, 5.3]),
+    ...            np.array([False, True]))
+    (array([1]), array([2]))
+    """
+    pos = np.asarray(position, dtype=np.int64)
+    depth = np.asarray(mean_depth, dtype=np.float64)
+    n_positions = len(follows)
+    count = np.bincount(pos, minlength=n_positions)
+    start = np.cumsum(count) - count
+    prev_count = np.r_[0, count[:-1]]
+    prev_start = np.r_[0, start[:-1]]
+    # every cluster against all clusters of the previous scan, if it directly follows
+    n_prev = np.where(np.asarray(follows, dtype=bool), prev_count, 0)[pos]
+    earlier, later = expand_ranges(prev_start[pos], n_prev)
+    close = np.abs(depth[earlier] - depth[later]) < link_distance
+    return earlier[close], later[close]
+
+
 def link_scans(position, mean_depth, follows, link_distance=0.5):
     """Inter-scan clustering: object-cluster number of every intra-cluster.
 
@@ -229,30 +305,25 @@ def link_scans(position, mean_depth, follows, link_distance=0.5):
     [0, 1, 1, 1, 2]
     """
     pos = np.asarray(position, dtype=np.int64)
-    md = np.asarray(mean_depth, dtype=np.float64)
-    follows = np.asarray(follows, dtype=bool)
-    n = len(pos)
-    if n == 0:
+    if len(pos) == 0:
         return np.empty(0, dtype=np.int64)
-    # sort by (position, depth); find for each cluster the previous scan's clusters
-    # with depth in (d - link, d + link)
-    order = np.lexsort((md, pos))
-    spos, smd = pos[order], md[order]
-    span = float(np.nanmax(np.abs(smd))) * 2 + 4 * link_distance + 1.0
-    key = spos * span + smd
-    lo = np.searchsorted(key, (spos - 1) * span + smd - link_distance, side="right")
-    hi = np.searchsorted(key, (spos - 1) * span + smd + link_distance, side="left")
-    ok = follows[spos] & (spos > 0)
-    cnt = np.where(ok, np.maximum(hi - lo, 0), 0)
-    prev, owner = _ranges_expand(lo, cnt)
-    # guard against float error at the key boundaries
-    good = (spos[prev] == spos[owner] - 1) & (
-        np.abs(smd[prev] - smd[owner]) < link_distance
-    )
-    comp = _components(n, prev[good], owner[good])
-    labels = np.empty(n, dtype=np.int64)
-    labels[order] = comp
-    _, first = np.unique(labels, return_index=True)
-    renum = np.empty(len(first), dtype=np.int64)
-    renum[np.argsort(first)] = np.arange(len(first))
-    return renum[labels]
+    if np.any(np.diff(pos) < 0):
+        raise ValueError("position must be non-decreasing (clusters in scan order)")
+    labels = components(len(pos), *link_pairs(pos, mean_depth, follows, link_distance))
+    return first_appearance(labels)
+
+
+def first_appearance(labels):
+    """Renumber labels from 0 in order of first appearance.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import first_appearance
+    >>> first_appearance(np.array([7, 2, 7, 5])).tolist()
+    [0, 1, 0, 2]
+    """
+    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    renumber = np.empty(len(first), dtype=np.int64)
+    renumber[np.argsort(first)] = np.arange(len(first))
+    return renumber[inverse.ravel()]

@@ -16,16 +16,12 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval
-from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
-from tunnelsense.street._stream import (
-    DEFAULT_SCAN_PERIOD,  # noqa: F401 (re-exported for users of the constants)
-    DEFAULT_SPEED,  # noqa: F401
-    ScanStream,
-)
+from tunnelsense._streaming import StreamingMixin
+from tunnelsense.street._stream import FINISHED, ScanStream
 
-__all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline", "split_profile"]
+__all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline"]
 
 #: Columns of the object table returned by :meth:`ScanClusterer.detect`.
 OBJECT_COLUMNS = (
@@ -41,69 +37,7 @@ OBJECT_COLUMNS = (
     "n_points",
 )
 
-def split_profile(top, step, *, min_length=2.0, ratio=0.6):
-    """Where to split an object whose height profile has two humps.
-
-    Two vehicles parked nose to tail and merged into one object show, along the track,
-    two humps of the top height (roofs, 1.2-2 m) with a valley between them (bumpers,
-    0.3-0.7 m, or the road seen through the gap).  A single vehicle has one hump:
-    its low parts (bumpers, bonnet, boot) are at its ends.
-
-    The split point is the scan of lowest ``top / min(left peak, right peak)`` among
-    the scans that leave at least ``min_length`` metres on both sides; it is accepted
-    when that ratio is at most ``ratio``.  Applied recursively to both parts.
-
-    Parameters
-    ----------
-    top : ndarray of shape (n_scans,)
-        Top height (m) of the object in each of its scans (NaN where not seen).
-    step : float
-        Distance (m) travelled between two scans.
-    min_length : float, default=2.0
-        Shortest part (m) a split may leave.
-    ratio : float, default=0.6
-        Largest valley-to-peak ratio that splits.
-
-    Returns
-    -------
-    cuts : list of int
-        Scan offsets where a new object starts (sorted).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street import split_profile
-    >>> car = np.r_[0.5, 0.9, 0.9, 1.4, 1.45, 1.4, 1.0, 0.5]
-    >>> split_profile(np.r_[car, car], step=0.6)
-    [8]
-    >>> split_profile(car, step=0.6)
-    []
-    """
-    top = np.asarray(top, dtype=np.float64)
-    top = np.where(np.isnan(top), 0.0, top)
-    n = len(top)
-    k = max(int(np.ceil(min_length / max(step, 1e-9))), 1)
-    if n < 2 * k + 1:
-        return []
-    left = np.maximum.accumulate(top)
-    right = np.maximum.accumulate(top[::-1])[::-1]
-    idx = np.arange(k, n - k)
-    peak = np.minimum(left[idx - 1], right[idx + 1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        score = np.where(peak > 0, top[idx] / peak, np.inf)
-    j = int(np.argmin(score))
-    if not score[j] <= ratio:
-        return []
-    cut = int(idx[j])
-    # the valley scan goes with its higher neighbour (a bumper with its own body)
-    start = cut + 1 if top[cut - 1] > top[cut + 1] else cut
-    start = min(max(start, k), n - k)
-    a = split_profile(top[:start], step, min_length=min_length, ratio=ratio)
-    b = split_profile(top[start:], step, min_length=min_length, ratio=ratio)
-    return [*a, start, *(start + c for c in b)]
-
-
-class ScanClusterer(TransformerMixin, BaseEstimator):
+class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     """Detect street-parked and passing vehicles in vertical laser scans.
 
     The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
@@ -153,7 +87,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
     split_merged : bool, default=True
         Split objects whose height profile shows two vehicles nose to tail.
     split_ratio : float, default=0.6
-        Largest valley-to-peak height ratio that splits (see :func:`split_profile`).
+        Largest valley-to-peak height ratio that splits (see :func:`~tunnelsense.street.split_profile`).
     min_length : float, default=1.5
         Shortest vehicle (m along the track); shorter objects are ``"other"``
         (pedestrians, bins, bollards); also the shortest part a split leaves.
@@ -351,11 +285,11 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         -------
         stream : ScanStream
             ``push(record) -> list`` of finished records (payload as
-            :meth:`transform`, plus ``"in_view"``: the ``(k, 2)`` ``(object id,
-            label code)`` of :meth:`predict`), ``push_many(records)``,
-            ``close() -> list``, and ``pop_objects()``: the object-table rows
-            (:data:`OBJECT_COLUMNS`) finished so far, in id order.  Memory follows the
-            longest object in view, not the run's length.
+            :meth:`transform`), ``push_many(records)`` and ``close() -> list``.
+            Every released record carries in its payload ``"finished_objects"``
+            the object-table rows (:data:`OBJECT_COLUMNS`) that became final by
+            then, in id order.  Memory follows the longest object in view, not the
+            run's length.
 
         Examples
         --------
@@ -372,42 +306,31 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         >>> stream = ScanClusterer().fit(X).start_stream()
         >>> released = 0
         >>> for i, record in enumerate(X):
-        ...     released += len(stream.push(record))
-        ...     for row in stream.pop_objects():   # 4 m after its end: final
-        ...         print(f"after scan {i}:", row[1:5], f"{released} scans out")
+        ...     for done in stream.push(record):
+        ...         released += 1
+        ...         for row in done.payload["finished_objects"]:   # 4 m after its end
+        ...             print(f"after scan {i}:", row[1:5], f"{released} scans out")
         after scan 66: (1, 10, 39, 'parked') 41 scans out
         >>> len(stream.close()) + released
         300
         """
-        check_is_fitted(self)
+        return super().start_stream()
+
+    _sequence = ScanSequence
+    _sort_tours = True  # ids count over the runs in the order of their names
+
+    def _check_records(self, X):
+        return check_scans(X)[0]
+
+    def _stream_state(self, *, batch=False):
         return ScanStream(self)
 
     def _batch(self, X):
-        """Run the stream state over every run of ``X`` (sorted by run and scan).
-
-        Returns the finished records in the order of ``X`` and the object table.
-        """
-        check_is_fitted(self)
-        records, _ = check_scans(X)
-        n = len(records)
-        runs = np.array([r.run for r in records], dtype=object)
-        scans = np.array([r.scan for r in records], dtype=np.int64)
-        order = np.lexsort((scans, runs.astype(str))) if n else np.empty(0, np.int64)
-        sruns, sscans = runs[order], scans[order]
-        dup = (sruns[1:] == sruns[:-1]) & (sscans[1:] == sscans[:-1])
-        if dup.any():
-            i = int(np.flatnonzero(dup)[0])
-            raise ValueError(
-                f"X holds scan {sscans[i]} of run {sruns[i]!r} twice: "
-                "expected each (run, scan) once"
-            )
-        stream = ScanStream(self)
-        done = stream.push_many([records[i] for i in order])
-        done.extend(stream.close())
-        out = [None] * n
-        for i, rec in zip(order, done, strict=True):
-            out[i] = rec
-        table = pd.DataFrame(stream.pop_objects(), columns=list(OBJECT_COLUMNS))
+        """The records of ``X`` through the stream (input order) and the object table."""
+        out, _ = self._stream_batch(X)
+        rows = sorted((row for r in out for row in r.payload[FINISHED]),
+                      key=lambda row: row[1])
+        table = pd.DataFrame(rows, columns=list(OBJECT_COLUMNS))
         table = table.astype({"id": np.int64, "first_scan": np.int64,
                               "last_scan": np.int64, "mean_depth": np.float64,
                               "region": np.int64, "length": np.float64,
@@ -415,97 +338,8 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
                               "run": object, "label": object})
         return out, table
 
-    def _region(self, depth):
-        return np.searchsorted(self.region_edges_, depth, side="right")
-    def _merge(self, prof, near, cum, follows):
-        """Three-region merging: union-find parent of every object-cluster.
-
-        Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans
-        and the same region when they overlap in time over at least half of the
-        shorter one (the paper's rule), or when ``b`` starts after ``a`` ends and the
-        gap between them is bridged: ``a``'s last and ``b``'s first mean depths differ
-        by less than ``link_distance`` and the gap is at most ``merge_gap`` metres or
-        hidden in every scan of the gap by something at least ``2 * link_distance``
-        nearer (occlusion by a passing vehicle).
-        """
-        first, last, depth = prof.first, prof.last, prof.depth
-        n_obj = prof.n
-        region = self._region(depth)
-        seg = np.cumsum(~follows) - 1  # contiguous stretches of scans
-        parent = np.arange(n_obj)
-
-        def find(i):
-            while parent[i] != i:
-                parent[i] = parent[parent[i]]
-                i = parent[i]
-            return i
-
-        reach = self.max_length + self.merge_gap
-        order = np.lexsort((first, region, seg[first]))
-        for j in range(1, n_obj):
-            b = order[j]
-            for jj in range(j - 1, -1, -1):
-                a = order[jj]
-                if seg[first[a]] != seg[first[b]] or region[a] != region[b]:
-                    break
-                if cum[first[b]] - cum[first[a]] > reach:
-                    break
-                overlap = min(last[a], last[b]) - max(first[a], first[b]) + 1
-                shorter = min(last[a] - first[a], last[b] - first[b]) + 1
-                if overlap > 0:
-                    join = overlap >= 0.5 * shorter
-                else:
-                    lo, hi = (a, b) if last[a] < first[b] else (b, a)
-                    join = abs(prof.end_depth[lo] - prof.start_depth[hi]) < (
-                        self.link_distance
-                    )
-                    if join:
-                        gap = cum[first[hi]] - cum[last[lo] + 1]
-                        ref = min(prof.end_depth[lo], prof.start_depth[hi])
-                        hidden = near[last[lo] + 1:first[hi]] < ref - self.occlusion_margin
-                        join = gap <= self.merge_gap or (
-                            self.bridge_occluded and bool(np.all(hidden)))
-                if join:
-                    ra, rb = find(a), find(b)
-                    if ra != rb:
-                        parent[max(ra, rb)] = min(ra, rb)
-        return np.array([find(i) for i in range(n_obj)], dtype=np.int64)
-
-    def _split(self, prof, cobj, near, cum):
-        """Split objects with a two-hump height profile; returns new object ids.
-
-        Every region's object-clusters are split (a car parked near the region
-        II | III boundary can be merged with roadside fragments and come out of the
-        split as a parked car).  Scans of the object's span where it has no cluster
-        count as height 0 (a gap between two vehicles), unless something nearer hid
-        it (then unknown).
-        """
-        new = cobj.copy()
-        next_id = prof.n
-        for o in range(prof.n):
-            first, last = prof.first[o], prof.last[o]
-            span = last - first + 1
-            if cum[last + 1] - cum[first] < 2 * self.min_length:
-                continue
-            ds = (cum[last + 1] - cum[first]) / span
-            top = np.zeros(span)
-            seen_pos, seen_top = prof.scan_profile(o)
-            hidden = near[first:last + 1] < prof.depth[o] - self.link_distance
-            top[hidden] = np.nan
-            top[seen_pos - first] = seen_top
-            cuts = split_profile(top, ds, min_length=self.min_length,
-                                 ratio=self.split_ratio)
-            if not cuts:
-                continue
-            mine = np.flatnonzero(cobj == o)
-            part = np.searchsorted(np.asarray(cuts), prof.cpos[mine] - first,
-                                   side="right")
-            new[mine] = np.where(part == 0, o, next_id + part - 1)
-            next_id += len(cuts)
-        return new
-
     # ------------------------------------------------------------- outputs
-    def transform(self, X):
+    def transform(self, X):  # the mixin's, documented with the payload
         """Per scan, the record with its clusters and objects in the payload.
 
         Parameters
@@ -520,9 +354,11 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
             number of every point, ``"objects"``
             (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
             ``"tilt"`` the tilt (rad) used, ``"in_view"`` the ``(k, 2)`` array of
-            :meth:`predict`.
+            :meth:`predict`, ``"finished_objects"`` the object-table rows that
+            became final by the time the record was released (see
+            :meth:`start_stream`).
         """
-        return ScanSequence(self._batch(X)[0])
+        return super().transform(X)
 
     def detect(self, X, *, all_objects=False):
         """The object table: one row per detected object.
@@ -562,7 +398,7 @@ class ScanClusterer(TransformerMixin, BaseEstimator):
         -------
         y_pred : list of ndarray of shape (k_i, 2), int64
         """
-        return [r.payload["in_view"] for r in self._batch(X)[0]]
+        return [r.payload["in_view"] for r in self._stream_batch(X)[0]]
 
 
 def make_parking_pipeline(**params):

@@ -1,41 +1,35 @@
-"""Keypoint clustering (section 3.3): cut the minimum spanning tree of the keypoints.
+"""Keypoint clustering (section 3.3): the frame stage :class:`MSTClusterer`.
 
-The partition obtained by removing the edges longer than ``cut`` from the Euclidean
-minimum spanning tree (MST) is the partition into connected components of the
-*neighbour graph* that joins every two points at most ``cut`` apart.  This module builds
-that graph without ever forming a full MST:
-
-* up to :data:`DENSE_MAX_POINTS` points (the per-frame case, about 100 keypoints): a dense
-  distance matrix and min-label propagation with pointer jumping, all in NumPy;
-* more points, when a grid count bounds the number of pairs at most ``cut`` apart by
-  ``max(30 n, 2e6)`` (sparse sets, such as keypoints): those pairs from a KD-tree's
-  ``query_pairs``, then :func:`scipy.sparse.csgraph.connected_components`;
-* dense 2-D sets: the edges of the Delaunay triangulation of the distinct points (the
-  Euclidean MST lies inside it, and every pair at most ``cut`` apart is joined by a
-  path of Delaunay edges each at most ``cut`` long: if a pair's edge is missing, some
-  point lies in the closed disc on that pair's diameter, and is strictly nearer to
-  both), then connected components; when Qhull cannot triangulate (all points
-  collinear), the KD-tree pairs.
-
-Points at identical positions always fall into one cluster.  Labels are numbered in
-order of first occurrence (the cluster of ``points[0]`` is 0, and so on).
+The math (the minimum spanning tree cut as connected components of the neighbour
+graph, the clusters' rectangles) is in :mod:`tunnelsense.tunnel._mst`, with the
+tabular core :class:`~tunnelsense.tunnel._mst.MSTClustererCore`.
 """
 
 from __future__ import annotations
 
 import numbers
 
-import cv2
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, QhullError, cKDTree
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.base import _fit_context
+from sklearn.utils._param_validation import StrOptions
 
-from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._common import is_record_input, keypoints_of
+from tunnelsense._payload import (
+    CLUSTER_BOXES,
+    CLUSTER_LABELS,
+    KEYPOINT_BAND,
+    KEYPOINTS,
+    keypoint_band_of,
+    keypoints_of,
+)
+from tunnelsense._records import check_frames
+from tunnelsense.tunnel._common import FrameModeMixin
+from tunnelsense.tunnel._mst import (
+    DENSE_MAX_POINTS,
+    MSTClustererCore,
+    cluster_boxes,
+    mst_partition,
+    region_boxes,
+)
 
 __all__ = [
     "DENSE_MAX_POINTS",
@@ -45,260 +39,8 @@ __all__ = [
     "region_boxes",
 ]
 
-#: Up to this many points, :func:`mst_partition` uses a dense distance matrix.
-DENSE_MAX_POINTS = 384
 
-
-def _canonical(labels: np.ndarray) -> np.ndarray:
-    """Relabel a partition so that clusters are numbered by first occurrence."""
-    n = len(labels)
-    first = np.full(n, n, dtype=np.intp)
-    np.minimum.at(first, labels, np.arange(n, dtype=np.intp))
-    roots = np.flatnonzero(first < n)
-    order = np.empty(n, dtype=np.intp)
-    order[roots[np.argsort(first[roots], kind="stable")]] = np.arange(len(roots))
-    return order[labels]
-
-
-def _dense_partition(points: np.ndarray, cut: float) -> np.ndarray:
-    n = len(points)
-    adjacent = None
-    for k in range(points.shape[1]):
-        x = points[:, k]
-        d = x[:, None] - x
-        d *= d
-        adjacent = d if adjacent is None else adjacent + d
-    adjacent = adjacent <= cut * cut
-    # Min-label propagation: every point takes the smallest index among its
-    # neighbours (itself included), then jumps along its labels' labels.  Labels
-    # only decrease and stay within a component, so at the fixed point every
-    # component is labelled by its smallest index, which is its first occurrence.
-    labels = adjacent.argmax(axis=1)  # the first True: the smallest neighbour
-    labels = labels[labels]
-    while True:
-        new = np.where(adjacent, labels, n).min(axis=1)
-        new = new[new[new]]
-        if np.array_equal(new, labels):
-            break
-        labels = new
-    roots = labels == np.arange(n)
-    rank = np.cumsum(roots) - 1
-    return rank[labels].astype(np.intp, copy=False)
-
-
-def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    graph = coo_matrix(
-        (np.ones(len(i), dtype=np.int8), (i, j)), shape=(n, n)
-    ).tocsr()
-    return connected_components(graph, directed=False)[1]
-
-
-def _pair_partition(points: np.ndarray, cut: float) -> np.ndarray:
-    # query_pairs reports coincident points too (distance 0 <= cut), so duplicates
-    # are joined without special care.
-    pairs = cKDTree(points).query_pairs(cut, output_type="ndarray")
-    return _components(len(points), pairs[:, 0], pairs[:, 1])
-
-
-def _distinct(points: np.ndarray):
-    """Distinct rows of a 2-D array and the index of every row's distinct row."""
-    order = np.lexsort(points.T[::-1])
-    sorted_points = points[order]
-    new = np.empty(len(points), dtype=bool)
-    new[0] = True
-    np.any(sorted_points[1:] != sorted_points[:-1], axis=1, out=new[1:])
-    group = np.cumsum(new) - 1
-    inverse = np.empty(len(points), dtype=np.intp)
-    inverse[order] = group
-    return sorted_points[new], inverse
-
-
-def _delaunay_partition(points: np.ndarray, cut: float) -> np.ndarray:
-    unique, inverse = _distinct(points)
-    if len(unique) < 3:
-        return _pair_partition(points, cut)
-    try:
-        simplices = Delaunay(unique).simplices
-    except (QhullError, ValueError):  # all points collinear
-        return _pair_partition(points, cut)
-    edges = np.concatenate(
-        [simplices[:, [0, 1]], simplices[:, [1, 2]], simplices[:, [0, 2]]]
-    )
-    d = unique[edges[:, 0]] - unique[edges[:, 1]]
-    keep = np.einsum("ij,ij->i", d, d) <= cut * cut
-    edges = edges[keep]
-    return _components(len(unique), edges[:, 0], edges[:, 1])[inverse]
-
-
-def _pair_bound(points: np.ndarray, cut: float) -> float:
-    """An upper bound on the number of pairs at most ``cut`` apart (grid count)."""
-    cells = np.floor(points / cut).astype(np.int64)
-    cells -= cells.min(axis=0)
-    span = cells.max(axis=0) + 1
-    if float(span[0]) * float(span[1]) < 2.0**62:
-        keys = cells[:, 0] * span[1] + cells[:, 1]
-        counts = np.unique(keys, return_counts=True)[1]
-    else:
-        counts = np.unique(cells, axis=0, return_counts=True)[1]
-    counts = counts.astype(np.float64)
-    # a pair within cut lies in the same or adjacent cells: sum over the 3 x 3
-    # neighbourhood of c_i * c_j <= 4.5 * sum(c_i ** 2)
-    return 4.5 * float(np.dot(counts, counts))
-
-
-def mst_partition(points, cut: float = 40.0) -> np.ndarray:
-    """Partition points by cutting the MST edges longer than ``cut``.
-
-    Parameters
-    ----------
-    points : ndarray of shape (n_points, n_dims)
-        Point coordinates (float).
-    cut : float, default=40.0
-        Edges longer than this are removed; points at most ``cut`` apart always share
-        a cluster.
-
-    Returns
-    -------
-    labels : ndarray of shape (n_points,), dtype intp
-        Cluster of every point, numbered ``0, 1, ...`` in order of first occurrence.
-
-    Notes
-    -----
-    Up to :data:`DENSE_MAX_POINTS` points: dense distances.  More points: the pairs at
-    most ``cut`` apart from a KD-tree when a grid count bounds their number by
-    ``max(30 * n, 2e6)``; otherwise (dense 2-D sets) the Delaunay edges of the
-    distinct points.  Either way, connected components give the partition.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> mst_partition(np.array([[0, 0], [100, 0], [30, 0], [100, 0]]), cut=40)
-    array([0, 1, 0, 1])
-    """
-    points = np.asarray(points, dtype=np.float64)
-    n = len(points)
-    cut = float(cut)
-    if n == 0:
-        return np.empty(0, dtype=np.intp)
-    if n <= DENSE_MAX_POINTS:
-        return _dense_partition(points, cut)
-    if (
-        points.shape[1] == 2
-        and cut > 0
-        and _pair_bound(points, cut) > max(30.0 * n, 2e6)
-    ):
-        labels = _delaunay_partition(points, cut)
-    else:
-        labels = _pair_partition(points, cut)
-    return _canonical(labels.astype(np.intp, copy=False))
-
-
-def cluster_boxes(rows, cols, labels, n_clusters=None) -> np.ndarray:
-    """Smallest bounding rectangle of every cluster, as ``(left, top, width, height)``.
-
-    Boxes span whole pixels: a cluster of keypoints in columns ``c0..c1`` and rows
-    ``r0..r1`` gets ``(c0, r0, c1 - c0 + 1, r1 - r0 + 1)``, so a cluster of one keypoint
-    is the 1 x 1 px box of that pixel.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> cluster_boxes(np.array([7, 14, 70]), np.array([6, 12, 6]), np.array([0, 0, 1]))
-    array([[ 6.,  7.,  7.,  8.],
-           [ 6., 70.,  1.,  1.]])
-    """
-    rows = np.asarray(rows, dtype=np.float64)
-    cols = np.asarray(cols, dtype=np.float64)
-    labels = np.asarray(labels, dtype=np.intp)
-    if n_clusters is None:
-        n_clusters = int(labels.max()) + 1 if len(labels) else 0
-    if n_clusters == 0:
-        return np.empty((0, 4), dtype=np.float64)
-    order = np.argsort(labels, kind="stable")
-    starts = np.searchsorted(labels[order], np.arange(int(n_clusters)))
-    r, c = rows[order], cols[order]
-    top, left = np.minimum.reduceat(r, starts), np.minimum.reduceat(c, starts)
-    bottom, right = np.maximum.reduceat(r, starts), np.maximum.reduceat(c, starts)
-    return np.column_stack([left, top, right - left + 1, bottom - top + 1])
-
-
-def region_boxes(image, rows, cols, labels, boxes, band, reach=(14, 12)) -> np.ndarray:
-    """Refine keypoint-cluster rectangles to the in-band image region around them.
-
-    A cluster's keypoints lie on the 7 x 6 px grid, so their bounding rectangle is
-    quantized to the grid: it jumps by a grid step as the object grows or moves, and a
-    cluster of one keypoint is a 1 x 1 px box.  The object itself is the region of
-    pixels whose intensity lies in the keypoint band: this function takes, inside the
-    cluster's rectangle grown by ``reach`` px (rows, columns), the 8-connected
-    components of the pixels within ``band`` that hold a keypoint of the cluster, and
-    returns their bounding rectangle.  Keypoints whose pixel is not in the band (after
-    a band change) keep their own 1 x 1 px box in the union.
-
-    Parameters
-    ----------
-    image : ndarray of shape (height, width), uint8 or uint16
-    rows, cols : ndarray of shape (n,)
-        Keypoint positions.
-    labels : ndarray of shape (n,)
-        Cluster of every keypoint (``0 .. m - 1``).
-    boxes : ndarray of shape (m, 4)
-        The clusters' keypoint rectangles (:func:`cluster_boxes`).
-    band : (float, float)
-        Inclusive intensity band ``[low, high]`` (the keypoint band).
-    reach : (int, int), default=(14, 12)
-        How far (rows, columns; px) the region may extend beyond the keypoints'
-        rectangle: two grid steps.
-
-    Returns
-    -------
-    boxes : ndarray of shape (m, 4), float64
-        ``(left, top, width, height)`` in whole pixels; each contains the input box.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> img = np.full((40, 40), 100, np.uint8)
-    >>> img[10:26, 17:23] = 175          # a 16 x 6 px sign
-    >>> rows, cols = np.array([14, 21]), np.array([18, 18])
-    >>> box = cluster_boxes(rows, cols, np.array([0, 0]))
-    >>> box
-    array([[18., 14.,  1.,  8.]])
-    >>> region_boxes(img, rows, cols, np.array([0, 0]), box, (160, 190))
-    array([[17., 10.,  6., 16.]])
-    """
-    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    out = boxes.copy()
-    if len(boxes) == 0:
-        return out
-    h, w = image.shape
-    lo, hi = float(band[0]), float(band[1])
-    rr, rc = int(reach[0]), int(reach[1])
-    rows = np.asarray(rows, dtype=np.intp)
-    cols = np.asarray(cols, dtype=np.intp)
-    labels = np.asarray(labels, dtype=np.intp)
-    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
-        r0 = max(int(top) - rr, 0)
-        c0 = max(int(left) - rc, 0)
-        r1 = min(int(top + bh) + rr, h)
-        c1 = min(int(left + bw) + rc, w)
-        window = image[r0:r1, c0:c1]
-        mask = ((window >= lo) & (window <= hi)).view(np.uint8)
-        _, comp = cv2.connectedComponents(mask, connectivity=8)
-        member = labels == k
-        seeds = np.unique(comp[rows[member] - r0, cols[member] - c0])
-        seeds = seeds[seeds > 0]
-        if len(seeds) == 0:
-            continue
-        ys, xs = np.nonzero(np.isin(comp, seeds) if len(seeds) > 1 else comp == seeds[0])
-        y0 = min(int(ys.min()) + r0, int(top))
-        x0 = min(int(xs.min()) + c0, int(left))
-        y1 = max(int(ys.max()) + r0 + 1, int(top + bh))
-        x1 = max(int(xs.max()) + c0 + 1, int(left + bw))
-        out[k] = (x0, y0, x1 - x0, y1 - y0)
-    return out
-
-
-class MSTClusterer(TransformerMixin, BaseEstimator):
+class MSTClusterer(FrameModeMixin, MSTClustererCore):
     """Single-linkage clustering of keypoints: cut MST edges longer than ``cut``.
 
     Section 3.3 of the FIR paper: a minimum spanning tree over the keypoints of a frame
@@ -390,11 +132,16 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
     """
 
     _parameter_constraints: dict = {
-        "cut": [Interval(numbers.Real, 0, None, closed="left")],
+        **MSTClustererCore._parameter_constraints,
         "box": [StrOptions({"keypoints", "region"})],
         "band": [tuple, list, None],
         "reach": [tuple, list],
     }
+    _tabular_methods = ("fit_predict",)
+    _frames_instead = "fit_transform, which stores the labels in payload['cluster_labels']"
+    _payload_reads = (KEYPOINTS,)
+    _payload_optional = (KEYPOINT_BAND,)
+    _payload_adds = (CLUSTER_LABELS, CLUSTER_BOXES)
 
     def __init__(self, cut=40.0, *, box="keypoints", band=None, reach=(14, 12)):
         self.cut = cut
@@ -402,81 +149,13 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
         self.band = band
         self.reach = reach
 
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.transformer_tags.preserves_dtype = ["float64"]
-        return tags
-
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y=None):
-        """Validate the input; in tabular mode, partition the points.
-
-        Parameters
-        ----------
-        X : sequence of FrameRecord, or array-like of shape (n_samples, n_features)
-            Frame records with ``payload["keypoints"]`` (frame mode) or points
-            (tabular mode).
-        y : ignored in tabular mode; per-frame boxes in frame mode (validated only).
-
-        Returns
-        -------
-        self : MSTClusterer
-        """
-        if is_record_input(X):
-            records, _ = check_frames(X, y)
-            for i, r in enumerate(records):
-                keypoints_of(r, i, "MSTClusterer")
-            self.n_frames_fit_ = len(records)
-            return self
-        X = validate_data(self, X, dtype=np.float64)
-        self.X_fit_ = X
-        self.labels_ = mst_partition(X, self.cut)
-        self.n_clusters_ = int(self.labels_.max()) + 1
+    def _fit_frames(self, X, y=None):
+        records, _ = check_frames(X, y)
+        for i, r in enumerate(records):
+            keypoints_of(r, i, "MSTClusterer")
+        self.n_frames_fit_ = len(records)
         return self
-
-    def fit_predict(self, X, y=None):
-        """Partition 2-D points (tabular mode) and return the labels.
-
-        Returns
-        -------
-        labels : ndarray of shape (n_samples,), intp
-        """
-        if is_record_input(X):
-            raise TypeError(
-                "fit_predict takes a 2-D array of points; for frame records use "
-                "fit_transform, which stores the labels in payload['cluster_labels']"
-            )
-        return self.fit(X, y).labels_
-
-    def transform(self, X):
-        """Cluster each frame's keypoints, or measure distances to fitted clusters.
-
-        Parameters
-        ----------
-        X : sequence of FrameRecord, or array-like of shape (n_samples, n_features)
-
-        Returns
-        -------
-        X_new : FrameSequence or ndarray of shape (n_samples, n_clusters_)
-            Frame mode: the evolved records (see the class docstring).  Tabular mode:
-            the distance from every point to the nearest member of each fitted cluster.
-        """
-        if is_record_input(X):
-            check_is_fitted(self)
-            records, _ = check_frames(X)
-            return self._transform_records(records)
-        check_is_fitted(self, "X_fit_")
-        X = validate_data(self, X, dtype=np.float64, reset=False)
-        order = np.argsort(self.labels_, kind="stable")
-        starts = np.searchsorted(self.labels_[order], np.arange(self.n_clusters_))
-        fit_sorted = self.X_fit_[order]
-        out = np.empty((len(X), self.n_clusters_))
-        for lo in range(0, len(X), 1024):
-            chunk = X[lo : lo + 1024]
-            d = chunk[:, None, :] - fit_sorted[None, :, :]
-            d = np.sqrt(np.einsum("ijk,ijk->ij", d, d))
-            out[lo : lo + 1024] = np.minimum.reduceat(d, starts, axis=1)
-        return out
 
     def _check_region_params(self):
         reach = tuple(self.reach)
@@ -496,16 +175,10 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
     def _band_of(self, record, index):
         if self.band is not None:
             return tuple(self.band)
-        try:
-            return tuple(record.payload["keypoint_band"])
-        except KeyError:
-            raise ValueError(
-                f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-                "payload['keypoint_band']: MSTClusterer(box='region') needs band=(low, "
-                "high) or frames that went through IntensityKeypointSampler"
-            ) from None
+        return keypoint_band_of(record, index, "MSTClusterer(box='region')",
+                                instead=", or band=(low, high)")
 
-    def _transform_records(self, records):
+    def _transform_frames(self, records):
         cut = float(self.cut)
         region = self.box == "region"
         if region:
@@ -522,5 +195,5 @@ class MSTClusterer(TransformerMixin, BaseEstimator):
                 boxes = region_boxes(
                     r.image, rows, cols, labels, boxes, self._band_of(r, i), reach
                 )
-            out.append(r.evolve(cluster_labels=labels, cluster_boxes=boxes))
-        return FrameSequence(out)
+            out.append(r.evolve(**{CLUSTER_LABELS: labels, CLUSTER_BOXES: boxes}))
+        return out

@@ -1,4 +1,4 @@
-"""Helpers shared by the FIR stages: input dispatch and keypoint labels."""
+"""Helpers shared by the FIR stages: the two-mode dispatch, keypoint labels, bin tables."""
 
 from __future__ import annotations
 
@@ -6,19 +6,23 @@ import functools
 from collections.abc import Sequence
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import FrameRecord, FrameSequence, ScanRecord, ScanSequence
+from tunnelsense._payload import inside_boxes
+from tunnelsense._records import (
+    FrameRecord,
+    FrameSequence,
+    ScanRecord,
+    ScanSequence,
+    check_frames,
+)
 
 __all__ = [
+    "FrameModeMixin",
     "bin_lut",
-    "frame_image",
     "is_record_input",
-    "keypoints_of",
     "points_in_boxes",
 ]
-
-_KEYPOINT_DTYPE = np.int32
-
 
 def is_record_input(X) -> bool:
     """Whether ``X`` is meant as frame records (frame mode) rather than a 2-D array.
@@ -43,30 +47,95 @@ def is_record_input(X) -> bool:
     return False
 
 
-def keypoints_of(record: FrameRecord, index: int, stage: str) -> np.ndarray:
-    """The ``(n, 3)`` keypoints of a record's payload, or a clear error."""
-    try:
-        kp = record.payload["keypoints"]
-    except KeyError:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-            f"payload['keypoints']: {stage} needs frame records that went through "
-            "IntensityKeypointSampler first"
-        ) from None
-    kp = np.asarray(kp)
-    if kp.ndim != 2 or kp.shape[1] != 3:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): payload['keypoints'] "
-            f"must have shape (n, 3) (row, col, intensity); got shape {kp.shape}"
-        )
-    return kp
+class FrameModeMixin:
+    """The frame stage on top of a tabular core: the one place that looks at ``X``.
+
+    :class:`MSTClusterer`, :class:`KMeansHistogramVerifier` and
+    :class:`WeightedAdaBoost` are each a tabular core (a scikit-learn estimator of
+    2-D arrays, which passes ``parametrize_with_checks`` in full) with this mixin in
+    front, so that the name a user imports takes both frame records (in a
+    :class:`~sklearn.pipeline.Pipeline`) and 2-D arrays, with the same fitted
+    attributes: a frame stage fits its core on what the frames give (histograms of
+    keypoints or of clusters).  ``fit``, ``transform`` and ``fit_transform`` hand
+    frame records (:func:`is_record_input`) to the class's ``_fit_frames(X, y,
+    **fit_params)`` and ``_transform_frames(records) -> list of records``, and 2-D
+    arrays to the core; the core's methods named in ``_tabular_methods`` refuse
+    frame records, pointing to ``_frames_instead``.
+    """
+
+    _tabular_methods: tuple = ()
+    _frames_instead = "transform"
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        for name in cls.__dict__.get("_tabular_methods", ()):
+            setattr(cls, name, _tabular_only(getattr(cls, name), name))
+
+    def fit(self, X, y=None, **fit_params):
+        """Fit on frame records (the frame stage) or on a 2-D array (the core).
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord, or array-like of shape (n_samples, n_features)
+        y : sequence of array-like of shape (k_i, 4), or array-like of shape (n_samples,)
+            For frames: per frame, the indicator boxes.  For arrays: as the core
+            takes it.
+        **fit_params : dict
+            Passed on (``sample_weight`` for arrays).
+
+        Returns
+        -------
+        self : object
+        """
+        if is_record_input(X):
+            return self._fit_frames(X, y, **fit_params)
+        return super().fit(X, y, **fit_params)
+
+    def transform(self, X):
+        """Evolve frame records (see the class), or transform a 2-D array (the core).
+
+        Parameters
+        ----------
+        X : sequence of FrameRecord, or array-like of shape (n_samples, n_features)
+
+        Returns
+        -------
+        X_new : FrameSequence or ndarray
+        """
+        if is_record_input(X):
+            check_is_fitted(self)
+            records, _ = check_frames(X)
+            return FrameSequence(self._transform_frames(records))
+        return super().transform(X)
+
+    def fit_transform(self, X, y=None, **fit_params):
+        """Fit, then transform the same ``X`` (frame records or a 2-D array).
+
+        Returns
+        -------
+        X_new : FrameSequence or ndarray
+        """
+        return self.fit(X, y, **fit_params).transform(X)
+
+
+def _tabular_only(method, name):
+    @functools.wraps(method)
+    def tabular(self, X, *args, **kwargs):
+        if is_record_input(X):
+            raise TypeError(
+                f"{type(self).__name__}.{name} takes a 2-D array; for frame records "
+                f"use {self._frames_instead}"
+            )
+        return method(self, X, *args, **kwargs)
+
+    return tabular
 
 
 def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     """Whether each point ``(row, col)`` lies inside any box ``(left, top, w, h)``.
 
     A point is inside when ``left <= col < left + width`` and
-    ``top <= row < top + height`` (pixel centres of the box's pixels).
+    ``top <= row < top + height`` (:func:`tunnelsense._payload.inside_boxes`).
 
     Examples
     --------
@@ -74,14 +143,7 @@ def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     >>> points_in_boxes(np.array([5, 50]), np.array([5, 5]), np.array([[0, 0, 10, 10.]]))
     array([ True, False])
     """
-    rows = np.asarray(rows)
-    cols = np.asarray(cols)
-    inside = np.zeros(rows.shape, dtype=bool)
-    for left, top, width, height in np.asarray(boxes, dtype=np.float64).reshape(-1, 4):
-        inside |= (cols >= left) & (cols < left + width) & (rows >= top) & (
-            rows < top + height
-        )
-    return inside
+    return inside_boxes(cols, rows, boxes).any(axis=1)
 
 
 def bin_lut(dtype, bins, intensity_range=None, binning="hard"):
@@ -122,18 +184,3 @@ def _bin_lut(dtype, bins, lo, hi, binning):
     lower.flags.writeable = False
     weight.flags.writeable = False
     return lower, weight
-
-
-def frame_image(record, index) -> np.ndarray:
-    """The record's image, checked to be a 2-D ``uint8`` or ``uint16`` array."""
-    image = record.image
-    if (
-        not isinstance(image, np.ndarray)
-        or image.ndim != 2
-        or image.dtype not in (np.uint8, np.uint16)
-    ):
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): the image must be a "
-            "2-D uint8 or uint16 array"
-        )
-    return image

@@ -6,339 +6,41 @@ still or wander.  Each trajectory is fitted with a straight line ``y = a0 + a1 x
 the Pearson correlation coefficient ``r`` of the fit (eq. 5) decides.  A keypoint
 cluster is an indicator iff its appearance label is positive, its trajectory is at
 least ``min_length`` long and ``|r| >= min_r``; a trajectory is positive when more
-than ``vote`` (80 %) of the decisions it connects are positive.
+than ``vote`` (80 %) of the decisions it connects are positive.  The math and the
+stream state are in :mod:`tunnelsense.tunnel._pcc_stream`.
 """
 
 from __future__ import annotations
 
 import numbers
-from collections import deque
 
-import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._records import (
-    FrameRecord,
-    FrameSequence,
-    check_frames,
-    release_image,
+from tunnelsense._payload import (
+    APPEARANCE,
+    CLUSTER_BOXES,
+    DETECTIONS,
+    ENDED_TRACKS,
+    INDICATOR,
+    MOTION_R,
+    TRACK_IDS,
+    TRAJECTORY_LENGTH,
+    TRAJECTORY_POSITIVE,
 )
-from tunnelsense.tunnel._appearance import boxes_of
-from tunnelsense.tunnel._tracking import tour_order
+from tunnelsense._records import FrameSequence, check_frames
+from tunnelsense._streaming import StreamingMixin
+from tunnelsense.tunnel._pcc_stream import (
+    PCCStream,
+    frame_payload,
+    pearson_r,
+    straightness,
+)
 
-__all__ = ["PCCVerifier", "pearson_r", "straightness", "trajectory_r"]
-
-#: Columns of ``payload["detections"]``.
-DETECTION_COLUMNS = ("bb_left", "bb_top", "bb_width", "bb_height", "track_id", "score")
-
-
-def pearson_r(x, y) -> float:
-    """Pearson correlation coefficient of the points ``(x_i, y_i)`` (eq. 5).
-
-    0 when either coordinate does not vary (a still cluster has no line; fewer than
-    two distinct positions).
-
-    Examples
-    --------
-    >>> pearson_r([0, 1, 2, 3], [5, 3, 1, -1])
-    -1.0
-    >>> pearson_r([1, 1, 1], [0, 1, 2])
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    x = x - x.mean()
-    y = y - y.mean()
-    sxx, syy = float(x @ x), float(y @ y)
-    scale = max(sxx, syy, 1.0)
-    if sxx <= 1e-12 * scale or syy <= 1e-12 * scale:
-        return 0.0
-    return float(np.clip((x @ y) / np.sqrt(sxx * syy), -1.0, 1.0))
+__all__ = ["PCCVerifier", "pearson_r", "straightness"]
 
 
-def straightness(x, y) -> float:
-    """How well the points ``(x_i, y_i)`` fit a line, whatever its direction.
-
-    ``1 - lambda_min / lambda_max`` of the points' covariance matrix: 1 for points
-    on a line, 0 for points spread alike in every direction (or fewer than two
-    distinct positions).  Unlike Pearson's r, which is 0 for a perfectly straight
-    horizontal or vertical line because one coordinate does not vary, it treats every
-    orientation alike.
-
-    Examples
-    --------
-    >>> straightness([0, 1, 2, 3], [5, 5, 5, 5])  # horizontal: Pearson r is 0 here
-    1.0
-    >>> round(straightness([0, 1, 0, 1], [0, 0, 1, 1]), 6)
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(x) < 2:
-        return 0.0
-    low, high = np.linalg.eigvalsh(np.cov(x, y, bias=True))
-    if high <= 1e-12:
-        return 0.0
-    return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
-
-
-def trajectory_r(x, y, starts) -> np.ndarray:
-    """Pearson r of every trajectory, for points grouped in consecutive segments.
-
-    Parameters
-    ----------
-    x, y : ndarray of shape (n,)
-        Positions, trajectory after trajectory.
-    starts : ndarray of shape (n_trajectories,)
-        Index of the first point of each trajectory (ascending, ``starts[0] == 0``).
-
-    Returns
-    -------
-    r : ndarray of shape (n_trajectories,)
-        As :func:`pearson_r` of each segment.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    n = np.diff(np.append(starts, len(x)))
-    if len(x) == 0:
-        return np.zeros(0)
-    seg = np.repeat(np.arange(len(starts)), n)
-    xm = np.add.reduceat(x, starts) / n
-    ym = np.add.reduceat(y, starts) / n
-    dx = x - xm[seg]
-    dy = y - ym[seg]
-    sxx = np.add.reduceat(dx * dx, starts)
-    syy = np.add.reduceat(dy * dy, starts)
-    sxy = np.add.reduceat(dx * dy, starts)
-    scale = np.maximum(np.maximum(sxx, syy), 1.0)
-    ok = (sxx > 1e-12 * scale) & (syy > 1e-12 * scale)
-    r = np.zeros(len(starts))
-    r[ok] = np.clip(sxy[ok] / np.sqrt(sxx[ok] * syy[ok]), -1.0, 1.0)
-    return r
-
-
-def _payload(record, index, key, m, stage, before):
-    try:
-        value = np.asarray(record.payload[key])
-    except KeyError:
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}) has no "
-            f"payload[{key!r}]: {stage} needs frame records that went through "
-            f"{before} first"
-        ) from None
-    if value.shape != (m,):
-        raise ValueError(
-            f"X[{index}] ({record.tour!r}, frame {record.frame}): payload[{key!r}] "
-            f"must have shape ({m},), one entry per cluster; got shape {value.shape}"
-        )
-    return value
-
-
-class _Released:
-    """Stands in for the image source of a record released by a stream state."""
-
-    __slots__ = ()
-
-    def load(self):
-        raise ValueError(
-            "this frame's image was released by the streaming detector (only lazy "
-            "sources, such as image files, are kept); keep the image yourself if you "
-            "need it after detection"
-        )
-
-    def __repr__(self):
-        return "Released()"
-
-
-_RELEASED = _Released()
-
-
-class _Frame:
-    """A frame waiting for the trajectories through it to end."""
-
-    __slots__ = (
-        "tag",
-        "boxes",
-        "tracks",
-        "r",
-        "length",
-        "indicator",
-        "positive",
-        "fraction",
-        "unresolved",
-    )
-
-    def __init__(self, tag, boxes, tracks):
-        m = len(boxes)
-        self.tag = tag
-        self.boxes = boxes
-        self.tracks = tracks
-        self.r = np.zeros(m)
-        self.length = np.zeros(m, np.int64)
-        self.indicator = np.zeros(m, bool)
-        self.positive = np.zeros(m, bool)
-        self.fraction = np.zeros(m)
-        self.unresolved = m
-
-    def results(self):
-        keep = self.positive
-        det = np.column_stack(
-            [
-                self.boxes[keep],
-                self.tracks[keep].astype(np.float64),
-                self.fraction[keep],
-            ]
-        )
-        return dict(
-            motion_r=self.r,
-            trajectory_length=self.length,
-            indicator=self.indicator,
-            trajectory_positive=keep,
-            detections=det.reshape(-1, 6),
-        )
-
-
-class _Trajectory:
-    __slots__ = ("xs", "ys", "app", "members")
-
-    def __init__(self):
-        self.xs, self.ys, self.app, self.members = [], [], [], []
-
-
-class _PCCState:
-    """The verifier's state machine over the frames of one tour at a time.
-
-    ``step(tag, record, boxes, appearance, tracks)`` adds a frame (frames of a tour in
-    increasing order; a record of another tour first ends every trajectory of the
-    previous one) and returns the ``(tag, results)`` of the frames that are final, in
-    input order.  A trajectory is decided when it ends (``payload["ended_tracks"]``
-    of :class:`TrajectoryLinker`, the end of its tour, or :meth:`finish`); a frame is
-    final when every trajectory through it is decided.
-    """
-
-    def __init__(self, min_r, min_length, vote, criterion="pearson"):
-        self.measure = pearson_r if criterion == "pearson" else straightness
-        self.min_r = float(min_r)
-        self.min_length = int(min_length)
-        self.vote = float(vote)
-        self.tour = None
-        self.last_frame = None
-        self.open: dict = {}
-        self.waiting: deque = deque()
-
-    def _decide(self, traj):
-        n = len(traj.xs)
-        r = self.measure(traj.xs, traj.ys) if n > 1 else 0.0
-        motion_ok = n >= self.min_length and abs(r) >= self.min_r
-        indicator = [a and motion_ok for a in traj.app]
-        fraction = sum(indicator) / n
-        positive = fraction > self.vote
-        for (entry, j), ind in zip(traj.members, indicator, strict=True):
-            entry.r[j] = r
-            entry.length[j] = n
-            entry.indicator[j] = ind
-            entry.positive[j] = positive
-            entry.fraction[j] = fraction
-            entry.unresolved -= 1
-
-    def _release(self):
-        out = []
-        waiting = self.waiting
-        while waiting and waiting[0].unresolved == 0:
-            entry = waiting.popleft()
-            out.append((entry.tag, entry.results()))
-        return out
-
-    def finish(self):
-        """End every open trajectory; return every frame still waiting."""
-        for traj in self.open.values():
-            self._decide(traj)
-        self.open = {}
-        self.tour = None
-        return self._release()
-
-    def step(self, tag, record, boxes, appearance, tracks):
-        out = []
-        if record.tour != self.tour:
-            out = self.finish()
-            self.tour = record.tour
-        elif record.frame <= self.last_frame:
-            raise ValueError(
-                f"frames of tour {record.tour!r} must arrive in increasing order: "
-                f"frame {record.frame} came after frame {self.last_frame}"
-            )
-        self.last_frame = record.frame
-        entry = _Frame(tag, boxes, tracks)
-        if len(boxes):
-            cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
-            cy = (boxes[:, 1] + boxes[:, 3] / 2).tolist()
-            for j, (tid, a) in enumerate(
-                zip(tracks.tolist(), appearance.tolist(), strict=True)
-            ):
-                traj = self.open.get(tid)
-                if traj is None:
-                    traj = self.open[tid] = _Trajectory()
-                traj.xs.append(cx[j])
-                traj.ys.append(cy[j])
-                traj.app.append(a)
-                traj.members.append((entry, j))
-        self.waiting.append(entry)
-        ended = record.payload.get("ended_tracks")
-        if ended is not None:
-            for tid in np.asarray(ended).reshape(-1).tolist():
-                traj = self.open.pop(tid, None)
-                if traj is not None:
-                    self._decide(traj)
-        out.extend(self._release())
-        return out
-
-    @property
-    def n_waiting(self):
-        return len(self.waiting)
-
-
-class _PCCStream:
-    """Stream state of :class:`PCCVerifier` (see :meth:`PCCVerifier.start_stream`)."""
-
-    def __init__(self, verifier):
-        self._state = _PCCState(
-            verifier.min_r, verifier.min_length, verifier.vote, verifier.criterion
-        )
-        self._count = 0
-
-    @property
-    def n_waiting(self):
-        """Frames held until the trajectories through them end."""
-        return self._state.n_waiting
-
-    def push(self, record):
-        boxes, app, tracks = _frame_payload(record, self._count)
-        self._count += 1
-        source = release_image(record.source)
-        if source is None:
-            source = _RELEASED
-        kept = FrameRecord(record.tour, record.frame, source, record.payload)
-        return self._emit(self._state.step(kept, record, boxes, app, tracks))
-
-    def close(self):
-        return self._emit(self._state.finish())
-
-    @staticmethod
-    def _emit(done):
-        return [r.evolve(**res) for r, res in done]
-
-
-def _frame_payload(record, index):
-    b = boxes_of(record, index, "PCCVerifier")
-    m = len(b)
-    app = _payload(record, index, "appearance", m, "PCCVerifier", "WeightedAdaBoost")
-    tracks = _payload(record, index, "track_ids", m, "PCCVerifier", "TrajectoryLinker")
-    return b, app.astype(bool), tracks.astype(np.int64)
-
-
-class PCCVerifier(TransformerMixin, BaseEstimator):
+class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     """Verify trajectories by straight-line motion; give the detections (3.6-3.7).
 
     Stage 6, the last one, of the FIR indicator detector: a frame stage with nothing
@@ -377,10 +79,9 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
     min_r : float, default=0.95
         Smallest ``|r|`` of an indicator's trajectory.  An indicator moves along a
         straight line through the vanishing point over tens to hundreds of pixels,
-        so its centres fit a line with ``|r|`` close to 1 (0.99 and more on simulated
-        tours, where the keypoint grid quantizes the centres by up to 3 px); a vehicle
-        ahead at nearly constant distance jitters by a few pixels in both directions
-        and gets ``|r|`` far from 1.
+        so its centres fit a line with ``|r|`` close to 1; a vehicle ahead at nearly
+        constant distance jitters by a few pixels in both directions and gets
+        ``|r|`` far from 1.
     min_length : int, default=10
         Fewest clusters of an indicator's trajectory: a third of a second at 30 fps.
         An indicator stays in view for well over a second at motorway speed, while
@@ -435,8 +136,19 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         tags.transformer_tags.preserves_dtype = []
         return tags
 
-    def _gather(self, records):
-        return [_frame_payload(r, i) for i, r in enumerate(records)]
+    _sequence = FrameSequence
+    _payload_reads = (CLUSTER_BOXES, APPEARANCE, TRACK_IDS)
+    _payload_optional = (ENDED_TRACKS,)
+    _payload_adds = (MOTION_R, TRAJECTORY_LENGTH, INDICATOR, TRAJECTORY_POSITIVE, DETECTIONS)
+
+    def _check_records(self, X, y=None):
+        records, _ = check_frames(X, y)
+        for i, r in enumerate(records):
+            frame_payload(r, i)
+        return records
+
+    def _stream_state(self, *, batch=False):
+        return PCCStream(self, release=not batch)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -452,8 +164,7 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         -------
         self : PCCVerifier
         """
-        records, _ = check_frames(X, y)
-        self._gather(records)
+        records = self._check_records(X, y)
         self.n_frames_fit_ = len(records)
         return self
 
@@ -469,21 +180,7 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         X_new : FrameSequence
             The frames in input order, evolved as the class docstring says.
         """
-        check_is_fitted(self)
-        records, _ = check_frames(X)
-        payloads = self._gather(records)
-        results = [None] * len(records)
-        for group in tour_order(records):
-            state = _PCCState(self.min_r, self.min_length, self.vote, self.criterion)
-            done = []
-            for i in group.tolist():
-                done += state.step(i, records[i], *payloads[i])
-            done += state.finish()
-            for i, res in done:
-                results[i] = res
-        return FrameSequence(
-            r.evolve(**res) for r, res in zip(records, results, strict=True)
-        )
+        return self.transform(X)
 
     def start_stream(self):
         """Verify frames online, one at a time (the streaming protocol).
@@ -521,9 +218,4 @@ class PCCVerifier(TransformerMixin, BaseEstimator):
         >>> [(r.frame, r.payload["detections"].shape) for r in out]
         [(1, (1, 6)), (2, (1, 6)), (3, (1, 6))]
         """
-        check_is_fitted(self)
-        return _PCCStream(self)
-
-    def transform(self, X):
-        """The same as :meth:`predict` (so that the stage can sit anywhere)."""
-        return self.predict(X)
+        return super().start_stream()

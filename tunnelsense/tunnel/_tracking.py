@@ -6,257 +6,33 @@ of the response from the position the trajectory's straight-line model predicts,
 scale change (at most ``max_scale_change``, 4 in the paper), the appearance difference
 and the time gap; each trajectory links at most one response and each response at most
 one trajectory.  The paper solves this assignment greedily (best pair first, until no
-pair is left); the Hungarian algorithm is an option.
+pair is left); the Hungarian algorithm is an option.  The math and the stream state
+are in :mod:`tunnelsense.tunnel._linking`.
 """
 
 from __future__ import annotations
 
-import math
 import numbers
-from collections import deque
 
-import numpy as np
-from scipy.optimize import linear_sum_assignment
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted
 
+from tunnelsense._payload import (
+    CLUSTER_BOXES,
+    CLUSTER_HISTOGRAMS,
+    ENDED_TRACKS,
+    TRACK_IDS,
+    boxes_of,
+    histograms_of,
+)
 from tunnelsense._records import FrameSequence, check_frames
-from tunnelsense.tunnel._appearance import boxes_of
+from tunnelsense._streaming import StreamingMixin, stream_order
+from tunnelsense.tunnel._linking import LinkerStream, link_log_likelihood
 
-__all__ = ["TrajectoryLinker", "link_log_likelihood", "tour_order"]
-
-
-def tour_order(records):
-    """Indices of ``records`` grouped by tour (first appearance) and sorted by frame.
-
-    Returns
-    -------
-    groups : list of ndarray of int
-        One array of record indices per tour, in frame order.
-
-    Raises
-    ------
-    ValueError
-        When a ``(tour, frame)`` appears twice.
-    """
-    by_tour: dict = {}
-    for i, r in enumerate(records):
-        by_tour.setdefault(r.tour, []).append(i)
-    groups = []
-    for tour, idx in by_tour.items():
-        idx = np.asarray(idx, dtype=np.intp)
-        frames = np.fromiter((records[i].frame for i in idx), np.int64, len(idx))
-        order = np.argsort(frames, kind="stable")
-        idx, frames = idx[order], frames[order]
-        dup = np.flatnonzero(np.diff(frames) == 0)
-        if len(dup):
-            raise ValueError(
-                f"X holds frame {int(frames[dup[0]])} of tour {tour!r} twice; every "
-                "(tour, frame) must appear once"
-            )
-        groups.append(idx)
-    return groups
+__all__ = ["TrajectoryLinker", "link_log_likelihood"]
 
 
-def link_log_likelihood(
-    predicted, last_size, last_hist, centre, size, hist, gap, *,
-    max_scale_change=4.0, gate=1.0, min_gate=12.0, position_sigma=0.35,
-    scale_sigma=0.35, appearance_sigma=0.3, gap_penalty=1.0,
-):
-    """``ln P_link`` of a response given a trajectory, or ``-inf`` outside the gates.
-
-    Parameters
-    ----------
-    predicted : (float, float)
-        Position ``(x, y)`` the trajectory's straight-line model predicts for the
-        response's frame.
-    last_size, size : float
-        Scale (square root of the rectangle's area) of the trajectory's last response
-        and of the new one.
-    last_hist, hist : ndarray of shape (bins,) or None
-        Normalized histograms (appearance); ``None`` leaves appearance out.
-    centre : (float, float)
-        Centre of the response's rectangle.
-    gap : int
-        Frames between the trajectory's last response and this one (>= 1).
-
-    Returns
-    -------
-    float
-        ``-0.5 (d / (position_sigma s))^2 - 0.5 (ln(size ratio) / scale_sigma)^2
-        - 0.5 (a / appearance_sigma)^2 - gap_penalty (gap - 1)``, where ``d`` is the
-        distance to the prediction, ``s`` the larger size (at least ``min_gate /
-        gate``) and ``a`` half the L1 distance of the histograms (in [0, 1]).
-        ``-inf`` when the scale changes by more than ``max_scale_change`` or ``d``
-        exceeds ``max(min_gate, gate * s)``.
-    """
-    ratio = size / last_size if last_size > 0 and size > 0 else math.inf
-    if not (1.0 / max_scale_change <= ratio <= max_scale_change):
-        return -math.inf
-    s = max(size, last_size)
-    dx = centre[0] - predicted[0]
-    dy = centre[1] - predicted[1]
-    d = math.hypot(dx, dy)
-    if d > max(min_gate, gate * s):
-        return -math.inf
-    sigma = position_sigma * max(s, min_gate / gate)
-    ll = -0.5 * (d / sigma) ** 2 - 0.5 * (math.log(ratio) / scale_sigma) ** 2
-    if last_hist is not None and hist is not None:
-        a = 0.5 * float(np.abs(last_hist - hist).sum())
-        ll -= 0.5 * (a / appearance_sigma) ** 2
-    return ll - gap_penalty * (gap - 1)
-
-
-class _Track:
-    """A trajectory being linked: its last ``history`` positions (bounded memory)."""
-
-    __slots__ = ("id", "first", "frames", "xs", "ys", "size", "hist", "last")
-
-    def __init__(self, track_id, frame, x, y, size, hist, history):
-        self.id = track_id
-        self.first = frame
-        self.frames = deque([frame], maxlen=history)
-        self.xs = deque([x], maxlen=history)
-        self.ys = deque([y], maxlen=history)
-        self.size = size
-        self.hist = hist
-        self.last = frame
-
-    def add(self, frame, x, y, size, hist):
-        self.frames.append(frame)
-        self.xs.append(x)
-        self.ys.append(y)
-        self.size = size
-        self.hist = hist
-        self.last = frame
-
-    def predict(self, frame):
-        """Position at ``frame`` by a straight-line fit of the kept positions in time."""
-        k = len(self.frames)
-        if k == 1:
-            return self.xs[0], self.ys[0]
-        t, xs, ys = self.frames, self.xs, self.ys
-        tm = sum(t) / k
-        xm = sum(xs) / k
-        ym = sum(ys) / k
-        stt = sum((ti - tm) ** 2 for ti in t)
-        vx = sum((ti - tm) * (xi - xm) for ti, xi in zip(t, xs, strict=True)) / stt
-        vy = sum((ti - tm) * (yi - ym) for ti, yi in zip(t, ys, strict=True)) / stt
-        return xm + vx * (frame - tm), ym + vy * (frame - tm)
-
-
-class _LinkState:
-    """The linker's state machine over the frames of one tour at a time.
-
-    ``step(record, boxes)`` links one frame (frames of a tour in increasing order; a
-    record of another tour starts afresh) and returns ``(track_ids, ended_tracks)``.
-    A trajectory *ends* as soon as it can no longer link a later frame: it missed more
-    than ``max_gap`` frames, or its duration reached ``max_track_length`` frames.
-    """
-
-    def __init__(self, linker):
-        self.kw = dict(
-            max_scale_change=float(linker.max_scale_change),
-            gate=float(linker.gate),
-            min_gate=float(linker.min_gate),
-            position_sigma=float(linker.position_sigma),
-            scale_sigma=float(linker.scale_sigma),
-            appearance_sigma=float(linker.appearance_sigma),
-            gap_penalty=float(linker.gap_penalty),
-        )
-        self.reach = int(linker.max_gap) + 1
-        self.history = int(linker.history)
-        self.max_length = (
-            math.inf if linker.max_track_length is None else int(linker.max_track_length)
-        )
-        self.hungarian = linker.assignment == "hungarian"
-        self.tour = None
-        self.last_frame = None
-        self.alive: list[_Track] = []
-        self.next_id = 1
-
-    def _can_link(self, t, frame):
-        return frame - t.last <= self.reach and frame - t.first < self.max_length
-
-    def step(self, record, boxes):
-        frame = record.frame
-        if record.tour != self.tour:
-            self.tour, self.alive, self.next_id = record.tour, [], 1
-        elif frame <= self.last_frame:
-            raise ValueError(
-                f"frames of tour {record.tour!r} must arrive in increasing order: "
-                f"frame {frame} came after frame {self.last_frame}"
-            )
-        self.last_frame = frame
-        ended = [t.id for t in self.alive if not self._can_link(t, frame)]
-        alive = [t for t in self.alive if self._can_link(t, frame)]
-        m = len(boxes)
-        out = np.zeros(m, dtype=np.int64)
-        if m:
-            hists = record.payload.get("cluster_histograms")
-            if hists is not None and len(hists) != m:
-                hists = None
-            bl = boxes.tolist()
-            cx = [L + w / 2 for L, _, w, _ in bl]
-            cy = [T + h / 2 for _, T, _, h in bl]
-            size = [math.sqrt(w * h) for _, _, w, h in bl]
-            pairs = []
-            kw = self.kw
-            for ti, t in enumerate(alive):
-                px, py = t.predict(frame)
-                gap = frame - t.last
-                for j in range(m):
-                    ll = link_log_likelihood(
-                        (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
-                        None if hists is None else hists[j], gap, **kw,
-                    )
-                    if ll > -math.inf:
-                        pairs.append((ll, ti, j))
-            linked = TrajectoryLinker._assign(pairs, len(alive), m, self.hungarian)
-            taken = set()
-            for ti, j in linked:
-                t = alive[ti]
-                t.add(frame, cx[j], cy[j], size[j], None if hists is None else hists[j])
-                out[j] = t.id
-                taken.add(j)
-            for j in range(m):
-                if j not in taken:
-                    alive.append(
-                        _Track(
-                            self.next_id, frame, cx[j], cy[j], size[j],
-                            None if hists is None else hists[j], self.history,
-                        )
-                    )
-                    out[j] = self.next_id
-                    self.next_id += 1
-        # what cannot link the next frame has ended
-        nxt = frame + 1
-        ended += [t.id for t in alive if not self._can_link(t, nxt)]
-        self.alive = [t for t in alive if self._can_link(t, nxt)]
-        return out, np.array(sorted(ended), dtype=np.int64)
-
-
-class _LinkerStream:
-    """Stream state of :class:`TrajectoryLinker` (see :meth:`TrajectoryLinker.start_stream`)."""
-
-    def __init__(self, linker):
-        self._state = _LinkState(linker)
-        self._count = 0
-
-    def push(self, record):
-        boxes = boxes_of(record, self._count, "TrajectoryLinker")
-        self._count += 1
-        ids, ended = self._state.step(record, boxes)
-        return [record.evolve(track_ids=ids, ended_tracks=ended)]
-
-    def close(self):
-        self._state.tour = None
-        self._state.alive = []
-        return []
-
-
-class TrajectoryLinker(TransformerMixin, BaseEstimator):
+class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
     """Link keypoint clusters of consecutive frames into trajectories (section 3.5).
 
     Stage 5 of the FIR indicator detector, a frame stage with nothing to learn.  The
@@ -404,12 +180,24 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         -------
         self : TrajectoryLinker
         """
-        records, _ = check_frames(X, y)
-        for i, r in enumerate(records):
-            boxes_of(r, i, "TrajectoryLinker")
-        tour_order(records)
+        records = self._check_records(X, y)
+        stream_order(records)
         self.n_frames_fit_ = len(records)
         return self
+
+    _sequence = FrameSequence
+    _payload_reads = (CLUSTER_BOXES,)
+    _payload_optional = (CLUSTER_HISTOGRAMS,)
+    _payload_adds = (TRACK_IDS, ENDED_TRACKS)
+
+    def _check_records(self, X, y=None):
+        records, _ = check_frames(X, y)
+        for i, r in enumerate(records):
+            histograms_of(r, i, len(boxes_of(r, i, "TrajectoryLinker")))
+        return records
+
+    def _stream_state(self, *, batch=False):
+        return LinkerStream(self)
 
     def transform(self, X):
         """Link the clusters of every tour into trajectories.
@@ -429,19 +217,7 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
             The frames in input order, with ``payload["track_ids"]`` and
             ``payload["ended_tracks"]``.
         """
-        check_is_fitted(self)
-        records, _ = check_frames(X)
-        boxes = [boxes_of(r, i, "TrajectoryLinker") for i, r in enumerate(records)]
-        ids = [None] * len(records)
-        ended = [None] * len(records)
-        for group in tour_order(records):
-            state = _LinkState(self)
-            for i in group.tolist():
-                ids[i], ended[i] = state.step(records[i], boxes[i])
-        return FrameSequence(
-            r.evolve(track_ids=t, ended_tracks=e)
-            for r, t, e in zip(records, ids, ended, strict=True)
-        )
+        return super().transform(X)
 
     def start_stream(self):
         """Link frames online, one at a time (the streaming protocol).
@@ -471,27 +247,4 @@ class TrajectoryLinker(TransformerMixin, BaseEstimator):
         2 [1] []
         5 [2] [1]
         """
-        check_is_fitted(self)
-        return _LinkerStream(self)
-
-    @staticmethod
-    def _assign(pairs, n_tracks, m, hungarian):
-        if not pairs:
-            return []
-        if hungarian:
-            cost = np.full((n_tracks, m), np.inf)
-            for ll, ti, j in pairs:
-                cost[ti, j] = -ll
-            finite = np.isfinite(cost)
-            big = (np.abs(cost[finite]).max() + 1.0) * (n_tracks + m + 1)
-            rows, cols = linear_sum_assignment(np.where(finite, cost, big))
-            return [(a, b) for a, b in zip(rows.tolist(), cols.tolist(), strict=True) if finite[a, b]]
-        pairs.sort(key=lambda p: (-p[0], p[1], p[2]))
-        used_t, used_c, linked = set(), set(), []
-        for _, ti, j in pairs:
-            if ti in used_t or j in used_c:
-                continue
-            used_t.add(ti)
-            used_c.add(j)
-            linked.append((ti, j))
-        return linked
+        return super().start_stream()

@@ -14,6 +14,7 @@ the scikit-learn checks that make sense for an estimator without 2-D array input
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 from collections.abc import Mapping
 from functools import partial
@@ -34,6 +35,7 @@ from tunnelsense._records import (
 __all__ = [
     "SKLEARN_RECORD_API_CHECKS",
     "assert_records_equal",
+    "check_payload_contract",
     "check_record_stage",
     "record_stage_checks",
     "sklearn_api_checks",
@@ -257,6 +259,43 @@ def check_rejects_bad_input(estimator, X, y=None, method="transform"):
         )
 
 
+def check_payload_contract(estimator, X, y=None, method="transform"):
+    """The stage adds exactly the payload keys it declares and refuses a missing read.
+
+    A stage declares ``_payload_adds`` (the keys it sets) and ``_payload_reads`` (the
+    keys it needs; see :mod:`tunnelsense._payload`).  Every output record holds the
+    input's keys plus the declared ones, the others unchanged (the same objects); a
+    record lacking a key the stage reads is refused with a ValueError naming the key.
+    A stage that declares nothing is not checked.
+    """
+    adds = getattr(estimator, "_payload_adds", None)
+    if adds is None:
+        return
+    name = type(estimator).__name__
+    records, _, _ = _kind(X)
+    fitted, out = _run(clone(estimator), X, y, method)
+    for r_in, r_out in zip(records, out, strict=True):
+        got, expected = set(r_out.payload), set(r_in.payload) | set(adds)
+        assert got == expected, (
+            f"{name}.{method} on {r_in.key}: payload keys {sorted(got)}, expected the "
+            f"input's plus the declared _payload_adds: {sorted(expected)}"
+        )
+        for key in set(r_in.payload) - set(adds):
+            assert r_out.payload[key] is r_in.payload[key], (
+                f"{name}.{method} on {r_in.key} changed payload[{key!r}], which it does "
+                "not declare in _payload_adds"
+            )
+    for key in getattr(estimator, "_payload_reads", ()):
+        stripped = [
+            dataclasses.replace(r, payload={k: v for k, v in r.payload.items() if k != key})
+            for r in records
+        ]
+        _expect_error(
+            lambda stripped=stripped: getattr(fitted, method)(stripped), (ValueError,),
+            [repr(key)], f"{name}.{method} on records without payload[{key!r}]",
+        )
+
+
 _CHECKS = (
     check_fit_returns_self,
     check_unfitted_raises,
@@ -265,6 +304,7 @@ _CHECKS = (
     check_clone_and_pickle,
     check_deterministic,
     check_rejects_bad_input,
+    check_payload_contract,
     check_input_not_mutated,  # last: also catches mutations made during the others
 )
 

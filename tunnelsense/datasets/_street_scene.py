@@ -1,0 +1,184 @@
+"""The street scene: rows of parked vehicles, clutter at the kerb, passing traffic.
+
+Objects are dicts in street coordinates (``x0`` along the street, ``depth_near``
+across it, ``speed`` 0 for static objects) laid out along the stretch the run covers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["layout", "passing"]
+
+
+def _new_vehicle(rng, kind, *, rider=False):
+    """Body dimensions of a car, van or motorbike (metres; side profile knots)."""
+    if kind == "motorbike":
+        return {"kind": kind, "length": rng.uniform(1.9, 2.2), "width": rng.uniform(0.7, 0.85),
+                "rider": rider}
+    if kind == "van":
+        L, W, H = rng.uniform(4.4, 5.6), rng.uniform(1.85, 2.0), rng.uniform(2.05, 2.6)
+        belt = rng.uniform(1.0, 1.15)
+        top_f = [0.0, 0.03, 0.1, 0.24, 0.97, 1.0]
+        top_h = [0.65, 0.95, belt + 0.15, H, H, H - 0.15]
+        glass = (0.12, 0.35)
+        tumble, R = 0.03, rng.uniform(0.3, 0.34)
+    else:
+        L, W, H = rng.uniform(3.4, 4.9), rng.uniform(1.6, 1.85), rng.uniform(1.4, 1.6)
+        belt = rng.uniform(0.88, 1.0)
+        roof_end = rng.uniform(0.7, 0.9)  # saloon ... hatchback
+        tail = 0.05 if roof_end > 0.8 else 0.13
+        top_f = [0.0, 0.04, 0.2, 0.3, 0.45, roof_end, 1 - tail, 1.0]
+        top_h = [0.6, 0.8, belt, belt + 0.06, H, H, belt + 0.05 + (0.2 if tail < 0.1 else 0),
+                 0.7]
+        glass = (0.3, roof_end + 0.05)
+        tumble, R = rng.uniform(0.1, 0.18), rng.uniform(0.29, 0.33)
+    overhang = rng.uniform(0.6, 0.95), rng.uniform(0.55, 0.9)
+    return {
+        "kind": kind, "length": L, "width": W, "top_f": top_f, "top_h": top_h,
+        "belt": belt, "glass_f": glass, "tumble": tumble, "wheel_radius": R,
+        "axles": (overhang[0] + R, L - overhang[1] - R), "clearance": rng.uniform(0.14, 0.2),
+        "overhang_bottom": rng.uniform(0.25, 0.35), "corner": rng.uniform(0.25, 0.45),
+    }
+
+
+def _vehicle_kind(rng, van, motorbike):
+    u = rng.random()
+    return "van" if u < van else "motorbike" if u < van + motorbike else "car"
+
+
+def layout(p, x_lo, x_hi, t_of_x, rng):
+    """All objects of the street.  Static objects have ``speed`` 0."""
+    kerb, kh = p["kerb_depth"], p["kerb_height"]
+    objects, free = [], []
+    x = x_lo
+    # parked vehicles in nose-to-tail clusters separated by free kerb
+    while x < x_hi:
+        gap = rng.exponential(p["parked_gap_m"])
+        free.append((x, x + gap))
+        x += gap
+        n = rng.geometric(1.0 / p["parked_cluster_size"])
+        for k in range(n):
+            kind = _vehicle_kind(rng, p["van_fraction"], p["motorbike_fraction"])
+            o = _new_vehicle(rng, kind)
+            W = o["width"]
+            where = "kerb"
+            base = 0.0
+            if kind == "motorbike":
+                y_near = kerb - rng.uniform(0.3, 1.0) - W
+            elif rng.random() < p["boundary_fraction"]:
+                if rng.random() < 0.5:  # badly parked, far from the kerb
+                    where, y_near = "boundary-near", rng.uniform(4.0, 4.1)
+                else:  # half up on the sidewalk
+                    where, y_near, base = "boundary-far", rng.uniform(6.0, 6.15), kh / 2
+            else:
+                y_near = kerb - rng.uniform(0.1, 0.35) - W
+            o.update(label="parked", x0=x, speed=0.0, facing=1.0 if rng.random() < 0.9 else -1.0,
+                     depth_near=y_near, base=base, where=where)
+            objects.append(o)
+            x += o["length"]
+            if k < n - 1:
+                touching = rng.random() < p["touching_fraction"]
+                x += rng.uniform(0.0, 0.02) if touching else rng.uniform(0.3, 1.5)
+    free = [(a, b) for a, b in free if b - a > 1.0]
+    length = x_hi - x_lo
+
+    def in_free(width):
+        """A random x in the free kerb with room for ``width``, or None."""
+        room = np.array([max(b - a - width - 0.4, 0.0) for a, b in free])
+        if room.sum() <= 0:
+            return None
+        i = rng.choice(len(free), p=room / room.sum())
+        return free[i][0] + 0.2 + rng.uniform(0, room[i])
+
+    def static(kind, x0, L, y_near, W, base, h, **extra):
+        objects.append({"kind": kind, "label": None, "x0": x0, "length": L, "speed": 0.0,
+                        "facing": 1.0, "depth_near": y_near, "width": W, "base": base,
+                        "height": h, **extra})
+
+    # pedestrians: standing at the kerb, walking along the road edge or on the sidewalk
+    for _ in range(rng.poisson(p["pedestrians_per_100m"] * length / 100)):
+        h, L = rng.uniform(1.5, 1.9), rng.uniform(0.25, 0.4)
+        u = rng.random()
+        if u < 0.4:
+            xp = in_free(L)
+            if xp is not None:
+                static("pedestrian", xp, L, kerb - rng.uniform(-0.2, 0.8), 0.44, 0.0, h)
+            continue
+        v = rng.uniform(1.0, 1.8) * rng.choice([-1.0, 1.0])
+        if u < 0.7:  # on the road edge, crossing the plane in a free stretch
+            xc, y_near, base = in_free(L), kerb - rng.uniform(0.5, 1.2), 0.0
+            if xc is None:
+                continue
+        else:  # on the sidewalk
+            xc, y_near, base = rng.uniform(x_lo, x_hi), kerb + rng.uniform(0.3, 1.3), kh
+        objects.append({"kind": "pedestrian", "label": None, "x0": xc - v * t_of_x(xc),
+                        "length": L, "speed": v, "facing": 1.0, "depth_near": y_near,
+                        "width": 0.44, "base": base, "height": h})
+    for _ in range(rng.poisson(p["bins_per_100m"] * length / 100)):
+        xb = in_free(0.74)
+        if xb is not None:
+            static("bin", xb, 0.74, kerb - rng.uniform(0.1, 0.7), 0.58, 0.0,
+                   rng.uniform(1.0, 1.1))
+    for _ in range(rng.poisson(p["bollard_rows_per_100m"] * length / 100)):
+        spacing, n = rng.uniform(1.2, 2.0), rng.integers(3, 9)
+        xb = in_free(spacing * (n - 1) + 0.15)
+        if xb is None:
+            continue
+        y_near = kerb + rng.uniform(0.02, 0.1)
+        for k in range(n):
+            static("bollard", xb + k * spacing, 0.15, y_near, 0.15, kh, rng.uniform(0.8, 1.0))
+    # sidewalk edge: lamp poles, trees, hedges (kept clear of cars up on the sidewalk)
+    blocked = [(o["x0"] - 0.5, o["x0"] + o["length"] + 0.5) for o in objects
+               if o.get("where") == "boundary-far"]
+
+    def clear(a, b):
+        return all(b < c or a > d for c, d in blocked)
+
+    for xp in np.arange(x_lo + rng.uniform(0, 30), x_hi, 30.0):
+        xp = xp + rng.uniform(-3, 3)
+        if clear(xp, xp + 0.15):
+            static("pole", xp, 0.15, kerb + rng.uniform(0.3, 0.5), 0.14, kh, 6.5)
+    for _ in range(rng.poisson(p["trees_per_100m"] * length / 100)):
+        L, xt = rng.uniform(3.0, 6.0), rng.uniform(x_lo, x_hi)
+        if clear(xt, xt + L):
+            static("tree", xt, L, kerb + rng.uniform(0.3, 0.8), rng.uniform(2.5, 4.0), kh,
+                   0.0, crown=rng.uniform(3.6, 4.6))
+    x = x_lo
+    while x < x_hi:
+        L = rng.uniform(3.0, 20.0)
+        if rng.random() < p["hedge_fraction"] and clear(x, x + L):
+            static("hedge", x, L, kerb + rng.uniform(0.4, 0.9), rng.uniform(0.8, 1.5), kh,
+                   rng.uniform(0.8, 2.0),
+                   wiggle=(rng.uniform(0.05, 0.25), rng.uniform(0.02, 0.1),
+                           rng.uniform(0, 2 * np.pi), rng.uniform(1.5, 5.0)))
+        x += L + rng.uniform(0.0, 4.0)
+    return objects
+
+
+def passing(p, stamps, v_ego, rng):
+    """Vehicles in the lane between the scanner and the parked ones, at other speeds."""
+    objects = []
+    rate = p["passing_per_min"] / 60.0
+    t = stamps[0] - 1.0
+    while rate > 0:
+        t += rng.exponential(1.0 / rate)
+        if t > stamps[-1] + 1.0:
+            break
+        kind = _vehicle_kind(rng, p["passing_van_fraction"], p["passing_motorbike_fraction"])
+        o = _new_vehicle(rng, kind, rider=True)
+        # relative speed of at least 3.5 m/s, both ways; slower ones still move (>= 2.5 m/s)
+        rel = rng.uniform(3.5, 8.0)
+        slower_ok = v_ego - rel >= 2.5
+        sign = 1.0 if (slower_ok and rng.random() < 0.5) else -1.0
+        speed = v_ego - sign * rel
+        if kind == "motorbike":
+            y_near = rng.uniform(1.8, 3.0)
+        else:
+            y_near = rng.uniform(1.5, max(1.5, 3.45 - o["width"]))
+        o.update(label="passing", speed=speed, facing=1.0, depth_near=y_near, base=0.0,
+                 cross_time=t)
+        objects.append(o)
+        # a later one must not overlap this one in the lane: leave it time to clear
+        t += (o["length"] + 2.0) / rel
+    return objects

@@ -1,0 +1,81 @@
+"""The simulated sensor: ego motion and attitude, and what the scanner measures.
+
+The measurement vehicle drives along the street at a slowly varying speed; the sensor
+rolls in the scan plane and bobs in height.  The scanner reports ranges with noise,
+dropouts on glass, tyres and foliage, millimetre steps and 8.191 m for no return or
+anything beyond 8.0 m.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense.datasets._street_shapes import FOLIAGE as _FOLIAGE
+from tunnelsense.datasets._street_shapes import GLASS as _GLASS
+from tunnelsense.datasets._street_shapes import TYRE as _TYRE
+
+__all__ = ["HIT_KERB", "HIT_NONE", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT", "ego",
+           "measure"]
+
+#: Range the paper's sensor reports for no return or an object beyond 8.0 m (m).
+MAX_RANGE = 8.191
+#: Farthest range the sensor measures (m).
+MEASURE_LIMIT = 8.0
+# codes of what a beam hit, besides object indices (>= 0)
+HIT_NONE, HIT_ROAD, HIT_KERB = -1, -2, -3
+
+
+def _smooth(rng, t, periods, amplitude):
+    """A smooth random signal of ``t``: sinusoids of the given periods, peak ~amplitude."""
+    out = np.zeros_like(t)
+    weights = rng.uniform(0.5, 1.0, len(periods))
+    weights /= weights.sum()
+    for w, (plo, phi) in zip(weights, periods, strict=True):
+        period = rng.uniform(plo, phi)
+        out += w * np.sin(2 * np.pi * t / period + rng.uniform(0, 2 * np.pi))
+    return amplitude * out
+
+
+def ego(p, n_scans, rng):
+    dt = 1.0 / p["scan_rate_hz"]
+    stamps = np.arange(n_scans) * dt + rng.uniform(-0.02, 0.02, n_scans) * dt
+    v0 = p["speed_kmh"] / 3.6
+    speed = v0 + _smooth(rng, stamps, [(8.0, 20.0), (25.0, 60.0)], p["speed_variation_kmh"] / 3.6)
+    speed = np.maximum(speed, 0.5 * v0)
+    # distance travelled: trapezoidal integration over the stamps
+    steps = np.diff(stamps) * 0.5 * (speed[1:] + speed[:-1])
+    x = np.concatenate([[0.0], np.cumsum(steps)])
+    roll = np.deg2rad(
+        p["roll_deg"]
+        + _smooth(rng, stamps, [(15.0, 40.0), (40.0, 120.0)], p["roll_drift_deg"])
+        + _smooth(rng, stamps, [(0.3, 0.8), (1.0, 3.0)], 0.03)  # body sway
+    )
+    height = p["mount_height"] + _smooth(rng, stamps, [(0.4, 0.9), (1.0, 2.5)], 0.006)
+    return stamps, speed, x, roll, height
+
+
+def measure(p, rng_true, hit, material, cos, sin, rng):
+    """The sensor: noise, dropouts, millimetre steps, 8.191 m beyond 8.0 m."""
+    n_scans, n_beams = rng_true.shape
+    noise = rng.standard_normal((n_scans, n_beams))
+    u = rng.random((n_scans, n_beams))
+    extra = rng.random((n_scans, n_beams))
+    finite = np.isfinite(rng_true)
+    r = np.where(finite, rng_true, 0.0)
+    sigma = p["range_noise"] + p["range_noise_per_m"] * r
+    r = r + sigma * noise
+    foliage = finite & (hit >= 0) & (material == _FOLIAGE)
+    # beams reach into foliage by up to ~0.3 m; a few pass through its gaps
+    r = np.where(foliage, r + 0.3 * extra**2, r)
+    through = foliage & (u > 0.96)
+    r = np.round(r * 1000.0) / 1000.0
+    out = np.where(finite & ~through & (r <= MEASURE_LIMIT), r, MAX_RANGE)
+    # dropouts: at random, on glass (specular) and on black tyres, at grazing road angles
+    p_drop = np.full((n_scans, n_beams), p["dropout_rate"])
+    p_drop = np.where(hit >= 0, np.where(material == _GLASS, 0.35, p_drop), p_drop)
+    p_drop = np.where((hit >= 0) & (material == _TYRE), 0.1, p_drop)
+    grazing = (hit == HIT_ROAD) & (np.abs(sin) < 0.3)
+    p_drop = np.where(grazing, p_drop + 0.3 * (0.3 - np.abs(sin)), p_drop)
+    dropped = finite & (extra < p_drop) & ~foliage
+    out = np.where(dropped, np.nan, out)
+    return out

@@ -1,0 +1,150 @@
+"""From ranges to region-of-interest points, and the distance travelled per scan.
+
+The per-scan geometry of the detector (paper sections III-A to III-C): restoration,
+tilt compensation with a fallback for scans that show no road, the region of interest
+with the returns of the beams just above and below every point, and the distance
+along the track between two scans (ego speed times scan period).  Every value comes
+from the scans seen so far, never from later ones, so that a stream and a batch run
+agree.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from tunnelsense.street._restoration import (
+    compensate_tilt,
+    estimate_tilt,
+    no_return,
+    restore_points,
+)
+from tunnelsense.street._roi import roi_mask
+
+__all__ = ["DEFAULT_SCAN_PERIOD", "History", "RoiPoints", "roi_points", "running_median"]
+
+#: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
+#: the paper's measurement vehicle drove at about 40 km/h.
+DEFAULT_SPEED = 40 / 3.6
+#: Scan period (s) assumed when the stamps do not give one yet (75 scans/s).
+DEFAULT_SCAN_PERIOD = 1 / 75
+#: Scans over which the scan period, the ego speed and the fallback tilt are medians.
+HISTORY = 151
+
+
+def running_median(history, values, window=HISTORY):
+    """Median of the finite values among the last ``window`` (history then values),
+    for every new value; NaN where there is none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import running_median
+    >>> running_median(np.array([1.0, 5.0]), np.array([3.0, np.nan, 9.0]), window=3)
+    array([3., 4., 6.])
+    """
+    full = np.concatenate([np.full(window - 1, np.nan), history[-(window - 1):], values])
+    full = full[-(len(values) + window - 1):]
+    win = np.lib.stride_tricks.sliding_window_view(full, window)
+    srt = np.sort(win, axis=1)  # NaN last
+    k = np.isfinite(win).sum(axis=1)
+    rows = np.arange(len(values))
+    lo = srt[rows, np.maximum((k - 1) // 2, 0)]
+    hi = srt[rows, np.maximum(k // 2, 0)]
+    return np.where(k > 0, (lo + hi) / 2, np.nan)
+
+
+class History:
+    """The recent scan periods, ego speeds and tilts of one run (causal medians)."""
+
+    def __init__(self):
+        self.periods = np.empty(0)
+        self.speeds = np.empty(0)
+        self.tilts = np.empty(0)  # known tilts only
+
+    def steps(self, periods, speeds):
+        """Metres travelled per scan: recent median speed x recent median period.
+
+        ``periods`` (s) and ``speeds`` (m/s) are per new scan, NaN where unknown;
+        ``speeds=None`` keeps no speed history (a fixed speed is given instead).
+        """
+        periods = np.where(np.isfinite(periods) & (periods > 0), periods, np.nan)
+        period = running_median(self.periods, periods)
+        self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
+        speed = speeds
+        if not np.isscalar(speeds):
+            speeds = np.where(np.isfinite(speeds) & (speeds > 0), speeds, np.nan)
+            speed = running_median(self.speeds, speeds)
+            self.speeds = np.concatenate([self.speeds, speeds])[-HISTORY:]
+        return (np.where(np.isfinite(speed), speed, DEFAULT_SPEED)
+                * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
+
+    def fill_tilts(self, tilts):
+        """Unknown (NaN) tilts become the median of the recent known ones (0 first)."""
+        tilts = np.asarray(tilts, dtype=np.float64)
+        for i in range(len(tilts)):
+            if np.isfinite(tilts[i]):
+                self.tilts = np.r_[self.tilts[-(HISTORY - 1):], tilts[i]]
+            else:
+                tilts[i] = float(np.median(self.tilts)) if len(self.tilts) else 0.0
+        return tilts
+
+
+class RoiPoints(NamedTuple):
+    """Region-of-interest points of a block of scans, in scan then beam order."""
+
+    scan: np.ndarray  #: (n,) index of the point's scan in the block
+    beam: np.ndarray  #: (n,) beam number
+    points: np.ndarray  #: (n, 2) ``(depth, height)``
+    above: np.ndarray  #: (n, 2) the return of the next beam up (NaN: none)
+    below: np.ndarray  #: (n, 2) the return of the next beam down (NaN: none)
+    tilt: np.ndarray  #: (n_scans,) the tilt used for every scan (rad)
+
+
+def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10.0,
+               min_height=0.1, max_height=2.0):
+    """Restore a block of scans and keep the returns in the region of interest.
+
+    Parameters
+    ----------
+    ranges : ndarray of shape (n_scans, n_beams)
+        Ranges (m) of consecutive scans of one run.
+    geometry : LaserGeometry
+        The run's sensor geometry.
+    history : History
+        The run's recent tilts (updated): a scan whose tilt cannot be estimated takes
+        their median.
+    tilt_compensation : bool, default=True
+        Estimate the tilt of every scan from the road; False: the nominal geometry.
+    max_tilt : float, default=10.0
+        Largest tilt (degrees) the estimate considers.
+    min_height, max_height : float, default=0.1, 2.0
+        The region of interest (m above the road), exclusive.
+
+    Returns
+    -------
+    points : RoiPoints
+    """
+    n_beams = ranges.shape[1]
+    r = np.where(no_return(ranges, geometry.range_min, geometry.range_max), np.nan,
+                 ranges)
+    angles = geometry.angles(n_beams)
+    if tilt_compensation:
+        tilt, offset = estimate_tilt(r, angles, geometry.mount_height,
+                                     max_tilt=max_tilt, tolerance=min_height)
+        tilt = history.fill_tilts(tilt)
+        depth, height, tilt = compensate_tilt(r, angles, geometry.mount_height, tilt,
+                                              offset)
+    else:
+        tilt = np.zeros(len(r))
+        depth, height = restore_points(r, angles, geometry.mount_height)
+    scan, beam = np.nonzero(roi_mask(depth, height, min_height=min_height,
+                                     max_height=max_height))
+    up, down = np.minimum(beam + 1, n_beams - 1), np.maximum(beam - 1, 0)
+    above = np.column_stack([depth[scan, up], height[scan, up]])
+    above[beam + 1 >= n_beams] = np.nan
+    below = np.column_stack([depth[scan, down], height[scan, down]])
+    below[beam == 0] = np.nan
+    points = np.column_stack([depth[scan, beam], height[scan, beam]])
+    return RoiPoints(scan, beam, points, above, below, tilt)

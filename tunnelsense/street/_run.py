@@ -1,0 +1,196 @@
+"""Training the detector on runs, and detecting objects in a run as it streams.
+
+What ``tunnelsense train street`` and ``tunnelsense detect street`` do, callable from
+Python: :func:`train_detector` fits (optionally grid-searches) the detector on
+labelled runs and summarizes the training; :func:`stream_objects` runs a fitted
+pipeline over scans through :class:`~tunnelsense._streaming.StreamingPipeline` and
+yields the object-table rows as they become final; :func:`write_objects` writes them
+to a CSV file line by line, flushed, so that an interrupted run keeps them.
+"""
+
+from __future__ import annotations
+
+from tunnelsense._records import RUN_LABELS, to_xy
+from tunnelsense._streaming import ResultsWriter, StreamingPipeline
+from tunnelsense.street._detector import OBJECT_COLUMNS, make_parking_pipeline
+from tunnelsense.street._stream import FINISHED
+
+__all__ = [
+    "OBJECT_CSV_COLUMNS",
+    "SEARCH_GRID",
+    "format_object",
+    "stream_objects",
+    "train_detector",
+    "write_objects",
+]
+
+#: Columns of the object CSV file (the object table without ``run``).
+OBJECT_CSV_COLUMNS = OBJECT_COLUMNS[1:]
+
+#: The thresholds :func:`train_detector` searches with ``search=True``.
+SEARCH_GRID = {
+    "cluster__cut": [0.4, 0.6, 0.8],
+    "cluster__link_distance": [0.3, 0.5, 0.7],
+}
+
+
+def train_detector(runs, *, search=False, n_jobs=None):
+    """Fit the street detector on labelled runs; return it and a training summary.
+
+    Parameters
+    ----------
+    runs : list of Run
+        Labelled runs (as :func:`~tunnelsense.io.read_run` reads them, every scan
+        carrying the run's ego speed).
+    search : bool, default=False
+        Grid-search :data:`SEARCH_GRID` for the best parked-vehicle F1, with
+        ``GroupKFold`` over the runs (at least two).
+    n_jobs : int, default=None
+        Parallel fits of the search.
+
+    Returns
+    -------
+    pipeline : Pipeline
+        The fitted :func:`make_parking_pipeline`.
+    summary : dict
+        Runs, parameters, scores on the training runs and the search.
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> from tunnelsense.street import train_detector
+    >>> model, summary = train_detector([make_street_scans(300, random_state=0)])
+    >>> sorted(summary["training_scores"])
+    ['parked', 'passing']
+    """
+    from sklearn.model_selection import GridSearchCV, GroupKFold
+
+    from tunnelsense.metrics import (
+        make_street_scorer,
+        objects_from_targets,
+        street_scores,
+    )
+
+    X, y, groups = to_xy(runs)
+    pipeline = make_parking_pipeline()
+    summary = {
+        "detector": "street parked vehicles (make_parking_pipeline)",
+        "runs": [{"name": run.name, "scans": len(run),
+                  **{label: int((run.gt["label"] == label).sum())
+                     for label in RUN_LABELS},
+                  **{k: run.info[k] for k in ("scenario", "seed") if k in run.info}}
+                 for run in runs],
+        "scans": len(X),
+    }
+    if search:
+        n_groups = len(set(groups))
+        if n_groups < 2:
+            raise ValueError("search needs at least two runs (the folds are runs)")
+        folds = min(n_groups, 5)
+        grid = GridSearchCV(pipeline, SEARCH_GRID, cv=GroupKFold(folds),
+                            scoring=make_street_scorer("parked", "f1"),
+                            error_score="raise", n_jobs=n_jobs)
+        grid.fit(X, y, groups=groups)
+        pipeline = grid.best_estimator_
+        summary["search"] = {"grid": SEARCH_GRID, "best_params": grid.best_params_,
+                             "best_score": float(grid.best_score_),
+                             "scoring": "parked F1 (GroupKFold over runs)",
+                             "folds": folds}
+    else:
+        pipeline.fit(X, y)
+    summary["parameters"] = {k: v for k, v in pipeline.get_params(deep=True).items()
+                             if "__" in k}
+    summary["training_scores"] = street_scores(
+        objects_from_targets(X, y), objects_from_targets(X, pipeline.predict(X)),
+        zero_division=float("nan"))
+    return pipeline, summary
+
+
+def stream_objects(pipeline, scans, *, all_objects=False):
+    """Run a fitted pipeline over scans online; yield the objects as they finish.
+
+    The scans go one at a time through
+    :class:`~tunnelsense._streaming.StreamingPipeline`; the object-table rows come
+    from the ``"finished_objects"`` payload of the records the detector releases, in
+    id order, so memory follows the longest object in view, not the run's length.
+
+    Parameters
+    ----------
+    pipeline : Pipeline or ScanClusterer
+        Fitted; its last step a :class:`~tunnelsense.street.ScanClusterer`.
+    scans : iterable of ScanRecord
+        In increasing scan order per run.
+    all_objects : bool, default=False
+        Also yield objects labelled ``"roadside"`` and ``"other"``.
+
+    Yields
+    ------
+    row : tuple
+        The values of :data:`~tunnelsense.street.OBJECT_COLUMNS`.
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> from tunnelsense.street import make_parking_pipeline, stream_objects
+    >>> run = make_street_scans(300, random_state=0)
+    >>> model = make_parking_pipeline().fit(run.scans)
+    >>> rows = list(stream_objects(model, run.scans))
+    >>> rows == list(model[-1].detect(run.scans).itertuples(index=False, name=None))
+    True
+    """
+    for record in StreamingPipeline(pipeline).run(scans):
+        for row in record.payload[FINISHED]:
+            if all_objects or row[4] in RUN_LABELS:
+                yield row
+
+
+def format_object(row):
+    """One line of the object CSV file (:data:`OBJECT_CSV_COLUMNS`) from a row.
+
+    Examples
+    --------
+    >>> from tunnelsense.street import format_object
+    >>> format_object(("r", 1, 10, 39, "parked", 5.0, 2, 4.4, 1.45, 812))
+    '1,10,39,parked,5.0000,2,4.4000,1.4500,812'
+    """
+    _run, oid, first, last, label, depth, region, length, top, n_points = row
+    return (f"{oid},{first},{last},{label},{depth:.4f},{region},{length:.4f},"
+            f"{top:.4f},{n_points}")
+
+
+def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
+                  overwrite=False):
+    """Detect the objects of scans and write them to a CSV file as they finish.
+
+    Every line is flushed as soon as its object is final.  An existing file is
+    refused unless ``overwrite`` (replaced when complete) or ``resume`` (continued:
+    the replayed lines are checked against it; see
+    :class:`~tunnelsense._streaming.ResultsWriter`).
+
+    Parameters
+    ----------
+    pipeline : Pipeline or ScanClusterer
+        Fitted.
+    scans : iterable of ScanRecord
+    path : str or Path
+        The object CSV file (header :data:`OBJECT_CSV_COLUMNS`).
+    all_objects : bool, default=False
+        Also write ``"roadside"`` and ``"other"`` objects.
+    resume, overwrite : bool, default=False
+
+    Returns
+    -------
+    counts : dict
+        Objects written per label.
+    resumed : int
+        Lines kept from an interrupted file.
+    """
+    counts = {}
+    with ResultsWriter(path, header=",".join(OBJECT_CSV_COLUMNS), resume=resume,
+                       overwrite=overwrite) as writer:
+        for row in stream_objects(pipeline, scans, all_objects=all_objects):
+            writer.write(format_object(row))
+            writer.flush()
+            counts[row[4]] = counts.get(row[4], 0) + 1
+        resumed = writer.resumed_lines
+    return counts, resumed

@@ -1,0 +1,185 @@
+"""The window of a run's scans the online detector holds: scans in, clusters linked.
+
+Every scan is restored, clustered and linked as it arrives (:meth:`ScanWindow.ingest`:
+the geometry of ``_geometry``, the clustering of ``_clustering``, the cross-section
+evidence of ``_sections``), with the tilt fallback, the scan period and the ego speed
+taken from the recent past, never from the future.  The stream drops the scans no
+decision needs any more (:meth:`ScanWindow.drop`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense.street._clustering import link_pairs, single_linkage
+from tunnelsense.street._geometry import History, roi_points
+from tunnelsense.street._sections import section_evidence
+
+__all__ = ["ScanWindow"]
+
+
+class ScanWindow:
+    """The held scans of one run and their intra-clusters.
+
+    Scans have absolute positions in the run (``base`` is the first held), clusters
+    absolute numbers (``cluster_base`` the first held).
+
+    Parameters
+    ----------
+    estimator : ScanClusterer
+        The fitted detector whose parameters restore and cluster the scans.
+    name : str
+        The run.
+    """
+
+    def __init__(self, estimator, name):
+        self.est = estimator
+        self.name = name
+        self.geometry = None
+        self.n_beams = None
+        self.last_scan = None
+        self.last_stamp = None
+        self.n_seen = 0  # scans seen in this run (absolute position of the next)
+        self.history = History()
+        # per held scan
+        self.base = 0
+        self.records = []
+        self.payload = []  # (points, beams, clusters) of every scan
+        self.scans = np.empty(0, np.int64)
+        self.follows = np.empty(0, bool)
+        self.near = np.empty(0)  # mean depth of the nearest cluster
+        self.cum = np.zeros(1)  # cum[p]: metres from the run's start to scan p
+        self.tilt = np.empty(0)
+        self.n_clusters = np.empty(0, np.int64)
+        self.first_cluster = np.empty(0, np.int64)  # absolute number of its first
+        # per held cluster
+        self.cluster_base = 0
+        self.position = np.empty(0, np.int64)  # absolute scan position
+        self.depth = np.empty(0)
+        self.top = np.empty(0)
+        self.n_points = np.empty(0)
+        self.flags = np.empty(0, np.int8)
+        self.object_id = np.empty(0, np.int64)  # 0 not final, -1 final without id
+        self.links = (np.empty(0, np.int64), np.empty(0, np.int64))
+
+    def _check_block(self, block):
+        """Validate a block of scans (in scan order, checked by the stream); return
+        their scan numbers, periods and whether each follows the previous scan."""
+        if self.geometry is None:
+            self.geometry, self.n_beams = block[0].geometry, len(block[0].ranges)
+            g = self.geometry
+            if self.n_beams == 0:
+                raise ValueError(f"run {self.name!r}: scans have no beams")
+            if not (np.isfinite(g.mount_height) and np.isfinite(g.angle_increment)):
+                raise ValueError(f"run {self.name!r}: geometry is not finite: {g}")
+        for r in block:
+            if len(r.ranges) != self.n_beams:
+                raise ValueError(
+                    f"scan {r.scan} of run {r.run!r} has {len(r.ranges)} ranges but "
+                    f"its run's first scan has {self.n_beams}: expected the same "
+                    "number of beams (angles) in every scan of a run")
+            if r.geometry != self.geometry:
+                raise ValueError(
+                    f"scan {r.scan} of run {r.run!r} has another LaserGeometry than "
+                    "its run's first scan: expected one geometry per run")
+        scans = np.array([r.scan for r in block], dtype=np.int64)
+        stamps = np.array([r.stamp for r in block], dtype=np.float64)
+        prev = np.r_[scans[0] - 1 if self.last_scan is None else self.last_scan,
+                     scans[:-1]]
+        prev_stamps = np.r_[np.nan if self.last_stamp is None else self.last_stamp,
+                            stamps[:-1]]
+        periods = stamps - prev_stamps
+        if np.any(periods < 0):
+            i = int(np.flatnonzero(periods < 0)[0])
+            raise ValueError(
+                f"stamps of run {self.name!r} are not sorted: scan {scans[i]} "
+                f"({stamps[i]}) comes after scan {prev[i]} ({prev_stamps[i]}); "
+                "expected non-decreasing stamps")
+        follows = scans == prev + 1
+        if self.last_scan is None:
+            follows[0] = False
+        self.last_scan, self.last_stamp = int(scans[-1]), float(stamps[-1])
+        return scans, periods, follows
+
+    def ingest(self, block):
+        """Restore, cluster and link a block of consecutive scans of the run."""
+        est = self.est
+        scans, periods, follows = self._check_block(block)
+        if est.speed is not None:
+            speeds = float(est.speed)
+        else:
+            speeds = np.array([float(r.payload.get("speed", np.nan)) for r in block])
+        step = self.history.steps(periods, speeds)
+        ranges = np.stack([np.asarray(r.ranges, dtype=np.float64) for r in block])
+        roi = roi_points(ranges, self.geometry, self.history,
+                         tilt_compensation=est.tilt_compensation, max_tilt=est.max_tilt,
+                         min_height=est.min_height, max_height=est.max_height)
+        x, y = roi.points[:, 0], roi.points[:, 1]
+        # intra-scan clusters, numbered over the block
+        local = single_linkage(roi.points, est.cut, groups=roi.scan)
+        n = len(block)
+        n_clusters = np.zeros(n, dtype=np.int64)
+        np.maximum.at(n_clusters, roi.scan, local + 1)
+        start = np.cumsum(n_clusters) - n_clusters
+        cluster = start[roi.scan] + local
+        k = int(n_clusters.sum())
+        position = np.repeat(np.arange(n), n_clusters)
+        n_points = np.bincount(cluster, minlength=k)
+        depth = np.bincount(cluster, weights=x, minlength=k) / np.maximum(n_points, 1)
+        top = np.full(k, -np.inf)
+        np.maximum.at(top, cluster, y)
+        roof, wall, raised, hidden = section_evidence(
+            x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
+            roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
+            min_clearance=est.min_clearance)
+        flags = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
+                 | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
+        near = np.full(n, np.inf)
+        np.minimum.at(near, position, depth)
+        # inter-scan links: the previous scan's clusters against the block's
+        first_new = self.cluster_base + len(self.position)
+        n_prev = int(self.n_clusters[-1]) if len(self.n_clusters) else 0
+        earlier, later = link_pairs(
+            np.r_[np.zeros(n_prev, np.int64), position + 1],
+            np.r_[self.depth[len(self.depth) - n_prev:], depth],
+            np.r_[False, follows], est.link_distance)
+        absolute = np.r_[np.arange(first_new - n_prev, first_new),
+                         first_new + np.arange(k)]
+        # append to the window
+        bounds = np.searchsorted(roi.scan, np.arange(n + 1))
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            self.payload.append((roi.points[a:b], roi.beam[a:b], local[a:b]))
+        self.records.extend(block)
+        self.scans = np.r_[self.scans, scans]
+        self.follows = np.r_[self.follows, follows]
+        self.near = np.r_[self.near, near]
+        self.cum = np.r_[self.cum, np.cumsum(np.r_[self.cum[-1], step])[1:]]
+        self.tilt = np.r_[self.tilt, roi.tilt]
+        self.n_clusters = np.r_[self.n_clusters, n_clusters]
+        self.first_cluster = np.r_[self.first_cluster, first_new + start]
+        self.position = np.r_[self.position, self.n_seen + position]
+        self.depth = np.r_[self.depth, depth]
+        self.top = np.r_[self.top, top]
+        self.n_points = np.r_[self.n_points, n_points.astype(np.float64)]
+        self.flags = np.r_[self.flags, flags]
+        self.object_id = np.r_[self.object_id, np.zeros(k, np.int64)]
+        self.links = (np.r_[self.links[0], absolute[earlier]],
+                      np.r_[self.links[1], absolute[later]])
+        self.n_seen += n
+
+    def drop(self, d):
+        """Drop the oldest ``d`` scans and their clusters."""
+        self.base += d
+        del self.records[:d]
+        del self.payload[:d]
+        for name in ("scans", "follows", "near", "cum", "tilt", "n_clusters",
+                     "first_cluster"):
+            setattr(self, name, getattr(self, name)[d:])
+        dropped = (int(self.first_cluster[0]) - self.cluster_base
+                   if len(self.first_cluster) else len(self.position))
+        if dropped > 0:
+            self.cluster_base += dropped
+            for name in ("position", "depth", "top", "n_points", "flags", "object_id"):
+                setattr(self, name, getattr(self, name)[dropped:])
+            keep = self.links[0] >= self.cluster_base
+            self.links = (self.links[0][keep], self.links[1][keep])

@@ -1,0 +1,178 @@
+"""Keypoint detection (section 3.1), the math: grid sampling and the intensity band.
+
+:func:`sample_keypoints` keeps the grid points whose intensity lies in a band;
+:func:`indicator_band` learns the band from labelled frames by the paper's 3-sigma
+rule (robustly by default).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense._payload import check_image
+
+__all__ = ["indicator_band", "sample_keypoints"]
+
+
+def sample_keypoints(
+    image, low=160, high=190, *, row_stride=7, col_stride=6, row_offset=0, col_offset=0
+) -> np.ndarray:
+    """Grid points of ``image`` whose intensity lies in ``[low, high]``.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+        The frame.
+    low, high : float, default=160, 190
+        The intensity band, inclusive, in the frame's own units.
+    row_stride, col_stride : int, default=7, 6
+        Grid spacing down and across (px).
+    row_offset, col_offset : int, default=0
+        Row and column of the first grid point.
+
+    Returns
+    -------
+    keypoints : ndarray of shape (n, 3), int32
+        ``(row, col, intensity)`` of every keypoint, in raster order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((20, 20), np.uint8)
+    >>> img[7, 12] = 170
+    >>> sample_keypoints(img)
+    array([[  7,  12, 170]], dtype=int32)
+    """
+    grid = image[row_offset::row_stride, col_offset::col_stride]
+    # Compare in the image's dtype when the band is representable there (fast path).
+    lo = np.ceil(low)
+    hi = np.floor(high)
+    info = np.iinfo(grid.dtype)
+    if hi < lo or hi < info.min or lo > info.max:
+        return np.empty((0, 3), dtype=np.int32)
+    lo = grid.dtype.type(max(lo, info.min))
+    hi = grid.dtype.type(min(hi, info.max))
+    mask = (grid >= lo) & (grid <= hi)
+    i, j = np.nonzero(mask)
+    out = np.empty((len(i), 3), dtype=np.int32)
+    out[:, 0] = i * row_stride + row_offset
+    out[:, 1] = j * col_stride + col_offset
+    out[:, 2] = grid[i, j]
+    return out
+
+
+def indicator_band(images, boxes, n_sigma=3.0, *, estimator="median"):
+    """The intensity band ``centre +/- n_sigma * sd`` of the pixels inside indicator boxes.
+
+    The paper's 3-sigma rule: indicator intensities are assumed Gaussian, and the band
+    keeps all but about 0.3 % of them.  A box holds more than the sign's plate: its
+    soft edges and a rim of the cooler wall.  ``estimator="median"`` (default)
+    estimates the plate's Gaussian robustly, by the median and ``1.4826`` times the
+    median absolute deviation, so that those pixels do not widen the band;
+    ``"mean"`` uses the plain mean and standard deviation of all box pixels (see
+    ``docs/tunnel-measurements.md`` for the bands each gave).
+
+    Parameters
+    ----------
+    images : iterable of ndarray of shape (height, width)
+        The frames.
+    boxes : iterable of ndarray of shape (k, 4)
+        Per frame, the indicator boxes ``(left, top, width, height)``; a box covers the
+        pixels ``left <= col < left + width``, ``top <= row < top + height``.
+    n_sigma : float, default=3.0
+        Half-width of the band in standard deviations.
+    estimator : {"median", "mean"}, default="median"
+        How the centre and the standard deviation are estimated (see above).
+
+    Returns
+    -------
+    low, high : float
+        The band, in the frames' units.  Raises ``ValueError`` when the boxes cover
+        no pixel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((10, 10), 100, np.uint8)
+    >>> img[2:6, 2:4] = [[170], [180], [170], [180]]
+    >>> indicator_band([img], [np.array([[2, 2, 2, 4.]])], estimator="mean")
+    (160.0, 190.0)
+
+    A plate of mean 175 and sd 5 in a box that also holds a column of the wall (100):
+
+    >>> rng = np.random.default_rng(0)
+    >>> img = np.full((20, 20), 100, np.uint8)
+    >>> img[2:14, 2:8] = rng.normal(175, 5, (12, 6)).round()
+    >>> box = [np.array([[2, 2, 7, 12.]])]
+    >>> [round(v) for v in indicator_band([img], box, estimator="mean")]
+    [84, 245]
+    >>> [round(v) for v in indicator_band([img], box)]
+    [157, 192]
+    """
+    if estimator not in ("median", "mean"):
+        raise ValueError(f"estimator must be 'median' or 'mean'; got {estimator!r}")
+    counts = None
+    for i, (image, frame_boxes) in enumerate(zip(images, boxes, strict=True)):
+        image = check_image(np.asarray(image), f"indicator_band: image {i}")
+        h, w = image.shape
+        for left, top, width, height in np.asarray(frame_boxes).reshape(-1, 4):
+            c0 = max(int(np.ceil(left)), 0)
+            r0 = max(int(np.ceil(top)), 0)
+            c1 = min(int(np.ceil(left + width)), w)
+            r1 = min(int(np.ceil(top + height)), h)
+            if c1 <= c0 or r1 <= r0:
+                continue
+            c = np.bincount(
+                image[r0:r1, c0:c1].ravel(), minlength=int(np.iinfo(image.dtype).max) + 1
+            )
+            if counts is None:
+                counts = c
+            else:  # 8- and 16-bit frames together: the longer histogram
+                if len(c) > len(counts):
+                    counts, c = c, counts
+                counts[: len(c)] += c
+    if counts is None or counts.sum() == 0:
+        raise ValueError(
+            "y holds no indicator box covering any pixel: cannot learn the intensity "
+            "band. Every training set (and every cross-validation training fold) "
+            "needs labelled indicators; or set band='fixed' with the camera's band "
+            "(keypoints__band='fixed', keypoints__low, keypoints__high in "
+            "make_indicator_pipeline)"
+        )
+    values = np.arange(len(counts), dtype=np.float64)
+    n = counts.sum()
+    if estimator == "mean":
+        centre = float(counts @ values) / n
+        sd = np.sqrt(max(float(counts @ (values - centre) ** 2) / n, 0.0))
+    else:
+        centre, mad = _grouped_median_mad(counts)
+        sd = 1.4826 * mad
+    return (round(float(centre - n_sigma * sd), 6), round(float(centre + n_sigma * sd), 6))
+
+
+def _grouped_median_mad(counts):
+    """Median and median absolute deviation of integer grey levels, each level ``v``
+    spread uniformly over ``[v - 0.5, v + 0.5]`` (grouped data), so that neither is
+    quantized to whole grey levels."""
+    counts = counts.astype(np.float64)
+    n = counts.sum()
+    cum = np.cumsum(counts)
+    k = int(np.searchsorted(cum, n / 2))  # the level holding the median
+    below = cum[k] - counts[k]
+    median = k - 0.5 + (n / 2 - below) / counts[k]
+    if cum[k] == n / 2:  # exactly half at or below level k: mid-gap to the next level
+        nxt = k + 1 + int(np.flatnonzero(counts[k + 1 :] > 0)[0])
+        median = (k + 0.5 + nxt - 0.5) / 2
+    lo_edges = np.arange(len(counts)) - 0.5
+
+    def mass_within(d):  # share of the pixels within median +/- d
+        overlap = np.clip(
+            np.minimum(lo_edges + 1, median + d) - np.maximum(lo_edges, median - d), 0, 1
+        )
+        return float(counts @ overlap) / n
+
+    lo, hi = 0.0, float(len(counts))
+    for _ in range(60):  # bisection: mass_within is non-decreasing in d
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if mass_within(mid) < 0.5 else (lo, mid)
+    return float(median), (lo + hi) / 2

@@ -1,0 +1,412 @@
+"""Keypoint verification (section 3.2), the math: k-means centres of histograms.
+
+Training clusters the histograms of positive keypoints (inside indicator boxes, k=40)
+and of negative ones (k=400) with k-means, scores every positive centre by its mean
+Euclidean distance to the negative centres (the paper's ``Eu``, eq. 3) and keeps the
+``n_centers`` best (the paper's 10).  A histogram is verified when it lies within
+``max_distance`` of its nearest kept centre and, unless ``margin`` is None, at most
+``margin`` farther from it than from its nearest negative centre.
+:class:`KMeansHistogramCore` is the tabular estimator of this rule.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.cluster import KMeans, MiniBatchKMeans
+from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
+from threadpoolctl import threadpool_limits
+
+__all__ = [
+    "KMeansHistogramCore",
+    "fit_kmeans",
+    "rank_positive_centers",
+    "verify_histograms",
+]
+
+
+def fit_kmeans(
+    X, n_clusters, *, batch_size=4096, n_steps=300, max_full_samples=20_000,
+    random_state=None, sample_indices=None, n_jobs=None,
+) -> np.ndarray:
+    """k-means centres of ``X``, exact for small sets, mini-batch for large ones.
+
+    * at most ``n_clusters`` distinct rows (looked for when ``n_samples`` is at most
+      ``max(max_full_samples, 4 * n_clusters)``): the distinct rows are the centres.
+    * ``n_samples <= max_full_samples``: :class:`~sklearn.cluster.KMeans` (Lloyd,
+      k-means++, one init).
+    * otherwise: :class:`~sklearn.cluster.MiniBatchKMeans` fed by ``partial_fit``
+      with ``n_steps`` batches of ``batch_size`` rows drawn uniformly at random
+      (``MiniBatchKMeans.fit`` draws each batch with a weighted choice over all rows,
+      which is pathologically slow at millions of rows), the first batch (at least
+      ``3 * n_clusters`` rows) seeding k-means++.  Memory beyond ``X`` stays at a
+      few batches.
+
+    k-means runs on ``n_jobs`` OpenMP threads, one by default: on a loaded machine
+    scikit-learn's OpenMP threads spin-wait.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_rows, n_features)
+        The rows (histograms).
+    n_clusters : int
+        k.
+    batch_size, n_steps, max_full_samples : int
+        See above.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the initialisation and the batches.
+    sample_indices : ndarray of int or None, default=None
+        Cluster only these rows of ``X`` (``None``: all), without copying them out of
+        a large ``X``: the result equals ``fit_kmeans(X[sample_indices], ...)``.
+    n_jobs : int or None, default=None
+        OpenMP threads (``None``: one); other numbers change the centres only by
+        floating-point rounding.
+
+    Returns
+    -------
+    centers : ndarray of shape (n_centers, n_features), float64
+        ``n_centers = min(n_clusters, number of distinct rows)``.
+    """
+    with threadpool_limits(limits=int(n_jobs or 1), user_api="openmp"):
+        return _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
+                           check_random_state(random_state), sample_indices)
+
+
+def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng,
+                sample_indices=None):
+    if sample_indices is not None:
+        sample_indices = np.asarray(sample_indices, dtype=np.intp)
+    n = len(X) if sample_indices is None else len(sample_indices)
+    if n <= max(max_full_samples, 4 * n_clusters):
+        if sample_indices is not None:  # a small set: copy it
+            X, sample_indices = X[sample_indices], None
+        distinct = np.unique(X, axis=0)
+        if len(distinct) <= n_clusters:
+            return distinct.astype(np.float64)
+    if n <= max_full_samples:
+        km = KMeans(n_clusters, n_init=1, random_state=rng.randint(2**31 - 1))
+        return km.fit(X).cluster_centers_.astype(np.float64)
+    batch = max(int(batch_size), 3 * n_clusters)
+    km = MiniBatchKMeans(
+        n_clusters,
+        batch_size=batch,
+        random_state=rng.randint(2**31 - 1),
+        n_init=1,
+        reassignment_ratio=0.01,
+    )
+    first = max(batch, 3 * n_clusters)
+
+    def take(idx):
+        return X[idx] if sample_indices is None else X[sample_indices[idx]]
+
+    km.partial_fit(take(np.sort(rng.choice(n, min(first, n), replace=False))))
+    for _ in range(int(n_steps) - 1):
+        km.partial_fit(take(np.sort(rng.randint(0, n, batch))))
+    return km.cluster_centers_.astype(np.float64)
+
+
+def rank_positive_centers(positive_centers, negative_centers):
+    """The paper's ``Eu`` (eq. 3): mean distance of each positive centre to the negative ones."""
+    p = np.asarray(positive_centers, dtype=np.float64)
+    q = np.asarray(negative_centers, dtype=np.float64)
+    d2 = (p * p).sum(1)[:, None] - 2 * p @ q.T + (q * q).sum(1)[None, :]
+    return np.sqrt(np.maximum(d2, 0)).mean(axis=1)
+
+
+def _nearest_distance(H, centers, centers_sq):
+    """Distance from each histogram row to its nearest centre, shape (n,)."""
+    H = np.asarray(H, dtype=np.float64)
+    if not len(centers):
+        return np.full(len(H), np.inf)
+    d2 = (H * H).sum(1)[:, None] - 2 * H @ centers.T + centers_sq[None, :]
+    return np.sqrt(np.maximum(d2.min(axis=1), 0))
+
+
+def verify_histograms(H, centers, negative_centers, *, max_distance, margin=None):
+    """The verification rule: which histograms are verified, shape (n,) bool.
+
+    A histogram ``h`` is verified when ``d_pos(h) <= max_distance`` (the paper's
+    rule: ``d_pos`` is the distance to the nearest kept positive centre) and, unless
+    ``margin`` is None, ``d_pos(h) <= d_neg(h) + margin`` (``d_neg``: the distance to
+    the nearest negative centre).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P, N = np.array([[1.0, 0, 0]]), np.array([[0.0, 1, 0], [0.5, 0.5, 0]])
+    >>> H = np.array([[0.9, 0.1, 0], [0.6, 0.4, 0]])
+    >>> verify_histograms(H, P, N, max_distance=0.6).tolist()
+    [True, True]
+    >>> verify_histograms(H, P, N, max_distance=0.6, margin=0.0).tolist()
+    [True, False]
+    """
+    centers = np.asarray(centers, dtype=np.float64)
+    neg = np.asarray(negative_centers, dtype=np.float64)
+    return _verify(
+        H, centers, (centers * centers).sum(1), neg, (neg * neg).sum(1),
+        max_distance, margin,
+    )
+
+
+def _verify(H, centers, centers_sq, negative, negative_sq, max_distance, margin):
+    H = np.asarray(H, dtype=np.float64)
+    d_pos = _nearest_distance(H, centers, centers_sq)
+    keep = d_pos <= max_distance
+    if margin is not None and keep.any():
+        # only the rows the paper's test kept need the 400 negative centres
+        rows = np.flatnonzero(keep)
+        d_neg = _nearest_distance(H[rows], negative, negative_sq)
+        keep[rows] = d_pos[rows] <= d_neg + margin
+    return keep
+
+
+class KMeansHistogramCore(TransformerMixin, BaseEstimator):
+    """Verify histograms by the k-means centres of the positive ones (section 3.2).
+
+    The tabular core of :class:`~tunnelsense.tunnel.KMeansHistogramVerifier`.
+    ``fit(X, y)`` clusters the rows of ``X`` whose ``y`` is ``pos_label`` (k =
+    ``n_positive_clusters``) and the others (k = ``n_negative_clusters``) with
+    :func:`fit_kmeans`, scores every positive centre by its mean distance to the
+    negative centres (:func:`rank_positive_centers`) and keeps the ``n_centers``
+    best.  ``predict`` gives 1 for the rows :func:`verify_histograms` verifies, else
+    0; ``transform`` the distances to the kept centres.  It is not a
+    :class:`~sklearn.base.ClassifierMixin`: it models the positive class only (a
+    mixture of its centres and one radius), so accuracy on arbitrary labelled blobs
+    is not what it promises.
+
+    Parameters
+    ----------
+    n_positive_clusters : int, default=40
+        k of k-means on the positive histograms.
+    n_negative_clusters : int, default=400
+        k of k-means on the negative histograms.
+    n_centers : int or None, default=None
+        Number of positive centres kept, those farthest on average from the negative
+        centres (the paper keeps 10); ``None`` keeps them all.
+    max_distance : float, default=0.4
+        A histogram is verified only when its Euclidean distance to the nearest kept
+        centre is at most this.
+    margin : float or None, default=0.04
+        A histogram is verified only when its distance to the nearest kept centre
+        exceeds its distance to the nearest negative centre by at most ``margin``;
+        ``None`` drops this test (the paper's rule).
+    batch_size : int, default=4096
+        Rows per mini-batch of the large-set k-means.
+    n_steps : int, default=300
+        Mini-batches drawn (uniformly, with replacement) for a large-set k-means.
+    max_full_samples : int, default=20000
+        A set of at most this many rows is clustered with full Lloyd
+        :class:`~sklearn.cluster.KMeans`, a larger one with mini-batch k-means fed
+        by ``partial_fit``.
+    pos_label : int, float, bool or str, default=1
+        The value of ``y`` that marks a positive histogram.
+    random_state : int, RandomState instance or None, default=None
+        Seeds k-means (initialisation and batches).
+    n_jobs : int or None, default=None
+        Threads of k-means (``None``: one).  Other numbers give the same centres up
+        to floating-point rounding.
+
+    Attributes
+    ----------
+    positive_centers_ : ndarray of shape (n_positive_centers, n_features_in_)
+        k-means centres of the positive rows.
+    negative_centers_ : ndarray of shape (n_negative_centers, n_features_in_)
+        k-means centres of the negative rows.
+    center_scores_ : ndarray of shape (n_positive_centers,)
+        The paper's ``Eu`` of every positive centre: its mean distance to the
+        negative centres.
+    centers_ : ndarray of shape (n_centers_, n_features_in_)
+        The kept positive centres, best (largest ``Eu``) first.
+    n_centers_ : int
+        Number of kept centres (fewer than ``n_centers`` when there are fewer
+        distinct positive rows).
+    n_positive_, n_negative_ : int
+        Numbers of positive and negative rows used in ``fit``.
+    n_features_in_ : int
+        Number of columns of ``X``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.tunnel._kmeans import KMeansHistogramCore
+    >>> rng = np.random.default_rng(0)
+    >>> pos = rng.dirichlet(np.r_[np.ones(4), 50 * np.ones(2), np.ones(2)], 200)
+    >>> neg = rng.dirichlet(np.r_[50 * np.ones(2), np.ones(6)], 2000)
+    >>> X, y = np.vstack([pos, neg]), np.r_[np.ones(200), np.zeros(2000)]
+    >>> v = KMeansHistogramCore(random_state=0).fit(X, y)
+    >>> float(v.predict(pos).mean()) > 0.9, float(v.predict(neg).mean()) < 0.01
+    (True, True)
+    """
+
+    _parameter_constraints: dict = {
+        "n_positive_clusters": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_negative_clusters": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_centers": [Interval(numbers.Integral, 1, None, closed="left"), None],
+        "max_distance": [Interval(numbers.Real, 0, None, closed="left")],
+        "margin": [Interval(numbers.Real, None, None, closed="neither"), None],
+        "batch_size": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_steps": [Interval(numbers.Integral, 1, None, closed="left")],
+        "max_full_samples": [Interval(numbers.Integral, 1, None, closed="left")],
+        "pos_label": [numbers.Real, str, "boolean"],
+        "random_state": ["random_state"],
+        "n_jobs": [Interval(numbers.Integral, 1, None, closed="left"), None],
+    }
+
+    def __init__(
+        self,
+        *,
+        n_positive_clusters=40,
+        n_negative_clusters=400,
+        n_centers=None,
+        max_distance=0.4,
+        margin=0.04,
+        batch_size=4096,
+        n_steps=300,
+        max_full_samples=20_000,
+        pos_label=1,
+        random_state=None,
+        n_jobs=None,
+    ):
+        self.n_positive_clusters = n_positive_clusters
+        self.n_negative_clusters = n_negative_clusters
+        self.n_centers = n_centers
+        self.max_distance = max_distance
+        self.margin = margin
+        self.batch_size = batch_size
+        self.n_steps = n_steps
+        self.max_full_samples = max_full_samples
+        self.pos_label = pos_label
+        self.random_state = random_state
+        self.n_jobs = n_jobs
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.required = True
+        return tags
+
+    def _check_settings(self):
+        """Check the parameters the constraints cannot express (none here)."""
+
+    def _fit_centers(self, positive, negative, positive_rows=None, negative_rows=None):
+        """k-means of both sets; ``*_rows`` (index arrays) select them from one
+        array given as both ``positive`` and ``negative`` (no copy of the data)."""
+        n_pos = len(positive) if positive_rows is None else len(positive_rows)
+        n_neg = len(negative) if negative_rows is None else len(negative_rows)
+        if n_pos == 0 or n_neg == 0:
+            which = "positive" if n_pos == 0 else "negative"
+            raise ValueError(
+                f"{type(self).__name__} needs positive and negative histograms; y "
+                f"has only 1 class (no {which} sample among {n_pos + n_neg})"
+            )
+        rng = check_random_state(self.random_state)
+        kw = dict(
+            batch_size=self.batch_size,
+            n_steps=self.n_steps,
+            max_full_samples=self.max_full_samples,
+            n_jobs=self.n_jobs,
+        )
+        self.positive_centers_ = fit_kmeans(
+            positive, self.n_positive_clusters, random_state=rng,
+            sample_indices=positive_rows, **kw
+        )
+        self.negative_centers_ = fit_kmeans(
+            negative, self.n_negative_clusters, random_state=rng,
+            sample_indices=negative_rows, **kw
+        )
+        self.center_scores_ = rank_positive_centers(
+            self.positive_centers_, self.negative_centers_
+        )
+        order = np.argsort(-self.center_scores_, kind="stable")[: self.n_centers]
+        self.centers_ = self.positive_centers_[order]
+        self.n_centers_ = len(self.centers_)
+        self._centers_sq = (self.centers_ * self.centers_).sum(1)
+        self._negative_sq = (self.negative_centers_ * self.negative_centers_).sum(1)
+        self.n_positive_, self.n_negative_ = n_pos, n_neg
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y):
+        """Learn the positive centres from labelled histograms.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+        y : array-like of shape (n_samples,)
+            ``pos_label`` for positive histograms.
+
+        Returns
+        -------
+        self : object
+        """
+        self._check_settings()
+        X, y = validate_data(
+            self, X, y, dtype=[np.float64, np.float32], y_numeric=False
+        )
+        y = column_or_1d(y)
+        positive = y == self.pos_label
+        self._fit_centers(X, X, np.flatnonzero(positive), np.flatnonzero(~positive))
+        return self
+
+    def distances(self, X):
+        """Distance from every histogram to its nearest kept centre (tabular mode).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        distances : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
+        return _nearest_distance(X, self.centers_, self._centers_sq)
+
+    def _verified(self, H):
+        """Boolean mask of the verified rows of ``H`` (see :func:`verify_histograms`)."""
+        margin = None if self.margin is None else float(self.margin)
+        return _verify(
+            H, self.centers_, self._centers_sq, self.negative_centers_,
+            self._negative_sq, float(self.max_distance), margin,
+        )
+
+    def predict(self, X):
+        """1 for verified histograms, else 0.
+
+        A histogram is verified when it lies within ``max_distance`` of its nearest
+        kept centre and, unless ``margin`` is None, is at most ``margin`` farther
+        from it than from the nearest negative centre.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        verified : ndarray of shape (n_samples,), int
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
+        return self._verified(X).astype(np.int64)
+
+    def transform(self, X):
+        """The distance of every histogram to every kept centre.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_bins)
+
+        Returns
+        -------
+        distances : ndarray of shape (n_samples, n_centers_)
+        """
+        check_is_fitted(self)
+        X = validate_data(self, X, dtype=[np.float64, np.float32], reset=False)
+        X = np.asarray(X, dtype=np.float64)
+        d2 = (
+            (X * X).sum(1)[:, None] - 2 * X @ self.centers_.T + self._centers_sq[None, :]
+        )
+        return np.sqrt(np.maximum(d2, 0))

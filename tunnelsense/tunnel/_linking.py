@@ -1,0 +1,229 @@
+"""Keypoint cluster tracking (section 3.5), the math and the stream state.
+
+:func:`link_log_likelihood` scores a response given a trajectory; :func:`assign_pairs`
+links the responses of a frame; :class:`LinkerStream` is the state
+:class:`~tunnelsense.tunnel.TrajectoryLinker` runs over the frames of each tour.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from tunnelsense._payload import ENDED_TRACKS, TRACK_IDS, boxes_of, histograms_of
+from tunnelsense._streaming import StreamState
+
+__all__ = ["LinkerStream", "assign_pairs", "link_log_likelihood"]
+
+
+def link_log_likelihood(
+    predicted, last_size, last_hist, centre, size, hist, gap, *,
+    max_scale_change=4.0, gate=1.0, min_gate=12.0, position_sigma=0.35,
+    scale_sigma=0.35, appearance_sigma=0.3, gap_penalty=1.0,
+):
+    """``ln P_link`` of a response given a trajectory, or ``-inf`` outside the gates.
+
+    Parameters
+    ----------
+    predicted : (float, float)
+        Position ``(x, y)`` the trajectory's straight-line model predicts for the
+        response's frame.
+    last_size, size : float
+        Scale (square root of the rectangle's area) of the trajectory's last response
+        and of the new one.
+    last_hist, hist : ndarray of shape (bins,) or None
+        Normalized histograms (appearance); ``None`` leaves appearance out.
+    centre : (float, float)
+        Centre of the response's rectangle.
+    gap : int
+        Frames between the trajectory's last response and this one (>= 1).
+
+    Returns
+    -------
+    float
+        ``-0.5 (d / (position_sigma s))^2 - 0.5 (ln(size ratio) / scale_sigma)^2
+        - 0.5 (a / appearance_sigma)^2 - gap_penalty (gap - 1)``, where ``d`` is the
+        distance to the prediction, ``s`` the larger size (at least ``min_gate /
+        gate``) and ``a`` half the L1 distance of the histograms (in [0, 1]).
+        ``-inf`` when the scale changes by more than ``max_scale_change`` or ``d``
+        exceeds ``max(min_gate, gate * s)``.
+    """
+    ratio = size / last_size if last_size > 0 and size > 0 else math.inf
+    if not (1.0 / max_scale_change <= ratio <= max_scale_change):
+        return -math.inf
+    s = max(size, last_size)
+    dx = centre[0] - predicted[0]
+    dy = centre[1] - predicted[1]
+    d = math.hypot(dx, dy)
+    if d > max(min_gate, gate * s):
+        return -math.inf
+    sigma = position_sigma * max(s, min_gate / gate)
+    ll = -0.5 * (d / sigma) ** 2 - 0.5 * (math.log(ratio) / scale_sigma) ** 2
+    if last_hist is not None and hist is not None:
+        a = 0.5 * float(np.abs(last_hist - hist).sum())
+        ll -= 0.5 * (a / appearance_sigma) ** 2
+    return ll - gap_penalty * (gap - 1)
+
+
+class _Track:
+    """A trajectory being linked: its last ``history`` positions (bounded memory)."""
+
+    __slots__ = ("id", "first", "frames", "xs", "ys", "size", "hist", "last")
+
+    def __init__(self, track_id, frame, x, y, size, hist, history):
+        self.id = track_id
+        self.first = frame
+        self.frames = deque([frame], maxlen=history)
+        self.xs = deque([x], maxlen=history)
+        self.ys = deque([y], maxlen=history)
+        self.size = size
+        self.hist = hist
+        self.last = frame
+
+    def add(self, frame, x, y, size, hist):
+        self.frames.append(frame)
+        self.xs.append(x)
+        self.ys.append(y)
+        self.size = size
+        self.hist = hist
+        self.last = frame
+
+    def predict(self, frame):
+        """Position at ``frame`` by a straight-line fit of the kept positions in time."""
+        k = len(self.frames)
+        if k == 1:
+            return self.xs[0], self.ys[0]
+        t, xs, ys = self.frames, self.xs, self.ys
+        tm = sum(t) / k
+        xm = sum(xs) / k
+        ym = sum(ys) / k
+        stt = sum((ti - tm) ** 2 for ti in t)
+        vx = sum((ti - tm) * (xi - xm) for ti, xi in zip(t, xs, strict=True)) / stt
+        vy = sum((ti - tm) * (yi - ym) for ti, yi in zip(t, ys, strict=True)) / stt
+        return xm + vx * (frame - tm), ym + vy * (frame - tm)
+
+
+class LinkerStream(StreamState):
+    """Stream state of :class:`TrajectoryLinker`: its pool of trajectories, one tour at a time.
+
+    A record of another tour starts afresh.  A trajectory *ends* as soon as it can no
+    longer link a later frame: it missed more than ``max_gap`` frames, or its duration
+    reached ``max_track_length`` frames.
+    """
+
+    def __init__(self, linker):
+        self.kw = dict(
+            max_scale_change=float(linker.max_scale_change),
+            gate=float(linker.gate),
+            min_gate=float(linker.min_gate),
+            position_sigma=float(linker.position_sigma),
+            scale_sigma=float(linker.scale_sigma),
+            appearance_sigma=float(linker.appearance_sigma),
+            gap_penalty=float(linker.gap_penalty),
+        )
+        self.reach = int(linker.max_gap) + 1
+        self.history = int(linker.history)
+        self.max_length = (
+            math.inf if linker.max_track_length is None else int(linker.max_track_length)
+        )
+        self.hungarian = linker.assignment == "hungarian"
+        self.tour = None
+        self.alive: list[_Track] = []
+        self.next_id = 1
+        self._count = 0
+
+    def _can_link(self, t, frame):
+        return frame - t.last <= self.reach and frame - t.first < self.max_length
+
+    def _push(self, record):
+        index = self._count
+        self._count += 1
+        boxes = boxes_of(record, index, "TrajectoryLinker")
+        ids, ended = self._step(record, boxes, index)
+        return [record.evolve(**{TRACK_IDS: ids, ENDED_TRACKS: ended})]
+
+    def _close(self):
+        self.tour = None
+        self.alive = []
+        return []
+
+    def _step(self, record, boxes, index):
+        """Link one frame; return ``(track_ids, ended_tracks)``."""
+        frame = record.frame
+        if record.tour != self.tour:
+            self.tour, self.alive, self.next_id = record.tour, [], 1
+        ended = [t.id for t in self.alive if not self._can_link(t, frame)]
+        alive = [t for t in self.alive if self._can_link(t, frame)]
+        m = len(boxes)
+        out = np.zeros(m, dtype=np.int64)
+        if m:
+            hists = histograms_of(record, index, m)
+            bl = boxes.tolist()
+            cx = [L + w / 2 for L, _, w, _ in bl]
+            cy = [T + h / 2 for _, T, _, h in bl]
+            size = [math.sqrt(w * h) for _, _, w, h in bl]
+            pairs = []
+            kw = self.kw
+            for ti, t in enumerate(alive):
+                px, py = t.predict(frame)
+                gap = frame - t.last
+                for j in range(m):
+                    ll = link_log_likelihood(
+                        (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
+                        None if hists is None else hists[j], gap, **kw,
+                    )
+                    if ll > -math.inf:
+                        pairs.append((ll, ti, j))
+            linked = assign_pairs(pairs, len(alive), m, self.hungarian)
+            taken = set()
+            for ti, j in linked:
+                t = alive[ti]
+                t.add(frame, cx[j], cy[j], size[j], None if hists is None else hists[j])
+                out[j] = t.id
+                taken.add(j)
+            for j in range(m):
+                if j not in taken:
+                    alive.append(
+                        _Track(
+                            self.next_id, frame, cx[j], cy[j], size[j],
+                            None if hists is None else hists[j], self.history,
+                        )
+                    )
+                    out[j] = self.next_id
+                    self.next_id += 1
+        # what cannot link the next frame has ended
+        nxt = frame + 1
+        ended += [t.id for t in alive if not self._can_link(t, nxt)]
+        self.alive = [t for t in alive if self._can_link(t, nxt)]
+        return out, np.array(sorted(ended), dtype=np.int64)
+
+
+def assign_pairs(pairs, n_tracks, m, hungarian):
+    """The links of one frame: ``(track, response)`` pairs, each used at most once.
+
+    ``pairs`` holds ``(log-likelihood, track, response)``.  Greedy (the paper's):
+    best pair first, until no pair is left; Hungarian: the assignment maximizing the
+    sum of log-likelihoods.
+    """
+    if not pairs:
+        return []
+    if hungarian:
+        cost = np.full((n_tracks, m), np.inf)
+        for ll, ti, j in pairs:
+            cost[ti, j] = -ll
+        finite = np.isfinite(cost)
+        big = (np.abs(cost[finite]).max() + 1.0) * (n_tracks + m + 1)
+        rows, cols = linear_sum_assignment(np.where(finite, cost, big))
+        return [(a, b) for a, b in zip(rows.tolist(), cols.tolist(), strict=True) if finite[a, b]]
+    pairs.sort(key=lambda p: (-p[0], p[1], p[2]))
+    used_t, used_c, linked = set(), set(), []
+    for _, ti, j in pairs:
+        if ti in used_t or j in used_c:
+            continue
+        used_t.add(ti)
+        used_c.add(j)
+        linked.append((ti, j))
+    return linked

@@ -1,0 +1,256 @@
+"""Motion verification (sections 3.6-3.7), the math and the stream state.
+
+:func:`pearson_r` (eq. 5) and :func:`straightness` measure how well a trajectory's
+centres fit a line.  :class:`PCCStream` is the state :class:`PCCVerifier` runs over
+the frames of each tour: it gathers every open trajectory, decides one when it ends
+and releases a frame when every trajectory through it is decided.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from tunnelsense._payload import (
+    APPEARANCE,
+    DETECTIONS,
+    INDICATOR,
+    MOTION_R,
+    TRACK_IDS,
+    TRAJECTORY_LENGTH,
+    TRAJECTORY_POSITIVE,
+    boxes_of,
+    ended_tracks_of,
+    per_cluster,
+)
+from tunnelsense._records import FrameRecord, release_image
+from tunnelsense._streaming import StreamState
+
+__all__ = ["PCCStream", "frame_payload", "pearson_r", "straightness"]
+
+
+def pearson_r(x, y) -> float:
+    """Pearson correlation coefficient of the points ``(x_i, y_i)`` (eq. 5).
+
+    0 when either coordinate does not vary (a still cluster has no line; fewer than
+    two distinct positions).
+
+    Examples
+    --------
+    >>> pearson_r([0, 1, 2, 3], [5, 3, 1, -1])
+    -1.0
+    >>> pearson_r([1, 1, 1], [0, 1, 2])
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    x = x - x.mean()
+    y = y - y.mean()
+    sxx, syy = float(x @ x), float(y @ y)
+    scale = max(sxx, syy, 1.0)
+    if sxx <= 1e-12 * scale or syy <= 1e-12 * scale:
+        return 0.0
+    return float(np.clip((x @ y) / np.sqrt(sxx * syy), -1.0, 1.0))
+
+
+def straightness(x, y) -> float:
+    """How well the points ``(x_i, y_i)`` fit a line, whatever its direction.
+
+    ``1 - lambda_min / lambda_max`` of the points' covariance matrix: 1 for points
+    on a line, 0 for points spread alike in every direction (or fewer than two
+    distinct positions).  Unlike Pearson's r, which is 0 for a perfectly straight
+    horizontal or vertical line because one coordinate does not vary, it treats every
+    orientation alike.
+
+    Examples
+    --------
+    >>> straightness([0, 1, 2, 3], [5, 5, 5, 5])  # horizontal: Pearson r is 0 here
+    1.0
+    >>> round(straightness([0, 1, 0, 1], [0, 0, 1, 1]), 6)
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) < 2:
+        return 0.0
+    low, high = np.linalg.eigvalsh(np.cov(x, y, bias=True))
+    if high <= 1e-12:
+        return 0.0
+    return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
+
+
+class _Released:
+    """Stands in for the image source of a record released by a stream state."""
+
+    __slots__ = ()
+
+    def load(self):
+        raise ValueError(
+            "this frame's image was released by the streaming detector (only lazy "
+            "sources, such as image files, are kept); keep the image yourself if you "
+            "need it after detection"
+        )
+
+    def __repr__(self):
+        return "Released()"
+
+
+_RELEASED = _Released()
+
+
+class _Frame:
+    """A frame waiting for the trajectories through it to end."""
+
+    __slots__ = (
+        "tag",
+        "boxes",
+        "tracks",
+        "r",
+        "length",
+        "indicator",
+        "positive",
+        "fraction",
+        "unresolved",
+    )
+
+    def __init__(self, tag, boxes, tracks):
+        m = len(boxes)
+        self.tag = tag
+        self.boxes = boxes
+        self.tracks = tracks
+        self.r = np.zeros(m)
+        self.length = np.zeros(m, np.int64)
+        self.indicator = np.zeros(m, bool)
+        self.positive = np.zeros(m, bool)
+        self.fraction = np.zeros(m)
+        self.unresolved = m
+
+    def results(self):
+        keep = self.positive
+        det = np.column_stack(
+            [
+                self.boxes[keep],
+                self.tracks[keep].astype(np.float64),
+                self.fraction[keep],
+            ]
+        )
+        return {
+            MOTION_R: self.r,
+            TRAJECTORY_LENGTH: self.length,
+            INDICATOR: self.indicator,
+            TRAJECTORY_POSITIVE: keep,
+            DETECTIONS: det.reshape(-1, 6),
+        }
+
+
+class _Trajectory:
+    __slots__ = ("xs", "ys", "app", "members")
+
+    def __init__(self):
+        self.xs, self.ys, self.app, self.members = [], [], [], []
+
+
+class PCCStream(StreamState):
+    """Stream state of :class:`PCCVerifier`: open trajectories and waiting frames.
+
+    A frame is added with its tag (the record to evolve; a record of another tour
+    first ends every trajectory of the previous one).  A trajectory is decided when
+    it ends (``payload["ended_tracks"]`` of :class:`TrajectoryLinker`, the end of its
+    tour, or :meth:`close`); a frame is final, and returned, when every trajectory
+    through it is decided.  ``release=True`` keeps of a held frame's image only a lazy
+    source (online, where frames would otherwise pile up in memory).
+    """
+
+    def __init__(self, verifier, *, release=True):
+        self.measure = pearson_r if verifier.criterion == "pearson" else straightness
+        self.min_r = float(verifier.min_r)
+        self.min_length = int(verifier.min_length)
+        self.vote = float(verifier.vote)
+        self.release = release
+        self.tour = None
+        self.open: dict = {}
+        self.waiting: deque = deque()
+        self._count = 0
+
+    @property
+    def n_waiting(self):
+        """Frames held until the trajectories through them end."""
+        return len(self.waiting)
+
+    def _decide(self, traj):
+        n = len(traj.xs)
+        r = self.measure(traj.xs, traj.ys) if n > 1 else 0.0
+        motion_ok = n >= self.min_length and abs(r) >= self.min_r
+        indicator = [a and motion_ok for a in traj.app]
+        fraction = sum(indicator) / n
+        positive = fraction > self.vote
+        for (entry, j), ind in zip(traj.members, indicator, strict=True):
+            entry.r[j] = r
+            entry.length[j] = n
+            entry.indicator[j] = ind
+            entry.positive[j] = positive
+            entry.fraction[j] = fraction
+            entry.unresolved -= 1
+
+    def _release(self):
+        out = []
+        waiting = self.waiting
+        while waiting and waiting[0].unresolved == 0:
+            entry = waiting.popleft()
+            out.append(entry.tag.evolve(**entry.results()))
+        return out
+
+    def _close(self):
+        """End every open trajectory; return every frame still waiting."""
+        for traj in self.open.values():
+            self._decide(traj)
+        self.open = {}
+        self.tour = None
+        return self._release()
+
+    def _push(self, record):
+        boxes, appearance, tracks = frame_payload(record, self._count)
+        self._count += 1
+        tag = record
+        if self.release:
+            source = release_image(record.source)
+            if source is None:
+                source = _RELEASED
+            tag = FrameRecord(record.tour, record.frame, source, record.payload)
+        out = []
+        if record.tour != self.tour:
+            out = self._close()
+            self.tour = record.tour
+        entry = _Frame(tag, boxes, tracks)
+        if len(boxes):
+            cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
+            cy = (boxes[:, 1] + boxes[:, 3] / 2).tolist()
+            for j, (tid, a) in enumerate(
+                zip(tracks.tolist(), appearance.tolist(), strict=True)
+            ):
+                traj = self.open.get(tid)
+                if traj is None:
+                    traj = self.open[tid] = _Trajectory()
+                traj.xs.append(cx[j])
+                traj.ys.append(cy[j])
+                traj.app.append(a)
+                traj.members.append((entry, j))
+        self.waiting.append(entry)
+        ended = ended_tracks_of(record)
+        if ended is not None:
+            for tid in ended:
+                traj = self.open.pop(tid, None)
+                if traj is not None:
+                    self._decide(traj)
+        out.extend(self._release())
+        return out
+
+
+def frame_payload(record, index):
+    """The ``(boxes, appearance, track_ids)`` of a record, checked."""
+    b = boxes_of(record, index, "PCCVerifier")
+    m = len(b)
+    app = per_cluster(record, index, APPEARANCE, m, "PCCVerifier")
+    tracks = per_cluster(record, index, TRACK_IDS, m, "PCCVerifier")
+    return b, app.astype(bool), tracks.astype(np.int64)
