@@ -19,8 +19,8 @@ import numpy as np
 from tunnelsense import to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores
+from tunnelsense.plotting import draw_detections
 from tunnelsense.tunnel import make_indicator_pipeline
-from tunnelsense.tunnel._pipeline import draw_detections
 
 train = make_tunnel_tour(300, scenario="heavy", random_state=0, first_indicator_m=40.0)
 test = make_tunnel_tour(240, scenario="heavy", random_state=7, first_indicator_m=60.0)
