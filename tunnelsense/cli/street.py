@@ -19,6 +19,9 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
 from tunnelsense._progress import Progress
 from tunnelsense.cli._common import (
     add_model_arguments,
@@ -51,11 +54,11 @@ def _cmd_train(args) -> int:
     start = time.perf_counter()
     key = check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
-    counts = {k: sum(r[k] for r in _run_counts(runs)) for k in ("parked", "passing")}
+    labels = pd.concat([run.gt["label"] for run in runs]).value_counts()
     print(f"training on {len(runs)} run(s), {sum(map(len, runs))} scans, "
-          f"{counts['parked']} parked, {counts['passing']} passing vehicles"
-          + (f"; searching {_grid_size()} settings on {args.jobs} job(s)"
-             if args.search else ""))
+          f"{labels.get('parked', 0)} parked, {labels.get('passing', 0)} passing vehicles"
+          + (f"; searching {np.prod([len(v) for v in SEARCH_GRID.values()])} settings "
+             f"on {args.jobs} job(s)" if args.search else ""))
     model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
     if args.search:
         s = summary["search"]
@@ -66,15 +69,6 @@ def _cmd_train(args) -> int:
               f"{_rate(s['precision'])} ({s['tp']} of {s['tp'] + s['fn']} found)")
     save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
-
-
-def _run_counts(runs):
-    return [{k: int((run.gt["label"] == k).sum()) for k in ("parked", "passing")}
-            for run in runs]
-
-
-def _grid_size():
-    return len(SEARCH_GRID["cluster__cut"]) * len(SEARCH_GRID["cluster__link_distance"])
 
 
 def _rate(value):
