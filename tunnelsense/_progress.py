@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import sys
 
+from tqdm import tqdm
+
 __all__ = ["Progress"]
 
 
@@ -28,8 +30,6 @@ class Progress:
     """
 
     def __init__(self, total, desc, *, stream=None, enabled=True, unit="it"):
-        from tqdm import tqdm
-
         self.total = max(int(total), 1)
         self._bar = tqdm(
             total=self.total,

@@ -66,7 +66,7 @@ class ImageFile:
         return f"ImageFile({self.path!r})"
 
     def load(self) -> np.ndarray:
-        from tunnelsense.io._images import read_image
+        from tunnelsense.io._images import read_image  # io imports this module
 
         image = read_image(self.path)
         if self.shape is not None and image.shape != self.shape:
@@ -96,7 +96,7 @@ class VideoFrame:
         return f"VideoFrame({self.path!r}, {self.index})"
 
     def load(self) -> np.ndarray:
-        from tunnelsense.io._images import read_video_frame
+        from tunnelsense.io._images import read_video_frame  # io imports this module
 
         return read_video_frame(self.path, self.index)
 

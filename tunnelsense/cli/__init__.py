@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
 import os
 import sys
 
@@ -20,17 +19,7 @@ from tunnelsense._version import __version__
 __all__ = ["build_parser", "main"]
 
 #: The command modules, in the order of the help text.
-_MODULES = ("info", "simulate", "tunnel", "street")
-#: The street commands' module before it joins this package.
-_STREET_FALLBACK = "tunnelsense._cli_street"
-
-
-def _modules():
-    names = [f"tunnelsense.cli.{m}" for m in _MODULES]
-    if importlib.util.find_spec("tunnelsense.cli.street") is None:
-        names.append(_STREET_FALLBACK)
-    names.append("tunnelsense._cli_position")  # position, evaluate position
-    return [importlib.import_module(n) for n in names if importlib.util.find_spec(n)]
+_MODULES = ("info", "simulate", "tunnel", "street", "position")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"tunnelsense {__version__}",
                         help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    modules = _modules()
+    modules = [importlib.import_module(f"tunnelsense.cli.{m}") for m in _MODULES]
     for module in modules:
         if hasattr(module, "register_top"):
             module.register_top(sub)

@@ -4,20 +4,24 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 
 from tunnelsense._progress import Progress
 from tunnelsense.exceptions import UntrustedModelError
-from tunnelsense.io import load_model
+from tunnelsense.io import load_model, save_model
 from tunnelsense.io._model import KEY_ENV
-from tunnelsense.io._output import check_draw_dir, input_files  # noqa: F401
+from tunnelsense.io._output import check_draw_dir, check_output, input_files
 
 __all__ = [
     "add_model_arguments",
     "add_output_arguments",
     "add_quiet",
+    "check_detect_outputs",
+    "check_model_output",
     "load_cli_model",
     "progress",
+    "save_cli_model",
     "signing_key",
 ]
 
@@ -95,3 +99,32 @@ def load_cli_model(path, *, last_step, command, trust_pickle=False, key=None):
     if not steps or steps[-1][0] != last_step:
         raise ValueError(f"{path}: not a model written by 'tunnelsense {command}'")
     return model
+
+
+def check_model_output(args, sources):
+    """Refuse a ``--model`` to write before any work; return the signing key."""
+    if Path(args.model).suffix.lower() not in (*_PICKLE_SUFFIXES, ".skops"):
+        raise ValueError(f"--model {args.model}: the extension chooses the format: "
+                         ".skops (safe, no code runs on load) or .joblib (pickle)")
+    inputs = [f for d in sources for f in input_files(d)]
+    check_output(args.model, overwrite=args.force, what="--model",
+                 inputs=[*inputs, *filter(None, [args.key_file])])
+    return signing_key(args)
+
+
+def save_cli_model(model, args, *, summary, key, start):
+    """Write the trained model of ``--model`` and say so."""
+    save_model(model, args.model, summary=summary, key=key, overwrite=args.force)
+    kind = "safe skops" if Path(args.model).suffix.lower() == ".skops" else "pickle"
+    print(f"wrote {args.model} ({kind}{', signed' if key is not None else ''}; "
+          f"{time.perf_counter() - start:.1f} s)")
+
+
+def check_detect_outputs(args, source, outputs) -> None:
+    """Refuse ``--out`` files (and a ``--draw`` folder) before any work."""
+    inputs = [args.model, *input_files(source), *filter(None, [args.key_file])]
+    for path in outputs:
+        check_output(path, overwrite=args.force or args.resume, inputs=inputs,
+                     what="--out")
+    if args.draw is not None:
+        check_draw_dir(args.draw, force=args.force, inputs=inputs)

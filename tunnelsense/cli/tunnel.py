@@ -14,15 +14,15 @@ from tunnelsense.cli._common import (
     add_model_arguments,
     add_output_arguments,
     add_quiet,
-    check_draw_dir,
-    input_files,
+    check_detect_outputs,
+    check_model_output,
     load_cli_model,
     progress,
+    save_cli_model,
     signing_key,
 )
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.io import clusters_path, read_tour, save_model
-from tunnelsense.io._output import check_output
+from tunnelsense.io import clusters_path, read_tour
 from tunnelsense.metrics import indicator_scores, results_scores, tunnel_report
 from tunnelsense.tunnel import (
     detect_to_files,
@@ -36,14 +36,8 @@ _CPUS = os.cpu_count() or 1
 
 
 def _cmd_train(args) -> int:
-    start, out = time.perf_counter(), Path(args.model)
-    if out.suffix.lower() not in (".skops", ".joblib", ".pkl", ".pickle"):
-        raise ValueError(f"--model {out}: the extension chooses the format: .skops "
-                         "(safe, no code runs on load) or .joblib (pickle)")
-    inputs = [f for d in args.seqdirs for f in input_files(d)]
-    check_output(out, overwrite=args.force, what="--model",
-                 inputs=inputs + list(filter(None, [args.key_file])))
-    key = signing_key(args)
+    start = time.perf_counter()
+    key = check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
     n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
     print(f"training on {len(tours)} tour(s), {sum(map(len, tours))} frames, {n_ind} "
@@ -59,21 +53,13 @@ def _cmd_train(args) -> int:
         print(f"best parameters: {s['best_parameters']} (score {s['best_score']:.4f})")
     kp = model.named_steps["keypoints"]
     print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
-    save_model(model, out, summary=summary, key=key, overwrite=args.force)
-    kind = ("safe skops" if out.suffix.lower() == ".skops" else "pickle") + (
-        ", signed" if key is not None else "")
-    print(f"wrote {out} ({kind}; {time.perf_counter() - start:.1f} s)")
+    save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
 def _cmd_detect(args) -> int:
     start, out = time.perf_counter(), Path(args.out)
-    inputs = [args.model, *input_files(args.source), *filter(None, [args.key_file])]
-    for path in (out, clusters_path(out)):
-        check_output(path, overwrite=args.force or args.resume, inputs=inputs,
-                     what="--out")
-    if args.draw is not None:
-        check_draw_dir(args.draw, force=args.force, inputs=inputs)
+    check_detect_outputs(args, args.source, [out, clusters_path(out)])
     model = load_cli_model(args.model, last_step="motion", command="train tunnel",
                            trust_pickle=args.trust_pickle, key=signing_key(args))
     facts = detect_to_files(

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from numbers import Integral
 
+import cv2
 import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
@@ -198,8 +199,6 @@ def make_tunnel_tour(
 
     images = np.empty((n_frames, H, W), dtype=np.uint8)
     rows = []
-    import cv2  # noqa: PLC0415
-
     for f in range(n_frames):
         pose = (float(lat[f]), float(hgt[f]), float(pitch[f]))
         sc = float(s_ego[f])

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 from scipy.special import erf
 
@@ -49,8 +50,6 @@ def _paint(img, x0, x1, y0, y1, value, alpha=1.0, sigma=_SIG):
 
 def _paint_poly(img, u, v, value):
     """Fill the convex hull of the points ``(u, v)`` (anti-aliased) with ``value``."""
-    import cv2  # noqa: PLC0415
-
     H, W = img.shape
     j0, j1 = max(int(math.floor(u.min())) - 1, 0), min(int(math.ceil(u.max())) + 2, W)
     i0, i1 = max(int(math.floor(v.min())) - 1, 0), min(int(math.ceil(v.max())) + 2, H)

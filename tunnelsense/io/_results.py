@@ -141,6 +141,15 @@ def read_mot_results(path) -> pd.DataFrame:
         There is no such file.
     InputFormatError
         As for :func:`~tunnelsense.io.read_mot_gt` (names the file and the line).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense.io import read_mot_results
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "res.txt"
+    >>> _ = path.write_text("3,7,1.0,2.0,4.0,8.0,0.5,-1,-1,-1\\n")
+    >>> read_mot_results(path)[["frame", "id", "bb_height"]].to_numpy().tolist()
+    [[3.0, 7.0, 8.0]]
     """
     return read_table(path, MOT_RESULT_COLUMNS)
 

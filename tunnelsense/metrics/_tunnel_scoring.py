@@ -33,6 +33,18 @@ def results_scores(results, tour, *, min_height=14.0) -> dict:
     -------
     scores : dict
         As :func:`tunnel_scores`, with ``complete``.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.metrics import results_scores
+    >>> tour = make_tunnel_tour(30, random_state=0, first_indicator_m=20.0)
+    >>> results = pathlib.Path(tempfile.mkdtemp()) / "none.txt"
+    >>> _ = results.write_text("")  # no detection at all
+    >>> scores = results_scores(results, tour)
+    >>> scores["complete"], scores["cluster"]["false_alarm_rate"]
+    (False, None)
     """
     hypotheses, complete = read_hypotheses(results, tour.name)
     scores = tunnel_scores(hypotheses, tour.gt.assign(tour=tour.name),

@@ -9,6 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.cluster.hierarchy import dendrogram, single
+from scipy.spatial.distance import pdist
 
 from tunnelsense._records import ScanRecord
 from tunnelsense.plotting._scans import _pyplot, interval_bars, plot_range_image
@@ -80,9 +82,6 @@ def plot_dendrogram(record, *, cut=0.6, ax=None):
     -------
     ax : matplotlib Axes
     """
-    from scipy.cluster.hierarchy import dendrogram, single
-    from scipy.spatial.distance import pdist
-
     _check_clustered(record)
     pts = record.payload["points"]
     if len(pts) < 2:

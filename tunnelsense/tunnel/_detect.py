@@ -21,7 +21,7 @@ from threadpoolctl import threadpool_limits
 from tunnelsense._fitting import fit_pipeline
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._streaming import StreamingPipeline
-from tunnelsense.io._images import decode_ahead
+from tunnelsense.io._images import decode_ahead, iter_video, open_video
 from tunnelsense.io._results import (
     CLUSTERS_HEADER,
     RESULT_LINE,
@@ -179,6 +179,17 @@ def detect_tour(model, frames, *, progress=None, chunk=256):
     -------
     records : FrameSequence
         The output of ``model.predict(frames)``.
+
+    Examples
+    --------
+    >>> from tunnelsense import to_xy
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.tunnel import detect_tour, make_indicator_pipeline
+    >>> X, y, _ = to_xy(make_tunnel_tour(60, random_state=0, first_indicator_m=20.0))
+    >>> model = make_indicator_pipeline(random_state=0).fit(X, y)
+    >>> records = detect_tour(model, X, chunk=16)
+    >>> [r.key for r in records] == [r.key for r in model.predict(X)]
+    True
     """
     head, tail = model[:-2], model[-2:]
     parts = []
@@ -200,13 +211,23 @@ def open_frames(source):
     frames : iterable of FrameRecord
     total : int
         Number of frames (for a video, as its header states).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.io import write_tour
+    >>> from tunnelsense.tunnel._detect import open_frames
+    >>> folder = pathlib.Path(tempfile.mkdtemp()) / "tour"
+    >>> _ = write_tour(make_tunnel_tour(5, random_state=0), folder)
+    >>> frames, total = open_frames(folder)
+    >>> total, next(frames).frame
+    (5, 1)
     """
     source = Path(source)
     if not source.is_file():
         tour = open_tour(source)
         return iter(tour.frames), len(tour)
-    from tunnelsense.io._images import iter_video, open_video
-
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
     capture.release()
@@ -233,6 +254,19 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
     record : FrameRecord
         As ``model.predict`` gives them, in input order, each as soon as every
         trajectory through it has ended (in-memory images are released).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import to_xy
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.tunnel import make_indicator_pipeline, stream_detect
+    >>> X, y, _ = to_xy(make_tunnel_tour(60, random_state=0, first_indicator_m=20.0))
+    >>> model = make_indicator_pipeline(random_state=0).fit(X, y)
+    >>> streamed = list(stream_detect(model, iter(X), n_threads=1))
+    >>> all(np.array_equal(a.payload["detections"], b.payload["detections"])
+    ...     for a, b in zip(streamed, model.predict(X), strict=True))
+    True
     """
     stream = StreamingPipeline(model)
     if n_threads > 0:
@@ -279,6 +313,22 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     facts : dict
         ``frames``, ``detections``, ``trajectories`` (indicator trajectories),
         ``resumed_lines`` and ``drawn`` (bytes of each picture drawn).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense import to_xy
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.io import write_tour
+    >>> from tunnelsense.tunnel import detect_to_files, make_indicator_pipeline
+    >>> tour = make_tunnel_tour(60, random_state=0, first_indicator_m=20.0)
+    >>> X, y, _ = to_xy(tour)
+    >>> model = make_indicator_pipeline(random_state=0).fit(X, y)
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = write_tour(tour, folder / "tour")
+    >>> facts = detect_to_files(model, folder / "tour", folder / "tour.txt")
+    >>> facts["frames"], sorted(p.name for p in folder.glob("tour.*"))
+    (60, ['tour.clusters.csv', 'tour.txt'])
     """
     if draw_every < 1:
         raise ValueError(f"draw_every must be at least 1; got {draw_every}")

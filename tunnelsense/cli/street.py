@@ -19,41 +19,40 @@ import os
 import time
 from pathlib import Path
 
-from tunnelsense._cli_common import (
+import numpy as np
+import pandas as pd
+
+from tunnelsense._progress import Progress
+from tunnelsense.cli._common import (
     add_model_arguments,
     add_output_arguments,
-    check_draw_dir,
-    input_files,
+    check_detect_outputs,
+    check_model_output,
     load_cli_model,
+    save_cli_model,
     signing_key,
 )
+from tunnelsense.io import (
+    open_run_stream,
+    read_objects,
+    read_run,
+    read_run_gt,
+)
+from tunnelsense.metrics import street_report, street_scores
+from tunnelsense.plotting import draw_run
+from tunnelsense.street import SEARCH_GRID, train_detector, write_objects
 
 __all__ = ["register"]
 
 
 def _read_runs(paths, args):
-    from tunnelsense.io import read_run
-
     return [read_run(p, range_unit=args.range_unit, topic=args.topic,
                      mount_height=args.mount_height) for p in paths]
 
 
 def _cmd_train(args) -> int:
-    import numpy as np
-    import pandas as pd
-
-    from tunnelsense.io import save_model
-    from tunnelsense.io._output import check_output
-    from tunnelsense.street import SEARCH_GRID, train_detector
-
     start = time.perf_counter()
-    if Path(args.model).suffix.lower() not in (".skops", ".joblib"):
-        raise ValueError(f"--model {args.model}: expected a .skops (safe) or .joblib "
-                         "(pickle) file name")
-    inputs = [f for d in args.rundirs for f in input_files(d)]
-    inputs += [args.key_file] if args.key_file else []
-    check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
-    key = signing_key(args)
+    key = check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
     labels = pd.concat([run.gt["label"] for run in runs]).value_counts()
     print(f"training on {len(runs)} run(s), {sum(map(len, runs))} scans, "
@@ -68,10 +67,7 @@ def _cmd_train(args) -> int:
     for label, s in summary["training_scores"].items():
         print(f"training {label}: recall {_rate(s['recall'])}, precision "
               f"{_rate(s['precision'])} ({s['tp']} of {s['tp'] + s['fn']} found)")
-    save_model(model, args.model, summary=summary, key=key, overwrite=args.force)
-    kind = "safe skops" if Path(args.model).suffix.lower() == ".skops" else "pickle"
-    print(f"wrote {args.model} ({kind}{', signed' if key is not None else ''}; "
-          f"{time.perf_counter() - start:.1f} s)")
+    save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
@@ -80,17 +76,7 @@ def _rate(value):
 
 
 def _cmd_detect(args) -> int:
-    from tunnelsense._progress import Progress
-    from tunnelsense.io import open_run_stream
-    from tunnelsense.io._output import check_output
-    from tunnelsense.street import write_objects
-
-    inputs = [args.model, *input_files(args.rundir),
-              *([args.key_file] if args.key_file else [])]
-    check_output(args.out, overwrite=args.force or args.resume, inputs=inputs,
-                 what="--out")
-    if args.draw:
-        check_draw_dir(args.draw, force=args.force, inputs=inputs)
+    check_detect_outputs(args, args.rundir, [args.out])
     model = load_cli_model(args.model, last_step="cluster", command="train street",
                            trust_pickle=args.trust_pickle, key=signing_key(args))
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
@@ -106,8 +92,6 @@ def _cmd_detect(args) -> int:
           + ", ".join(f"{c} {k}" for k, c in sorted(counts.items()))
           + f" -> {args.out}" + (f" (resumed after {resumed} rows)" if resumed else ""))
     if args.draw:
-        from tunnelsense.plotting import draw_run
-
         run = _read_runs([args.rundir], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans
         written = draw_run(run, model[-1], args.draw, X=head)
@@ -116,9 +100,6 @@ def _cmd_detect(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
-    from tunnelsense.io import read_objects, read_run_gt
-    from tunnelsense.metrics import street_report, street_scores
-
     rundir = Path(args.rundir)
     gt = read_run_gt(rundir / "gt.csv" if rundir.is_dir() else rundir)
     detected = read_objects(args.objects)
