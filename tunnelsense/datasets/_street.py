@@ -26,7 +26,7 @@ from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
 
 #: Names of the street scenarios of :func:`make_street_scans`.
-STREET_SCENARIOS = ("sparse", "dense", "tilted", "crowded")
+STREET_SCENARIOS = ("sparse", "dense", "tilted", "crowded", "hard", "randomized")
 
 
 # Physical parameters (the documented ``**overrides``): default, lower and upper bound.
@@ -47,18 +47,30 @@ _PARAMS = {
     "kerb_depth": (6.45, 5.0, 7.5),
     "kerb_height": (0.13, 0.0, 0.3),
     "camber_drop": (0.04, 0.0, 0.1),
+    "cross_fall": (0.0, 0.0, 0.06),
     "parked_cluster_size": (1.6, 1.0, 50.0),
     "parked_gap_m": (25.0, 0.5, 1000.0),
     "touching_fraction": (0.0, 0.0, 1.0),
     "van_fraction": (0.1, 0.0, 1.0),
     "motorbike_fraction": (0.05, 0.0, 1.0),
     "boundary_fraction": (0.0, 0.0, 1.0),
+    "boundary_row_fraction": (0.0, 0.0, 1.0),
+    "row_gap_min_m": (0.3, 0.0, 5.0),
+    "row_gap_max_m": (1.5, 0.0, 5.0),
+    "touching_gap_m": (0.02, 0.0, 0.1),
+    "small_car_fraction": (0.0, 0.0, 1.0),
+    "van_height_min": (2.05, 1.8, 3.5),
+    "van_height_max": (2.6, 1.8, 3.5),
     "passing_per_min": (4.0, 0.0, 60.0),
     "passing_van_fraction": (0.15, 0.0, 1.0),
     "passing_motorbike_fraction": (0.1, 0.0, 1.0),
     "pedestrians_per_100m": (2.0, 0.0, 100.0),
     "bins_per_100m": (0.5, 0.0, 50.0),
     "bollard_rows_per_100m": (0.3, 0.0, 20.0),
+    "pedestrian_groups_per_100m": (0.0, 0.0, 50.0),
+    "kerb_walkers_per_100m": (0.0, 0.0, 50.0),
+    "bin_rows_per_100m": (0.0, 0.0, 50.0),
+    "communal_bins_per_100m": (0.0, 0.0, 20.0),
     "hedge_fraction": (0.5, 0.0, 1.0),
     "trees_per_100m": (3.0, 0.0, 30.0),
 }
@@ -97,6 +109,61 @@ _SCENARIO_PARAMS = {
         "hedge_fraction": 0.7,
         "trees_per_100m": 5.0,
     },
+    "hard": {
+        "mount_height": 2.4,
+        "roll_deg": 1.5,  # drifting slowly between about 0 and 3 degrees
+        "roll_drift_deg": 1.5,
+        "cross_fall": None,  # 2-3 % towards the kerb
+        "parked_cluster_size": 5.0,
+        "parked_gap_m": 10.0,
+        "row_gap_min_m": 0.05,
+        "row_gap_max_m": 0.3,
+        "touching_fraction": 0.25,
+        "touching_gap_m": 0.0,
+        "small_car_fraction": 0.2,
+        "van_fraction": 0.2,
+        "van_height_min": 2.0,
+        "van_height_max": 2.3,
+        "motorbike_fraction": 0.1,
+        "boundary_row_fraction": 0.3,
+        "pedestrians_per_100m": 6.0,
+        "pedestrian_groups_per_100m": 2.0,
+        "kerb_walkers_per_100m": 2.0,
+        "bin_rows_per_100m": 1.5,
+        "communal_bins_per_100m": 0.5,
+        "bollard_rows_per_100m": 1.0,
+    },
+    "randomized": {},  # every factor of _DRAWN["randomized"] drawn per run
+}
+
+# factors drawn at random per run (uniform in [lo, hi]) by scenario
+_DRAWN = {
+    "hard": {"cross_fall": (0.02, 0.03)},
+    "randomized": {
+        "speed_kmh": (32.0, 48.0),
+        "mount_height": (1.8, 2.6),
+        "roll_deg": (-3.0, 3.0),
+        "roll_drift_deg": (0.0, 1.5),
+        "cross_fall": (0.0, 0.03),
+        "angle_increment_deg": (0.25, 0.75),
+        "parked_cluster_size": (1.5, 8.0),
+        "parked_gap_m": (5.0, 25.0),
+        "row_gap_min_m": (0.0, 0.3),
+        "row_gap_max_m": (0.3, 1.5),
+        "touching_fraction": (0.0, 0.3),
+        "small_car_fraction": (0.0, 0.3),
+        "van_fraction": (0.0, 0.3),
+        "motorbike_fraction": (0.0, 0.15),
+        "boundary_row_fraction": (0.0, 0.3),
+        "passing_per_min": (0.0, 12.0),
+        "pedestrians_per_100m": (0.0, 8.0),
+        "pedestrian_groups_per_100m": (0.0, 2.0),
+        "kerb_walkers_per_100m": (0.0, 2.0),
+        "bins_per_100m": (0.0, 2.0),
+        "bin_rows_per_100m": (0.0, 1.5),
+        "communal_bins_per_100m": (0.0, 0.5),
+        "bollard_rows_per_100m": (0.0, 1.0),
+    },
 }
 
 # range of a random unknown roll per scenario (deg, either sign)
@@ -125,10 +192,18 @@ def _resolve_params(scenario, overrides, rng):
     roll = float(rng.uniform(lo, hi) * rng.choice([-1.0, 1.0]))
     if params["roll_deg"] is None:
         params["roll_deg"] = roll
+    for key, (lo, hi) in _DRAWN.get(scenario, {}).items():
+        value = float(rng.uniform(lo, hi))  # drawn even when overridden
+        if key not in overrides:
+            params[key] = value
     for key, value in params.items():
         _, vlo, vhi = _PARAMS[key]
         if not (math.isfinite(value) and vlo <= value <= vhi):
             raise ValueError(f"{key} must lie in [{vlo}, {vhi}]; got {value!r}")
+    if params["row_gap_max_m"] < params["row_gap_min_m"]:
+        raise ValueError("row_gap_max_m must be at least row_gap_min_m")
+    if params["van_height_max"] < params["van_height_min"]:
+        raise ValueError("van_height_max must be at least van_height_min")
     if params["angle_max_deg"] <= params["angle_min_deg"]:
         raise ValueError(
             f"angle_max_deg ({params['angle_max_deg']}) must exceed angle_min_deg "
@@ -205,6 +280,10 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
                              right=x_ego[-1] + v0 * (tc - stamps[-1])))
         o["x0"] = xc - o["length"] / 2 - o["speed"] * tc
         objects.append(o)
+    if p["cross_fall"]:  # everything stands on the road (or sidewalk) where it is
+        for o in objects:
+            centre = o["depth_near"] + o["width"] / 2
+            o["base"] -= p["cross_fall"] * min(centre, p["kerb_depth"])
     rng_true, hit, material = ray_cast(p, objects, stamps, x_ego, roll, height, angles)
     theta = angles[None, :] + roll[:, None]
     ranges = measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)

@@ -19,20 +19,23 @@ _CHUNK = 256  # scans ray-cast at once
 
 def _cast_ground(p, height, cos, sin):
     """Range to the road (with camber), the kerb face or the sidewalk; and which."""
-    kerb, kh = p["kerb_depth"], p["kerb_height"]
+    kerb, kh = p["kerb_depth"], p["kerb_height"] - p["cross_fall"] * p["kerb_depth"]
     H = height[:, None]
     tan = sin / cos
     down = tan < -1e-9
-    # road: z = -q * y**2 (level at the vehicle, dropping camber_drop at the kerb)
+    # road: z = -q * y**2 - c * y (level at the vehicle, dropping camber_drop at the
+    # kerb, plus a plane cross-fall c towards the kerb)
     q = p["camber_drop"] / kerb**2
-    disc = tan**2 - 4 * q * H
+    c = p["cross_fall"]
+    slope = tan + c if c else tan
+    disc = slope**2 - 4 * q * H
     with np.errstate(invalid="ignore", divide="ignore"):
-        y_road = np.where(down & (disc >= 0), 2 * H / (-tan + np.sqrt(np.maximum(disc, 0))),
-                          np.inf)
+        y_road = np.where(down & (disc >= 0),
+                          2 * H / (-slope + np.sqrt(np.maximum(disc, 0))), np.inf)
         z_at_kerb = H + kerb * tan
         past = y_road > kerb
         y_walk = np.where(down, (H - kh) / -tan, np.inf)
-    face = past & (z_at_kerb <= kh) & (z_at_kerb > -q * kerb**2)
+    face = past & (z_at_kerb <= kh) & (z_at_kerb > -q * kerb**2 - c * kerb)
     y = np.where(~past, y_road, np.where(face, kerb, np.where(down, np.maximum(y_walk, kerb),
                                                                np.inf)))
     hit = np.where(~past, HIT_ROAD, HIT_KERB)
