@@ -24,10 +24,13 @@ def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
         top_h = [0.65, 0.95, belt + 0.15, H, H, H - 0.15]
         glass = (0.12, 0.35)
         tumble, R = 0.03, rng.uniform(0.3, 0.34)
-    elif kind == "small":  # city cars: short and narrow, as tall as a car
-        L, W, H = rng.uniform(2.5, 3.4), rng.uniform(1.5, 1.65), rng.uniform(1.45, 1.6)
     else:
-        L, W, H = rng.uniform(3.4, 4.9), rng.uniform(1.6, 1.85), rng.uniform(1.4, 1.6)
+        if kind == "small":  # city cars: short and narrow, as tall as a car
+            L, W = rng.uniform(2.5, 3.4), rng.uniform(1.5, 1.65)
+            H = rng.uniform(1.45, 1.6)
+        else:
+            L, W = rng.uniform(3.4, 4.9), rng.uniform(1.6, 1.85)
+            H = rng.uniform(1.4, 1.6)
         belt = rng.uniform(0.88, 1.0)
         roof_end = rng.uniform(0.7, 0.9)  # saloon ... hatchback
         tail = 0.05 if roof_end > 0.8 else 0.13
