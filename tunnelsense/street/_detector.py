@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
-from sklearn.utils._param_validation import Interval
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense._streaming import StreamingMixin
@@ -129,6 +129,19 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         vehicles in the simulated streets (27 m: cars nose to tail, bridged behind
         passing vehicles), which the merge split must see whole.  None: wait for
         every object-cluster to end (memory then follows the longest one).
+    region_depth : {"near", "mean"}, default="near"
+        Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
+        ``"near"`` the same, but an object averaging beyond region II whose near side
+        (median nearest depth of its intra-clusters above 0.3 m) is in it belongs to
+        region II: a car half on the sidewalk, near side 6.2-6.6 m.
+    min_car_length : float, default=2.4
+        Shortest car (m, city cars 2.5 m); a shorter object is a vehicle only as a
+        motorbike (``min_raised_fraction``); 0 switches the rule off.
+    min_raised_fraction : float, default=0.2
+        Smallest fraction of a short object's scans showing a body raised between
+        wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
+    min_roof_height : float, default=0.5
+        Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
 
     Attributes
     ----------
@@ -176,6 +189,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "bridge_occluded": ["boolean"],
         "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "max_pending_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "region_depth": [StrOptions({"mean", "near"})],
+        "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
+        "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
     }
 
     def __init__(
@@ -201,6 +218,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         bridge_occluded=True,
         occluded_length=4.0,
         max_pending_length=80.0,
+        region_depth="near",
+        min_car_length=2.4,
+        min_raised_fraction=0.2,
+        min_roof_height=0.5,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -223,6 +244,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.bridge_occluded = bridge_occluded
         self.occluded_length = occluded_length
         self.max_pending_length = max_pending_length
+        self.region_depth = region_depth
+        self.min_car_length = min_car_length
+        self.min_raised_fraction = min_raised_fraction
+        self.min_roof_height = min_roof_height
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
