@@ -56,12 +56,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
        ``min_length``) or one mostly overlapping in time with a larger one of the same
        region is merged into it, when at most ``merge_gap`` metres apart;
     7. beyond the paper: objects with two humps in their height profile are split
-       (``split_merged``); objects shorter than ``min_length`` or longer than
-       ``max_length`` metres, or not seen over ``min_length`` metres (in all, and
-       without a break), or whose cross-sections show no vehicle body (roof, wall
-       or raised body in fewer than ``min_body_fraction`` of their scans) are
-       labelled ``"other"`` (not vehicles); vehicles cut short by a nearer occluder
-       are extended behind it (``occluded_length``).
+       (``split_merged``); objects too short or long, or whose cross-sections show
+       no vehicle body (see the parameters below) are labelled ``"other"``;
+       vehicles cut short by a nearer occluder are extended (``occluded_length``).
 
     Objects are labelled by the region of their mean depth through ``region_labels``.
 
@@ -126,22 +123,23 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         the limit is at least ``max_length`` (it cannot be one vehicle).  This bounds
         the memory of the online detector; batch runs the same checks, so both agree.
         The default is about 3 times the longest object-cluster of parked or passing
-        vehicles in the simulated streets (27 m: cars nose to tail, bridged behind
-        passing vehicles), which the merge split must see whole.  None: wait for
-        every object-cluster to end (memory then follows the longest one).
+        vehicles in the simulated streets (27 m), which the merge split must see
+        whole.  None: wait for every object-cluster to end.
     region_depth : {"near", "mean"}, default="near"
         Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
         ``"near"`` the same, but an object averaging beyond region II whose near side
         (median nearest depth of its intra-clusters above 0.3 m) is in it belongs to
         region II: a car half on the sidewalk, near side 6.2-6.6 m.
     min_car_length : float, default=2.4
-        Shortest car (m, city cars 2.5 m); a shorter object is a vehicle only as a
-        motorbike (``min_raised_fraction``); 0 switches the rule off.
+        Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
     min_raised_fraction : float, default=0.2
         Smallest fraction of a short object's scans showing a body raised between
         wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
     min_roof_height : float, default=0.5
         Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
+    max_hidden_fraction : float, default=0.95
+        Largest fraction of an object's scans whose lower part something nearer hides
+        (beyond: a vehicle's piece seen past a passing one); 1 switches it off.
 
     Attributes
     ----------
@@ -193,6 +191,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
         "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
+        "max_hidden_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
     }
 
     def __init__(
@@ -222,6 +221,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_car_length=2.4,
         min_raised_fraction=0.2,
         min_roof_height=0.5,
+        max_hidden_fraction=0.95,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -248,6 +248,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_car_length = min_car_length
         self.min_raised_fraction = min_raised_fraction
         self.min_roof_height = min_roof_height
+        self.max_hidden_fraction = max_hidden_fraction
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -29,6 +29,8 @@ __all__ = [
 BODY_FLAGS = 0b0111
 #: Bit of the per-cluster evidence flags of a raised body (between the wheels).
 RAISED_FLAG = 0b0100
+#: Bit of the per-cluster evidence flags of a cluster whose lower part is hidden.
+HIDDEN_FLAG = 0b1000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
 
@@ -314,7 +316,7 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
-               min_raised_fraction=0.0):
+               min_raised_fraction=0.0, max_hidden_fraction=1.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -324,7 +326,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
     the hidden part) it can only be a motorbike: a body raised above the road between
     its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
-    wheelie bins and people stand on the ground).
+    wheelie bins and people stand on the ground).  Whose lower part is hidden by
+    something nearer in more than ``max_hidden_fraction`` of its scans, it is taken
+    for a piece of a vehicle seen past an occluder (a vehicle hidden over nearly its
+    whole length is lost too).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -342,6 +347,8 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
+    if float(np.mean((flags & HIDDEN_FLAG) > 0)) > max_hidden_fraction:
+        return False
     if vehicle and length + hidden_length < min_car_length:
         vehicle = float(np.mean((flags & RAISED_FLAG) > 0)) >= min_raised_fraction
     return bool(vehicle and body >= min_body_fraction)

@@ -285,7 +285,8 @@ class _RunState(ScanWindow):
                 link_distance=est.link_distance,
                 min_body_fraction=est.min_body_fraction,
                 min_car_length=est.min_car_length,
-                min_raised_fraction=est.min_raised_fraction)
+                min_raised_fraction=est.min_raised_fraction,
+                max_hidden_fraction=est.max_hidden_fraction)
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
