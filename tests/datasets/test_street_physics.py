@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from tunnelsense.datasets import make_street_scans
-from tunnelsense.datasets._street import _DRAWN, _simulate
-from tunnelsense.datasets._street_shapes import _PROFILES
+from tunnelsense.datasets._street import _simulate
+from tunnelsense.datasets._street_params import _DRAWN
 from tunnelsense.datasets._street_sensor import HIT_ROAD
+from tunnelsense.datasets._street_shapes import _PROFILES
 
 QUIET = dict(passing_per_min=0.0, pedestrians_per_100m=0.0, bins_per_100m=0.0,
              bollard_rows_per_100m=0.0, trees_per_100m=0.0, hedge_fraction=0.0)
