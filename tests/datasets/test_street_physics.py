@@ -100,3 +100,23 @@ def test_randomized_is_reproducible_by_seed_and_draws_its_factors():
                               mount_height=2.0)
     assert fixed.info["params"]["mount_height"] == 2.0
     assert fixed.info["params"]["roll_deg"] == a.info["params"]["roll_deg"]
+
+
+def test_pitch_leans_the_scan_plane_and_drifts():
+    kw = dict(pitch_deg=8.0, pitch_drift_deg=1.0, roll_drift_deg=0.0, camber_drop=0.0,
+              parked_gap_m=1000.0, **QUIET)
+    s = _simulate(1500, "sparse", 11, **kw)
+    pitch = np.rad2deg(s["pitch"])
+    assert 6.9 < pitch.min() < pitch.max() < 9.1 and pitch.max() - pitch.min() > 0.2
+    assert s["info"]["pitch_deg_max"] == pytest.approx(pitch.max(), abs=1e-3)
+    # a leaning plane reaches the road farther: range = height / (-sin(theta) cos(pitch))
+    r = np.where(s["hit"] == HIT_ROAD, s["ranges"], np.nan)
+    theta = s["geometry"].angles(r.shape[1])[None, :] + s["roll"][:, None]
+    level = s["height"][:, None] + r * np.sin(theta)
+    leaned = s["height"][:, None] + r * np.sin(theta) * np.cos(s["pitch"])[:, None]
+    near = np.isfinite(r) & (r < 4.0)
+    assert abs(np.nanmedian(leaned[near])) < 0.005
+    assert np.nanmedian(level[near]) < -0.01  # 2 m x (1 / cos 8 deg - 1)
+    # no pitch: nothing drawn for it, the run unchanged
+    flat = _simulate(300, "sparse", 11)
+    assert not flat["pitch"].any() and "pitch_deg_max" not in flat["info"]

@@ -22,7 +22,7 @@ from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run
 from tunnelsense.datasets._street_params import STREET_SCENARIOS, resolve_params
 from tunnelsense.datasets._street_render import ray_cast
 from tunnelsense.datasets._street_scene import layout, passing
-from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure
+from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure, sensor_pitch
 
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
 
@@ -63,13 +63,14 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
 
     Returns a dict with ``ranges``, ``stamps``, ``geometry``, ``gt``, ``info`` and the
     truth per scan/beam: ``hit`` (object index, or ``HIT_ROAD``/``HIT_KERB``/
-    ``HIT_NONE``), ``roll`` (rad), ``height`` (m), ``objects`` (dicts, by index).
+    ``HIT_NONE``), ``roll`` and ``pitch`` (rad), ``height`` (m), ``objects`` (dicts, by index).
     """
     _check_args(n_scans, scenario)
     seed = _seed(random_state)
     rng = np.random.default_rng(seed)
     p = resolve_params(scenario, overrides, rng)
     stamps, speed, x_ego, roll, height = ego(p, n_scans, rng)
+    pitch = sensor_pitch(p, stamps, seed)
     inc = math.radians(p["angle_increment_deg"])
     n_beams = int(math.floor((p["angle_max_deg"] - p["angle_min_deg"]) /
                              p["angle_increment_deg"] + 1e-9)) + 1
@@ -95,14 +96,15 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         for o in objects:
             centre = o["depth_near"] + o["width"] / 2
             o["base"] -= p["cross_fall"] * min(centre, p["kerb_depth"])
-    rng_true, hit, material = ray_cast(p, objects, stamps, x_ego, roll, height, angles)
+    rng_true, hit, material = ray_cast(p, objects, stamps, x_ego, roll, height, angles,
+                                       pitch)
     theta = angles[None, :] + roll[:, None]
     ranges = measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)
 
     # ground truth: vehicles the scanner sees (in at least 3 scans, between 0.1 m and
     # 2 m above the road), over the scans their body crosses the plane
     with np.errstate(invalid="ignore"):
-        z = height[:, None] + ranges * np.sin(theta)
+        z = height[:, None] + ranges * np.sin(theta) * np.cos(pitch)[:, None]
         valid = (hit >= 0) & (ranges < MAX_RANGE) & (z > 0.1) & (z < 2.0)
     scan_idx = np.nonzero(valid)[0]
     seen = np.unique(hit[valid] * np.int64(n_scans) + scan_idx)
@@ -169,9 +171,12 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         ],
         "params": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in p.items()},
     }
+    if pitch.any():  # (the older scenarios' info stays as it was)
+        info["pitch_deg_min"] = round(float(np.rad2deg(pitch.min())), 4)
+        info["pitch_deg_max"] = round(float(np.rad2deg(pitch.max())), 4)
     return {
         "ranges": ranges, "stamps": stamps, "geometry": geometry, "gt": gt, "info": info,
-        "hit": hit, "roll": roll, "height": height, "objects": objects, "x": x_ego,
+        "hit": hit, "roll": roll, "pitch": pitch, "height": height, "objects": objects, "x": x_ego,
         "speed": speed,
     }
 
@@ -227,7 +232,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         speed), ``speed_variation_kmh`` (amplitude of its slow changes),
         ``scan_rate_hz``, ``mount_height`` (m, true and nominal), ``roll_deg`` (the
         true sensor roll at the start of the run; positive turns the beams up),
-        ``roll_drift_deg`` (amplitude of its drift), ``angle_min_deg``,
+        ``roll_drift_deg`` (amplitude of its drift), ``pitch_deg`` (the true pitch,
+        the scan plane leaning along the street; positive leans it forward) and
+        ``pitch_drift_deg`` (amplitude of its slow drift), ``angle_min_deg``,
         ``angle_max_deg``, ``angle_increment_deg``, ``range_noise`` (m, at 0 m),
         ``range_noise_per_m``, ``dropout_rate``, ``kerb_depth`` (m), ``kerb_height``,
         ``camber_drop`` (m the road falls from the vehicle to the kerb),

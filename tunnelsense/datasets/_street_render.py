@@ -43,11 +43,19 @@ def _cast_ground(p, height, cos, sin):
     return y / cos, hit
 
 
-def ray_cast(p, objects, stamps, x_ego, roll, height, angles):
-    """True ranges, what each beam hit (object index or HIT_*), and the hit material."""
+def ray_cast(p, objects, stamps, x_ego, roll, height, angles, pitch=None):
+    """True ranges, what each beam hit (object index or HIT_*), and the hit material.
+
+    A pitched scan plane (``pitch`` rad per scan) leans along the street: a beam of
+    elevation ``theta`` goes ``(cos theta, sin theta cos pitch)`` across and up per
+    metre of range (and ``sin theta sin pitch`` along the street, a few centimetres
+    at these angles, neglected), so its range is the ray parameter of that direction.
+    """
     n_scans, n_beams = len(stamps), len(angles)
     theta = angles[None, :] + roll[:, None]
     cos, sin = np.cos(theta), np.sin(theta)
+    if pitch is not None and np.any(pitch != 0):
+        sin = sin * np.cos(pitch)[:, None]
     rng_true, hit = _cast_ground(p, height, cos, sin)
     material = np.full((n_scans, n_beams), _BODY, dtype=np.int8)
     scans, owners, boxes = cross_sections(objects, stamps, x_ego)
