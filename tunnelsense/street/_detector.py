@@ -14,14 +14,23 @@ import numbers
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval, StrOptions
 
+from tunnelsense._payload import (
+    BEAMS,
+    CLUSTERS,
+    FINISHED_OBJECTS,
+    IN_VIEW,
+    OBJECTS,
+    POINTS,
+    SPEED,
+    TILT,
+)
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense._streaming import StreamingMixin
-from tunnelsense.street._stream import FINISHED, ScanStream
+from tunnelsense.street._stream import ScanStream
 
-__all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline"]
+__all__ = ["OBJECT_COLUMNS", "ScanClusterer"]
 
 #: Columns of the object table returned by :meth:`ScanClusterer.detect`.
 OBJECT_COLUMNS = (
@@ -122,9 +131,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         continuation starts a new object-cluster.  In a region labelled as vehicles
         the limit is at least ``max_length`` (it cannot be one vehicle).  This bounds
         the memory of the online detector; batch runs the same checks, so both agree.
-        The default is about 3 times the longest object-cluster of parked or passing
-        vehicles in the simulated streets (27 m), which the merge split must see
-        whole.  None: wait for every object-cluster to end.
+        None: wait for every object-cluster to end (memory then follows the longest
+        one).  See ``docs/street.md`` for how the default was chosen.
     region_depth : {"near", "mean"}, default="near"
         Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
         ``"near"`` the same, but an object averaging beyond region II whose near side
@@ -164,6 +172,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
        id  first_scan  last_scan   label
     0   1          10         39  parked
     """
+
+    _payload_reads = ()
+    _payload_optional = (SPEED,)
+    _payload_adds = (POINTS, BEAMS, CLUSTERS, OBJECTS, TILT, IN_VIEW, FINISHED_OBJECTS)
 
     _parameter_constraints: dict = {
         "cut": [Interval(numbers.Real, 0, None, closed="neither")],
@@ -354,7 +366,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     def _batch(self, X):
         """The records of ``X`` through the stream (input order) and the object table."""
         out, _ = self._stream_batch(X)
-        rows = sorted((row for r in out for row in r.payload[FINISHED]),
+        rows = sorted((row for r in out for row in r.payload[FINISHED_OBJECTS]),
                       key=lambda row: row[1])
         table = pd.DataFrame(rows, columns=list(OBJECT_COLUMNS))
         table = table.astype({"id": np.int64, "first_scan": np.int64,
@@ -425,26 +437,3 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         y_pred : list of ndarray of shape (k_i, 2), int64
         """
         return [r.payload["in_view"] for r in self._stream_batch(X)[0]]
-
-
-def make_parking_pipeline(**params):
-    """The street-parked vehicle detector as a one-step :class:`~sklearn.pipeline.Pipeline`.
-
-    Parameters
-    ----------
-    **params
-        Parameters of :class:`ScanClusterer` (``cut=0.6``, ``link_distance=0.5``, ...).
-
-    Returns
-    -------
-    pipeline : Pipeline
-        ``Pipeline([("cluster", ScanClusterer(**params))])``; grid-search its
-        parameters as ``cluster__cut`` etc.
-
-    Examples
-    --------
-    >>> from tunnelsense.street import make_parking_pipeline
-    >>> make_parking_pipeline(cut=0.5).named_steps["cluster"].cut
-    0.5
-    """
-    return Pipeline([("cluster", ScanClusterer(**params))])
