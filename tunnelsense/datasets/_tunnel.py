@@ -18,6 +18,7 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from tunnelsense._records import MOT_GT_COLUMNS, Tour
+from tunnelsense.datasets._odometry import TourKinematics, with_kinematics
 from tunnelsense.datasets._tunnel_camera import _Background, _Camera
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
@@ -286,7 +287,10 @@ def make_tunnel_tour(
         "traffic_per_km": float(p["traffic_per_km"]),
         "truck_fraction": float(p["truck_fraction"]),
     }
-    return Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    # where the camera was (positions, odometry, indicator map): no random draws here
+    kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)
+    return with_kinematics(tour, kin)
 
 
 def _gt_rows(frame, drawn, W, H):
