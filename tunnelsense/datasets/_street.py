@@ -19,126 +19,12 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run
+from tunnelsense.datasets._street_params import STREET_SCENARIOS, resolve_params
 from tunnelsense.datasets._street_render import ray_cast
 from tunnelsense.datasets._street_scene import layout, passing
-from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure
+from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure, sensor_pitch
 
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
-
-#: Names of the street scenarios of :func:`make_street_scans`.
-STREET_SCENARIOS = ("sparse", "dense", "tilted", "crowded")
-
-
-# Physical parameters (the documented ``**overrides``): default, lower and upper bound.
-# ``None`` as a scenario value means "drawn at random for every run".
-_PARAMS = {
-    "speed_kmh": (40.0, 5.0, 120.0),
-    "speed_variation_kmh": (3.0, 0.0, 15.0),
-    "scan_rate_hz": (75.0, 1.0, 1000.0),
-    "mount_height": (2.0, 0.5, 4.0),
-    "roll_deg": (0.0, -15.0, 15.0),
-    "roll_drift_deg": (0.0, 0.0, 10.0),
-    "angle_min_deg": (-80.0, -89.0, 0.0),
-    "angle_max_deg": (40.0, 0.0, 89.0),
-    "angle_increment_deg": (0.5, 0.05, 5.0),
-    "range_noise": (0.01, 0.0, 0.2),
-    "range_noise_per_m": (0.0025, 0.0, 0.05),
-    "dropout_rate": (0.003, 0.0, 0.5),
-    "kerb_depth": (6.45, 5.0, 7.5),
-    "kerb_height": (0.13, 0.0, 0.3),
-    "camber_drop": (0.04, 0.0, 0.1),
-    "parked_cluster_size": (1.6, 1.0, 50.0),
-    "parked_gap_m": (25.0, 0.5, 1000.0),
-    "touching_fraction": (0.0, 0.0, 1.0),
-    "van_fraction": (0.1, 0.0, 1.0),
-    "motorbike_fraction": (0.05, 0.0, 1.0),
-    "boundary_fraction": (0.0, 0.0, 1.0),
-    "passing_per_min": (4.0, 0.0, 60.0),
-    "passing_van_fraction": (0.15, 0.0, 1.0),
-    "passing_motorbike_fraction": (0.1, 0.0, 1.0),
-    "pedestrians_per_100m": (2.0, 0.0, 100.0),
-    "bins_per_100m": (0.5, 0.0, 50.0),
-    "bollard_rows_per_100m": (0.3, 0.0, 20.0),
-    "hedge_fraction": (0.5, 0.0, 1.0),
-    "trees_per_100m": (3.0, 0.0, 30.0),
-}
-
-_SCENARIO_PARAMS = {
-    "sparse": {},
-    "dense": {
-        "parked_cluster_size": 9.0,
-        "parked_gap_m": 6.0,
-        "touching_fraction": 0.08,
-        "van_fraction": 0.15,
-        "passing_per_min": 10.0,
-        "pedestrians_per_100m": 3.0,
-    },
-    "tilted": {
-        "mount_height": 2.4,
-        "roll_deg": None,  # 2-4 degrees either way, unknown to the detector
-        "roll_drift_deg": 1.0,
-        "parked_cluster_size": 4.0,
-        "parked_gap_m": 12.0,
-        "passing_per_min": 5.0,
-    },
-    "crowded": {
-        "roll_deg": None,
-        "roll_drift_deg": 0.6,
-        "parked_cluster_size": 10.0,
-        "parked_gap_m": 5.0,
-        "touching_fraction": 0.15,
-        "van_fraction": 0.25,
-        "motorbike_fraction": 0.12,
-        "boundary_fraction": 0.15,
-        "passing_per_min": 14.0,
-        "pedestrians_per_100m": 20.0,
-        "bins_per_100m": 4.0,
-        "bollard_rows_per_100m": 2.0,
-        "hedge_fraction": 0.7,
-        "trees_per_100m": 5.0,
-    },
-}
-
-# range of a random unknown roll per scenario (deg, either sign)
-_RANDOM_ROLL = {"tilted": (2.0, 4.0), "crowded": (1.0, 2.0)}
-
-
-
-# --------------------------------------------------------------------------------------
-# Parameters
-# --------------------------------------------------------------------------------------
-def _resolve_params(scenario, overrides, rng):
-    for key in overrides:
-        if key not in _PARAMS:
-            raise TypeError(
-                f"make_street_scans got an unknown parameter {key!r}; the physical "
-                f"parameters are: {', '.join(sorted(_PARAMS))}"
-            )
-    params = {k: v[0] for k, v in _PARAMS.items()}
-    params.update(_SCENARIO_PARAMS[scenario])
-    for key, value in overrides.items():
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise TypeError(f"{key} must be a real number; got {type(value).__name__}")
-        params[key] = float(value)
-    # draw the random ones (always draw, so overriding one keeps the rest of the run)
-    lo, hi = _RANDOM_ROLL.get(scenario, (0.0, 0.0))
-    roll = float(rng.uniform(lo, hi) * rng.choice([-1.0, 1.0]))
-    if params["roll_deg"] is None:
-        params["roll_deg"] = roll
-    for key, value in params.items():
-        _, vlo, vhi = _PARAMS[key]
-        if not (math.isfinite(value) and vlo <= value <= vhi):
-            raise ValueError(f"{key} must lie in [{vlo}, {vhi}]; got {value!r}")
-    if params["angle_max_deg"] <= params["angle_min_deg"]:
-        raise ValueError(
-            f"angle_max_deg ({params['angle_max_deg']}) must exceed angle_min_deg "
-            f"({params['angle_min_deg']})"
-        )
-    if abs(params["roll_deg"]) + params["roll_drift_deg"] + max(
-        abs(params["angle_min_deg"]), abs(params["angle_max_deg"])
-    ) >= 89.5:
-        raise ValueError("roll_deg, roll_drift_deg and the beam angles reach vertical")
-    return params
 
 
 # --------------------------------------------------------------------------------------
@@ -177,13 +63,14 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
 
     Returns a dict with ``ranges``, ``stamps``, ``geometry``, ``gt``, ``info`` and the
     truth per scan/beam: ``hit`` (object index, or ``HIT_ROAD``/``HIT_KERB``/
-    ``HIT_NONE``), ``roll`` (rad), ``height`` (m), ``objects`` (dicts, by index).
+    ``HIT_NONE``), ``roll`` and ``pitch`` (rad), ``height`` (m), ``objects`` (dicts, by index).
     """
     _check_args(n_scans, scenario)
     seed = _seed(random_state)
     rng = np.random.default_rng(seed)
-    p = _resolve_params(scenario, overrides, rng)
+    p = resolve_params(scenario, overrides, rng)
     stamps, speed, x_ego, roll, height = ego(p, n_scans, rng)
+    pitch = sensor_pitch(p, stamps, seed)
     inc = math.radians(p["angle_increment_deg"])
     n_beams = int(math.floor((p["angle_max_deg"] - p["angle_min_deg"]) /
                              p["angle_increment_deg"] + 1e-9)) + 1
@@ -205,14 +92,19 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
                              right=x_ego[-1] + v0 * (tc - stamps[-1])))
         o["x0"] = xc - o["length"] / 2 - o["speed"] * tc
         objects.append(o)
-    rng_true, hit, material = ray_cast(p, objects, stamps, x_ego, roll, height, angles)
+    if p["cross_fall"]:  # everything stands on the road (or sidewalk) where it is
+        for o in objects:
+            centre = o["depth_near"] + o["width"] / 2
+            o["base"] -= p["cross_fall"] * min(centre, p["kerb_depth"])
+    rng_true, hit, material = ray_cast(p, objects, stamps, x_ego, roll, height, angles,
+                                       pitch)
     theta = angles[None, :] + roll[:, None]
     ranges = measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)
 
     # ground truth: vehicles the scanner sees (in at least 3 scans, between 0.1 m and
     # 2 m above the road), over the scans their body crosses the plane
     with np.errstate(invalid="ignore"):
-        z = height[:, None] + ranges * np.sin(theta)
+        z = height[:, None] + ranges * np.sin(theta) * np.cos(pitch)[:, None]
         valid = (hit >= 0) & (ranges < MAX_RANGE) & (z > 0.1) & (z < 2.0)
     scan_idx = np.nonzero(valid)[0]
     seen = np.unique(hit[valid] * np.int64(n_scans) + scan_idx)
@@ -279,9 +171,12 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         ],
         "params": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in p.items()},
     }
+    if pitch.any():  # (the older scenarios' info stays as it was)
+        info["pitch_deg_min"] = round(float(np.rad2deg(pitch.min())), 4)
+        info["pitch_deg_max"] = round(float(np.rad2deg(pitch.max())), 4)
     return {
         "ranges": ranges, "stamps": stamps, "geometry": geometry, "gt": gt, "info": info,
-        "hit": hit, "roll": roll, "height": height, "objects": objects, "x": x_ego,
+        "hit": hit, "roll": roll, "pitch": pitch, "height": height, "objects": objects, "x": x_ego,
         "speed": speed,
     }
 
@@ -314,13 +209,19 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
     ----------
     n_scans : int, default=4000
         Number of scans (at least 2).
-    scenario : {"sparse", "dense", "tilted", "crowded"}, default="sparse"
+    scenario : {"sparse", "dense", "tilted", "crowded", "hard", "randomized"}, \
+            default="sparse"
         ``"sparse"``: sparse parking, light traffic.  ``"dense"``: dense nose-to-tail
         parking, some touching bumpers, more traffic.  ``"tilted"``: the sensor has an
         unknown roll of 2-4 degrees (either way) that drifts by about 1 degree along the
         run, mounted at 2.4 m.  ``"crowded"``: dense parking, heavy traffic, vans,
         motorbikes, cars at the region boundaries, many pedestrians, bins and bollards,
-        and an unknown drifting roll of 1-2 degrees.
+        and an unknown drifting roll of 1-2 degrees.  ``"hard"``: mount 2.4 m, roll
+        drifting between about 0 and 3 degrees over a 2-3 % cross-fall, rows of 2-8
+        with 0.05-0.3 m gaps and 1 in 4 touching, small cars, vans 2.0-2.3 m high,
+        motorbikes, whole rows at 4.0-4.3 m or 6.2-6.6 m, groups of pedestrians,
+        walkers along the rows, rows of wheelie bins, communal bins, bollards.
+        ``"randomized"``: the physical factors drawn uniformly per run.
     random_state : int, RandomState instance, Generator or None, default=None
         Seed.  The same int gives byte-identical output; the seed used is recorded in
         ``info["seed"]`` (pass it back to reproduce a run made with ``None``).
@@ -331,16 +232,28 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         speed), ``speed_variation_kmh`` (amplitude of its slow changes),
         ``scan_rate_hz``, ``mount_height`` (m, true and nominal), ``roll_deg`` (the
         true sensor roll at the start of the run; positive turns the beams up),
-        ``roll_drift_deg`` (amplitude of its drift), ``angle_min_deg``,
+        ``roll_drift_deg`` (amplitude of its drift), ``pitch_deg`` (the true pitch,
+        the scan plane leaning along the street; positive leans it forward) and
+        ``pitch_drift_deg`` (amplitude of its slow drift), ``angle_min_deg``,
         ``angle_max_deg``, ``angle_increment_deg``, ``range_noise`` (m, at 0 m),
         ``range_noise_per_m``, ``dropout_rate``, ``kerb_depth`` (m), ``kerb_height``,
         ``camber_drop`` (m the road falls from the vehicle to the kerb),
-        ``parked_cluster_size`` (mean cars nose-to-tail), ``parked_gap_m`` (mean free
-        kerb between clusters), ``touching_fraction``, ``van_fraction``,
-        ``motorbike_fraction``, ``boundary_fraction``, ``passing_per_min``,
+        ``cross_fall`` (plane slope of the road towards the kerb, m per m; 0.02 is
+        2 %), ``parked_cluster_size`` (mean cars nose-to-tail), ``parked_gap_m``
+        (mean free kerb between clusters), ``row_gap_min_m`` and ``row_gap_max_m``
+        (m between vehicles of a row), ``touching_fraction`` (of the gaps in a row),
+        ``touching_gap_m`` (largest gap of touching bumpers, m), ``van_fraction``,
+        ``van_height_min`` and ``van_height_max`` (m), ``small_car_fraction`` (city
+        cars 2.5-3.4 m long), ``motorbike_fraction``, ``boundary_fraction`` (of the
+        vehicles, near a region boundary), ``boundary_row_fraction`` (of the rows,
+        whole at 4.0-4.3 m or 6.2-6.6 m), ``passing_per_min``,
         ``passing_van_fraction``, ``passing_motorbike_fraction``,
-        ``pedestrians_per_100m``, ``bins_per_100m``, ``bollard_rows_per_100m``,
-        ``hedge_fraction``, ``trees_per_100m``.
+        ``pedestrians_per_100m``, ``pedestrian_groups_per_100m`` (2-5 people),
+        ``kerb_walkers_per_100m`` (walking along the parked rows at 4.0-4.3 m),
+        ``bins_per_100m``, ``bin_rows_per_100m`` (1-4 wheelie bins),
+        ``communal_bins_per_100m``, ``bollard_rows_per_100m``, ``hedge_fraction``,
+        ``trees_per_100m``.  The beam count follows from ``angle_min_deg``,
+        ``angle_max_deg`` and ``angle_increment_deg``.
 
     Returns
     -------

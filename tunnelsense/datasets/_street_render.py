@@ -19,20 +19,23 @@ _CHUNK = 256  # scans ray-cast at once
 
 def _cast_ground(p, height, cos, sin):
     """Range to the road (with camber), the kerb face or the sidewalk; and which."""
-    kerb, kh = p["kerb_depth"], p["kerb_height"]
+    kerb, kh = p["kerb_depth"], p["kerb_height"] - p["cross_fall"] * p["kerb_depth"]
     H = height[:, None]
     tan = sin / cos
     down = tan < -1e-9
-    # road: z = -q * y**2 (level at the vehicle, dropping camber_drop at the kerb)
+    # road: z = -q * y**2 - c * y (level at the vehicle, dropping camber_drop at the
+    # kerb, plus a plane cross-fall c towards the kerb)
     q = p["camber_drop"] / kerb**2
-    disc = tan**2 - 4 * q * H
+    c = p["cross_fall"]
+    slope = tan + c if c else tan
+    disc = slope**2 - 4 * q * H
     with np.errstate(invalid="ignore", divide="ignore"):
-        y_road = np.where(down & (disc >= 0), 2 * H / (-tan + np.sqrt(np.maximum(disc, 0))),
-                          np.inf)
+        y_road = np.where(down & (disc >= 0),
+                          2 * H / (-slope + np.sqrt(np.maximum(disc, 0))), np.inf)
         z_at_kerb = H + kerb * tan
         past = y_road > kerb
         y_walk = np.where(down, (H - kh) / -tan, np.inf)
-    face = past & (z_at_kerb <= kh) & (z_at_kerb > -q * kerb**2)
+    face = past & (z_at_kerb <= kh) & (z_at_kerb > -q * kerb**2 - c * kerb)
     y = np.where(~past, y_road, np.where(face, kerb, np.where(down, np.maximum(y_walk, kerb),
                                                                np.inf)))
     hit = np.where(~past, HIT_ROAD, HIT_KERB)
@@ -40,11 +43,19 @@ def _cast_ground(p, height, cos, sin):
     return y / cos, hit
 
 
-def ray_cast(p, objects, stamps, x_ego, roll, height, angles):
-    """True ranges, what each beam hit (object index or HIT_*), and the hit material."""
+def ray_cast(p, objects, stamps, x_ego, roll, height, angles, pitch=None):
+    """True ranges, what each beam hit (object index or HIT_*), and the hit material.
+
+    A pitched scan plane (``pitch`` rad per scan) leans along the street: a beam of
+    elevation ``theta`` goes ``(cos theta, sin theta cos pitch)`` across and up per
+    metre of range (and ``sin theta sin pitch`` along the street, a few centimetres
+    at these angles, neglected), so its range is the ray parameter of that direction.
+    """
     n_scans, n_beams = len(stamps), len(angles)
     theta = angles[None, :] + roll[:, None]
     cos, sin = np.cos(theta), np.sin(theta)
+    if pitch is not None and np.any(pitch != 0):
+        sin = sin * np.cos(pitch)[:, None]
     rng_true, hit = _cast_ground(p, height, cos, sin)
     material = np.full((n_scans, n_beams), _BODY, dtype=np.int8)
     scans, owners, boxes = cross_sections(objects, stamps, x_ego)

@@ -11,20 +11,26 @@ import numpy as np
 __all__ = ["layout", "passing"]
 
 
-def _new_vehicle(rng, kind, *, rider=False):
-    """Body dimensions of a car, van or motorbike (metres; side profile knots)."""
+def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
+    """Body dimensions of a car, small car, van or motorbike (metres; side profile
+    knots); ``van_height`` the range of a van's roof height."""
     if kind == "motorbike":
         return {"kind": kind, "length": rng.uniform(1.9, 2.2), "width": rng.uniform(0.7, 0.85),
                 "rider": rider}
     if kind == "van":
-        L, W, H = rng.uniform(4.4, 5.6), rng.uniform(1.85, 2.0), rng.uniform(2.05, 2.6)
+        L, W, H = rng.uniform(4.4, 5.6), rng.uniform(1.85, 2.0), rng.uniform(*van_height)
         belt = rng.uniform(1.0, 1.15)
         top_f = [0.0, 0.03, 0.1, 0.24, 0.97, 1.0]
         top_h = [0.65, 0.95, belt + 0.15, H, H, H - 0.15]
         glass = (0.12, 0.35)
         tumble, R = 0.03, rng.uniform(0.3, 0.34)
     else:
-        L, W, H = rng.uniform(3.4, 4.9), rng.uniform(1.6, 1.85), rng.uniform(1.4, 1.6)
+        if kind == "small":  # city cars: short and narrow, as tall as a car
+            L, W = rng.uniform(2.5, 3.4), rng.uniform(1.5, 1.65)
+            H = rng.uniform(1.45, 1.6)
+        else:
+            L, W = rng.uniform(3.4, 4.9), rng.uniform(1.6, 1.85)
+            H = rng.uniform(1.4, 1.6)
         belt = rng.uniform(0.88, 1.0)
         roof_end = rng.uniform(0.7, 0.9)  # saloon ... hatchback
         tail = 0.05 if roof_end > 0.8 else 0.13
@@ -42,9 +48,13 @@ def _new_vehicle(rng, kind, *, rider=False):
     }
 
 
-def _vehicle_kind(rng, van, motorbike):
+def _vehicle_kind(rng, van, motorbike, small=0.0):
     u = rng.random()
-    return "van" if u < van else "motorbike" if u < van + motorbike else "car"
+    if u < van:
+        return "van"
+    if u < van + motorbike:
+        return "motorbike"
+    return "small" if u < van + motorbike + small else "car"
 
 
 def layout(p, x_lo, x_hi, t_of_x, rng):
@@ -58,13 +68,22 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
         free.append((x, x + gap))
         x += gap
         n = rng.geometric(1.0 / p["parked_cluster_size"])
+        row = None  # the whole row at a region boundary: "near" or "far"
+        if p["boundary_row_fraction"] > 0 and rng.random() < p["boundary_row_fraction"]:
+            row = "near" if rng.random() < 0.5 else "far"
         for k in range(n):
-            kind = _vehicle_kind(rng, p["van_fraction"], p["motorbike_fraction"])
-            o = _new_vehicle(rng, kind)
+            kind = _vehicle_kind(rng, p["van_fraction"], p["motorbike_fraction"],
+                                 p["small_car_fraction"])
+            o = _new_vehicle(rng, kind,
+                             van_height=(p["van_height_min"], p["van_height_max"]))
             W = o["width"]
             where = "kerb"
             base = 0.0
-            if kind == "motorbike":
+            if row == "near":  # a row parked away from the kerb: 4.0-4.3 m
+                where, y_near = "boundary-near", rng.uniform(4.0, 4.3)
+            elif row == "far":  # a row half up on the sidewalk: 6.2-6.6 m
+                where, y_near, base = "boundary-far", rng.uniform(6.2, 6.6), kh / 2
+            elif kind == "motorbike":
                 y_near = kerb - rng.uniform(0.3, 1.0) - W
             elif rng.random() < p["boundary_fraction"]:
                 if rng.random() < 0.5:  # badly parked, far from the kerb
@@ -79,7 +98,8 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
             x += o["length"]
             if k < n - 1:
                 touching = rng.random() < p["touching_fraction"]
-                x += rng.uniform(0.0, 0.02) if touching else rng.uniform(0.3, 1.5)
+                x += (rng.uniform(0.0, p["touching_gap_m"]) if touching
+                      else rng.uniform(p["row_gap_min_m"], p["row_gap_max_m"]))
     free = [(a, b) for a, b in free if b - a > 1.0]
     length = x_hi - x_lo
 
@@ -153,7 +173,61 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
                    wiggle=(rng.uniform(0.05, 0.25), rng.uniform(0.02, 0.1),
                            rng.uniform(0, 2 * np.pi), rng.uniform(1.5, 5.0)))
         x += L + rng.uniform(0.0, 4.0)
+    _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng)
     return objects
+
+
+def _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng):
+    """Groups of pedestrians, pedestrians walking along the kerb (also in front of
+    parked vehicles), rows of wheelie bins and communal bins (none by default)."""
+    kerb, length = p["kerb_depth"], x_hi - x_lo
+
+    def person(x0, y_near, speed=0.0):
+        objects.append({"kind": "pedestrian", "label": None, "x0": x0,
+                        "length": rng.uniform(0.25, 0.4), "speed": speed, "facing": 1.0,
+                        "depth_near": y_near, "width": 0.44, "base": 0.0,
+                        "height": rng.uniform(1.5, 1.9)})
+
+    def box(kind, x0, L, y_near, W, h):
+        objects.append({"kind": kind, "label": None, "x0": x0, "length": L, "speed": 0.0,
+                        "facing": 1.0, "depth_near": y_near, "width": W, "base": 0.0,
+                        "height": h})
+
+    for _ in range(rng.poisson(p["pedestrian_groups_per_100m"] * length / 100)):
+        n = int(rng.integers(2, 6))
+        xg = in_free(0.7 * n)
+        if xg is None:
+            continue
+        walking = rng.random() < 0.4
+        v = rng.uniform(0.8, 1.4) * rng.choice([-1.0, 1.0]) if walking else 0.0
+        y0 = kerb - rng.uniform(0.4, 1.2)
+        for k in range(n):
+            xk = xg + k * rng.uniform(0.35, 0.7)
+            x0 = xk - v * t_of_x(xk) if walking else xk
+            person(x0, y0 + rng.uniform(-0.35, 0.35), v)
+    for _ in range(rng.poisson(p["kerb_walkers_per_100m"] * length / 100)):
+        # walking along the parked rows, between them and the traffic: 4.0-4.3 m
+        xc, v = rng.uniform(x_lo, x_hi), rng.uniform(1.0, 1.8) * rng.choice([-1.0, 1.0])
+        person(xc - v * t_of_x(xc), rng.uniform(4.0, 4.3), v)
+    for _ in range(rng.poisson(p["bin_rows_per_100m"] * length / 100)):
+        n = int(rng.integers(1, 5))
+        spacing = 0.74 + rng.uniform(0.02, 0.3)
+        xb = in_free(spacing * n)
+        if xb is None:
+            continue
+        y_near = kerb - rng.uniform(0.1, 0.7)
+        for k in range(n):
+            objects.append({"kind": "bin", "label": None, "x0": xb + k * spacing,
+                            "length": 0.74, "speed": 0.0, "facing": 1.0,
+                            "depth_near": y_near + rng.uniform(-0.05, 0.05),
+                            "width": 0.58, "base": 0.0, "height": rng.uniform(1.0, 1.1)})
+    for _ in range(rng.poisson(p["communal_bins_per_100m"] * length / 100)):
+        L = rng.uniform(1.2, 2.0)
+        xb = in_free(L)
+        if xb is not None:
+            W = rng.uniform(0.8, 1.1)
+            box("communal_bin", xb, L, kerb - 0.1 - W - rng.uniform(0.0, 0.3), W,
+                rng.uniform(1.25, 1.45))
 
 
 def passing(p, stamps, v_ego, rng):

@@ -15,7 +15,7 @@ from tunnelsense.datasets._street_shapes import GLASS as _GLASS
 from tunnelsense.datasets._street_shapes import TYRE as _TYRE
 
 __all__ = ["HIT_KERB", "HIT_NONE", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT", "ego",
-           "measure"]
+           "measure", "sensor_pitch"]
 
 #: Range the paper's sensor reports for no return or an object beyond 8.0 m (m).
 MAX_RANGE = 8.191
@@ -52,6 +52,17 @@ def ego(p, n_scans, rng):
     )
     height = p["mount_height"] + _smooth(rng, stamps, [(0.4, 0.9), (1.0, 2.5)], 0.006)
     return stamps, speed, x, roll, height
+
+
+def sensor_pitch(p, stamps, seed):
+    """The sensor's pitch (rad) per scan: ``pitch_deg`` plus a slow drift of about
+    ``pitch_drift_deg``; zero without drawing anything when both are 0 (its own
+    random stream, so that the rest of a run does not change with it)."""
+    if not (p["pitch_deg"] or p["pitch_drift_deg"]):
+        return np.zeros(len(stamps))
+    rng = np.random.default_rng([seed, 1])
+    drift = _smooth(rng, stamps, [(15.0, 40.0), (40.0, 120.0)], p["pitch_drift_deg"])
+    return np.deg2rad(p["pitch_deg"] + drift)
 
 
 def measure(p, rng_true, hit, material, cos, sin, rng):

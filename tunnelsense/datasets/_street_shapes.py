@@ -146,11 +146,13 @@ def _tree_boxes(o, s):
 _PROFILES = {
     "car": _car_boxes,
     "van": _car_boxes,
+    "small": _car_boxes,
     "motorbike": _motorbike_boxes,
     "pedestrian": _pedestrian_boxes,
     "bollard": _post_boxes,
     "pole": _post_boxes,
     "bin": _bin_boxes,
+    "communal_bin": _bin_boxes,
     "hedge": _hedge_boxes,
     "tree": _tree_boxes,
 }

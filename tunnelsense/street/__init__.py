@@ -9,11 +9,7 @@ clustering (``_clustering``), objects (``_sections``, ``_objects``), the online 
 """
 
 from tunnelsense.street._clustering import link_scans, single_linkage
-from tunnelsense.street._detector import (
-    OBJECT_COLUMNS,
-    ScanClusterer,
-    make_parking_pipeline,
-)
+from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer
 from tunnelsense.street._objects import split_profile
 from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
 from tunnelsense.street._restoration import (
@@ -27,6 +23,7 @@ from tunnelsense.street._run import (
     OBJECT_CSV_COLUMNS,
     SEARCH_GRID,
     format_object,
+    make_parking_pipeline,
     stream_objects,
     train_detector,
     write_objects,

@@ -14,8 +14,7 @@ import numbers
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.pipeline import Pipeline
-from sklearn.utils._param_validation import Interval
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._payload import (
     BEAMS,
@@ -31,7 +30,7 @@ from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense._streaming import StreamingMixin
 from tunnelsense.street._stream import ScanStream
 
-__all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline"]
+__all__ = ["OBJECT_COLUMNS", "ScanClusterer"]
 
 #: Columns of the object table returned by :meth:`ScanClusterer.detect`.
 OBJECT_COLUMNS = (
@@ -66,12 +65,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
        ``min_length``) or one mostly overlapping in time with a larger one of the same
        region is merged into it, when at most ``merge_gap`` metres apart;
     7. beyond the paper: objects with two humps in their height profile are split
-       (``split_merged``); objects shorter than ``min_length`` or longer than
-       ``max_length`` metres, or not seen over ``min_length`` metres (in all, and
-       without a break), or whose cross-sections show no vehicle body (roof, wall
-       or raised body in fewer than ``min_body_fraction`` of their scans) are
-       labelled ``"other"`` (not vehicles); vehicles cut short by a nearer occluder
-       are extended behind it (``occluded_length``).
+       (``split_merged``); objects too short or long, or whose cross-sections show
+       no vehicle body (see the parameters below) are labelled ``"other"``;
+       vehicles cut short by a nearer occluder are extended (``occluded_length``).
 
     Objects are labelled by the region of their mean depth through ``region_labels``.
 
@@ -137,6 +133,21 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         the memory of the online detector; batch runs the same checks, so both agree.
         None: wait for every object-cluster to end (memory then follows the longest
         one).  See ``docs/street.md`` for how the default was chosen.
+    region_depth : {"near", "mean"}, default="near"
+        Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
+        ``"near"`` the same, but an object averaging beyond region II whose near side
+        (median nearest depth of its intra-clusters above 0.3 m) is in it belongs to
+        region II: a car half on the sidewalk, near side 6.2-6.6 m.
+    min_car_length : float, default=2.4
+        Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
+    min_raised_fraction : float, default=0.2
+        Smallest fraction of a short object's scans showing a body raised between
+        wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
+    min_roof_height : float, default=0.5
+        Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
+    max_hidden_fraction : float, default=0.95
+        Largest fraction of an object's scans whose lower part something nearer hides
+        (beyond: a vehicle's piece seen past a passing one); 1 switches it off.
 
     Attributes
     ----------
@@ -188,6 +199,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "bridge_occluded": ["boolean"],
         "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "max_pending_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "region_depth": [StrOptions({"mean", "near"})],
+        "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
+        "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
+        "max_hidden_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
     }
 
     def __init__(
@@ -213,6 +229,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         bridge_occluded=True,
         occluded_length=4.0,
         max_pending_length=80.0,
+        region_depth="near",
+        min_car_length=2.4,
+        min_raised_fraction=0.2,
+        min_roof_height=0.5,
+        max_hidden_fraction=0.95,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -235,6 +256,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.bridge_occluded = bridge_occluded
         self.occluded_length = occluded_length
         self.max_pending_length = max_pending_length
+        self.region_depth = region_depth
+        self.min_car_length = min_car_length
+        self.min_raised_fraction = min_raised_fraction
+        self.min_roof_height = min_roof_height
+        self.max_hidden_fraction = max_hidden_fraction
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -411,26 +437,3 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         y_pred : list of ndarray of shape (k_i, 2), int64
         """
         return [r.payload["in_view"] for r in self._stream_batch(X)[0]]
-
-
-def make_parking_pipeline(**params):
-    """The street-parked vehicle detector as a one-step :class:`~sklearn.pipeline.Pipeline`.
-
-    Parameters
-    ----------
-    **params
-        Parameters of :class:`ScanClusterer` (``cut=0.6``, ``link_distance=0.5``, ...).
-
-    Returns
-    -------
-    pipeline : Pipeline
-        ``Pipeline([("cluster", ScanClusterer(**params))])``; grid-search its
-        parameters as ``cluster__cut`` etc.
-
-    Examples
-    --------
-    >>> from tunnelsense.street import make_parking_pipeline
-    >>> make_parking_pipeline(cut=0.5).named_steps["cluster"].cut
-    0.5
-    """
-    return Pipeline([("cluster", ScanClusterer(**params))])

@@ -22,12 +22,17 @@ __all__ = [
     "hidden_ends",
     "is_vehicle",
     "merge_fragments",
+    "near_side",
     "split_objects",
     "split_profile",
 ]
 
 #: Bits of the per-cluster evidence flags that show a vehicle body: roof, wall, raised.
 BODY_FLAGS = 0b0111
+#: Bit of the per-cluster evidence flags of a raised body (between the wheels).
+RAISED_FLAG = 0b0100
+#: Bit of the per-cluster evidence flags of a cluster whose lower part is hidden.
+HIDDEN_FLAG = 0b1000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
 
@@ -42,6 +47,38 @@ def depth_region(depth, edges):
     [0, 1, 2]
     """
     return np.searchsorted(edges, depth, side="right")
+
+
+def near_side(objects, side, n_objects):
+    """Median over its intra-clusters of the nearest depth: an object's near side.
+
+    ``side`` is the nearest depth of every intra-cluster's body (+inf: none, e.g. a
+    kerb); an object without any is NaN.
+
+    A vehicle's near side (its flank facing the street) stays where it is parked
+    whatever its width, whereas its mean depth moves away with the roof and bonnet
+    seen from above: a car half up on the sidewalk (near side 6.2-6.6 m) averages
+    beyond 6.6 m.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import near_side
+    >>> near_side(np.array([0, 0, 0, 1, 2]), np.array([6.3, 6.4, 9.0, 2.0, np.inf]),
+    ...           3).tolist()
+    [6.4, 2.0, nan]
+    """
+    known = np.isfinite(side)  # clusters with a body above the kerb
+    objects, side = objects[known], side[known]
+    order = np.lexsort((side, objects))
+    counts = np.bincount(objects, minlength=n_objects)
+    starts = np.cumsum(counts) - counts
+    if not len(side):
+        return np.full(n_objects, np.nan)
+    sv, last = side[order], len(side) - 1
+    lo = sv[np.minimum(starts + np.maximum(counts - 1, 0) // 2, last)]
+    hi = sv[np.minimum(starts + counts // 2, last)]
+    return np.where(counts > 0, (lo + hi) / 2, np.nan)
 
 
 class ObjectProfiles:
@@ -332,14 +369,21 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 
 
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
-               link_distance, min_body_fraction):
+               link_distance, min_body_fraction, min_car_length=0.0,
+               min_raised_fraction=0.0, max_hidden_fraction=1.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
     something at least ``link_distance`` nearer hid it), or, cut short by an occluder
     (``hidden_length`` metres hidden at its ends), long enough with the hidden part;
     not longer than ``max_length``; a vehicle body (roof, wall or raised body) in at
-    least ``min_body_fraction`` of its scans.
+    least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
+    the hidden part) it can only be a motorbike: a body raised above the road between
+    its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
+    wheelie bins and people stand on the ground).  Whose lower part is hidden by
+    something nearer in more than ``max_hidden_fraction`` of its scans, it is taken
+    for a piece of a vehicle seen past an occluder (a vehicle hidden over nearly its
+    whole length is lost too).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -357,6 +401,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
+    if float(np.mean((flags & HIDDEN_FLAG) > 0)) > max_hidden_fraction:
+        return False
+    if vehicle and length + hidden_length < min_car_length:
+        vehicle = float(np.mean((flags & RAISED_FLAG) > 0)) >= min_raised_fraction
     return bool(vehicle and body >= min_body_fraction)
 
 

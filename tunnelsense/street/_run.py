@@ -1,7 +1,8 @@
 """Training the detector on runs, and detecting objects in a run as it streams.
 
 What ``tunnelsense train street`` and ``tunnelsense detect street`` do, callable from
-Python: :func:`train_detector` fits (optionally grid-searches) the detector on
+Python: :func:`make_parking_pipeline` is the detector as a one-step pipeline,
+:func:`train_detector` fits (optionally grid-searches) the detector on
 labelled runs and summarizes the training; :func:`stream_objects` runs a fitted
 pipeline over scans through :class:`~tunnelsense._streaming.StreamingPipeline` and
 yields the object-table rows as they become final; :func:`write_objects` writes them
@@ -10,16 +11,19 @@ to a CSV file line by line, flushed, so that an interrupted run keeps them.
 
 from __future__ import annotations
 
+from sklearn.pipeline import Pipeline
+
 from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS, to_xy
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._writer import ResultsWriter
-from tunnelsense.street._detector import OBJECT_COLUMNS, make_parking_pipeline
+from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer
 
 __all__ = [
     "OBJECT_CSV_COLUMNS",
     "SEARCH_GRID",
     "format_object",
+    "make_parking_pipeline",
     "stream_objects",
     "train_detector",
     "write_objects",
@@ -37,6 +41,29 @@ SEARCH_GRID = {
     "cluster__cut": [0.4, 0.6, 0.8],
     "cluster__link_distance": [0.3, 0.5, 0.7],
 }
+
+
+def make_parking_pipeline(**params):
+    """The street-parked vehicle detector as a one-step :class:`~sklearn.pipeline.Pipeline`.
+
+    Parameters
+    ----------
+    **params
+        Parameters of :class:`ScanClusterer` (``cut=0.6``, ``link_distance=0.5``, ...).
+
+    Returns
+    -------
+    pipeline : Pipeline
+        ``Pipeline([("cluster", ScanClusterer(**params))])``; grid-search its
+        parameters as ``cluster__cut`` etc.
+
+    Examples
+    --------
+    >>> from tunnelsense.street import make_parking_pipeline
+    >>> make_parking_pipeline(cut=0.5).named_steps["cluster"].cut
+    0.5
+    """
+    return Pipeline([("cluster", ScanClusterer(**params))])
 
 
 def train_detector(runs, *, search=False, n_jobs=None):

@@ -15,7 +15,10 @@ the kerb (beyond the paper, see ``docs/street.md``):
 * **raised**: a motorbike or a car stands on wheels; between them its body hangs
   above the road: the cluster's lowest point is at least ``min_clearance`` above the
   road and the beam just below it passes under the body (it returns from farther
-  away, the road beneath).  Pedestrians, bins and bollards stand on the ground; a
+  away, the road beneath); or a beam just below any point of the cluster at least
+  ``min_clearance`` high reaches the road (below ``min_clearance``) beyond it (a
+  motorbike whose cluster also holds the kerb behind it).  Pedestrians, bins and
+  bollards stand on the ground; a
   cluster whose lower part is hidden by something nearer is not raised (the beam
   below returns from nearer).
 """
@@ -32,7 +35,7 @@ _UNDER_MARGIN = 0.1
 
 def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=None,
                      roof_band=0.15, roof_width=0.8, max_height=2.0, cut=0.6,
-                     min_clearance=0.2):
+                     min_clearance=0.2, min_roof_height=0.0):
     """Per intra-cluster: does it show a vehicle's roof, wall or raised body?
 
     Parameters
@@ -53,6 +56,9 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
         Points within this height (m) below a cluster's top make its top surface.
     roof_width : float, default=0.8
         Smallest depth extent (m) of a top surface that counts as a roof.
+    min_roof_height : float, default=0.0
+        Lowest top (m) of a roof: a kerb and the sidewalk behind it (0.1-0.3 m) are
+        flat and wide, but no vehicle's bonnet or roof is that low.
     max_height : float, default=2.0
         Ceiling of the region of interest (m).
     cut : float, default=0.6
@@ -100,7 +106,7 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
     hi = np.full(k, -np.inf)
     np.minimum.at(lo, cluster[sel], depth[sel])
     np.maximum.at(hi, cluster[sel], depth[sel])
-    roof = (hi - lo) >= roof_width
+    roof = ((hi - lo) >= roof_width) & (top >= min_roof_height)
     # the highest and lowest beams of every cluster
     key = cluster * (int(beam.max()) + 2) + beam
     first = np.full(k, len(idx))
@@ -120,7 +126,12 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
     below = np.asarray(below, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         wall[has] = (above[t, 1] >= max_height) & (np.abs(above[t, 0] - depth[t]) <= cut)
+        # a beam under the body reaches the road beyond it: under the lowest point,
+        # or under any point (a motorbike beside a kerb that joins its cluster)
         raised[has] = (height[b] >= min_clearance) & (
             below[b, 0] > depth[b] + _UNDER_MARGIN)
+        under = ((height >= min_clearance) & (below[:, 0] > depth + _UNDER_MARGIN)
+                 & (below[:, 1] < min_clearance))
         hidden[has] = below[b, 0] < depth[b] - _UNDER_MARGIN
+    np.logical_or.at(raised, cluster[under], True)
     return roof, wall, raised, hidden

@@ -47,6 +47,7 @@ from tunnelsense.street._objects import (
     hidden_ends,
     is_vehicle,
     merge_fragments,
+    near_side,
     split_objects,
 )
 from tunnelsense.street._window import ScanWindow
@@ -179,7 +180,8 @@ class _RunState(ScanWindow):
             position = self.position[pending] - self.base
             prof = ObjectProfiles(fragment, position, self.depth[pending],
                                   self.top[pending], self.n_points[pending])
-            region = depth_region(prof.depth, est.region_edges_)
+            region = depth_region(self._region_depth(fragment, pending, prof),
+                                  est.region_edges_)
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
                                    reach=self.reach, **self.rule)
             final = np.ones(prof.n, dtype=bool)
@@ -194,6 +196,17 @@ class _RunState(ScanWindow):
                 _, objects = np.unique(root[fragment[done]], return_inverse=True)
                 self._finalize(pending[done], objects.ravel(), position[done], ended)
         return self._number_and_release(frontier, ended, next_id)
+
+    def _region_depth(self, objects, clusters, prof):
+        """The depth that decides every object's region: the mean depth, or (``"near"``)
+        the near side for the boundary of region III (a car half on the sidewalk)."""
+        if self.est.region_depth == "mean":
+            return prof.depth
+        side = near_side(objects, self.side[clusters], prof.n)
+        lo, hi = self.est.region_edges_
+        with np.errstate(invalid="ignore"):
+            inside = (prof.depth >= hi) & (side < hi)
+        return np.where(inside, np.maximum(side, lo), prof.depth)
 
     def _overdue(self, prof, root, region, final):
         """Object-clusters (roots) not final that reach back beyond the limit."""
@@ -258,6 +271,7 @@ class _RunState(ScanWindow):
                 self.cum, self.near, min_length=est.min_length, ratio=est.split_ratio,
                 link_distance=est.link_distance)
         prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
+        region_depth = self._region_depth(objects, clusters, prof)
         self.object_id[clusters] = -1  # final, waiting for its id
         cum, follows = self.cum, self.follows
         for o in range(prof.n):
@@ -275,7 +289,10 @@ class _RunState(ScanWindow):
                 prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
                 self.near, min_length=est.min_length, max_length=est.max_length,
                 link_distance=est.link_distance,
-                min_body_fraction=est.min_body_fraction)
+                min_body_fraction=est.min_body_fraction,
+                min_car_length=est.min_car_length,
+                min_raised_fraction=est.min_raised_fraction,
+                max_hidden_fraction=est.max_hidden_fraction)
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
@@ -283,7 +300,7 @@ class _RunState(ScanWindow):
                 "extend": bool(est.occluded_length is not None and vehicle
                                and hidden_length > 0 and inside),
                 "vehicle": vehicle,
-                "region": int(depth_region(mean_depth, est.region_edges_)),
+                "region": int(depth_region(region_depth[o], est.region_edges_)),
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
                 "clusters": (clusters[objects == o] if prof.n > 1 else clusters)

@@ -15,7 +15,11 @@ from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
 from tunnelsense.street._sections import section_evidence
 
-__all__ = ["ScanWindow"]
+__all__ = ["SIDE_HEIGHT", "ScanWindow"]
+
+#: Lowest height (m) of the points that give a cluster's near side: above kerbs,
+#: sidewalks and the road edge of a cambered road, on a vehicle's flank.
+SIDE_HEIGHT = 0.3
 
 
 class ScanWindow:
@@ -59,6 +63,7 @@ class ScanWindow:
         self.top = np.empty(0)
         self.n_points = np.empty(0)
         self.flags = np.empty(0, np.int8)
+        self.side = np.empty(0)  # nearest depth (near side) of every cluster
         self.object_id = np.empty(0, np.int64)  # 0 not final, -1 final without id
         self.links = (np.empty(0, np.int64), np.empty(0, np.int64))
 
@@ -128,10 +133,13 @@ class ScanWindow:
         depth = np.bincount(cluster, weights=x, minlength=k) / np.maximum(n_points, 1)
         top = np.full(k, -np.inf)
         np.maximum.at(top, cluster, y)
+        side = np.full(k, np.inf)  # near side of the body (above kerb and sidewalk)
+        body = y >= SIDE_HEIGHT
+        np.minimum.at(side, cluster[body], x[body])
         roof, wall, raised, hidden = section_evidence(
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
-            min_clearance=est.min_clearance)
+            min_clearance=est.min_clearance, min_roof_height=est.min_roof_height)
         flags = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
                  | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
         near = np.full(n, np.inf)
@@ -162,6 +170,7 @@ class ScanWindow:
         self.top = concat(self.top, top)
         self.n_points = concat(self.n_points, n_points.astype(np.float64))
         self.flags = concat(self.flags, flags)
+        self.side = concat(self.side, side)
         self.object_id = concat(self.object_id, np.zeros(k, np.int64))
         self.links = (concat(self.links[0], absolute[earlier]),
                       concat(self.links[1], absolute[later]))
@@ -179,7 +188,8 @@ class ScanWindow:
                    if len(self.first_cluster) else len(self.position))
         if dropped > 0:
             self.cluster_base += dropped
-            for name in ("position", "depth", "top", "n_points", "flags", "object_id"):
+            for name in ("position", "depth", "top", "n_points", "flags", "side",
+                         "object_id"):
                 setattr(self, name, getattr(self, name)[dropped:])
             keep = self.links[0] >= self.cluster_base
             self.links = (self.links[0][keep], self.links[1][keep])
