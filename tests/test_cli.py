@@ -151,7 +151,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from tunnelsense.cli._common import load_cli_model
+    from tunnelsense.io._trust import load_trusted_model as load_cli_model
     from tunnelsense.io import save_model
 
     other = Pipeline([("scale", StandardScaler())]).fit([[0.0], [1.0]])

@@ -1,21 +1,8 @@
-"""``tunnelsense train|detect|evaluate street``: the street-parked vehicle detector.
-
-* ``tunnelsense train street RUNDIR... --model PATH [--search]`` fits the detector
-  (:func:`~tunnelsense.street.train_detector`) on labelled runs and saves it, by the
-  extension of ``PATH``: ``.skops`` the safe format (no code runs on load; versions,
-  training summary, checksum), ``.joblib`` a pickle.
-* ``tunnelsense detect street --model PATH RUN --out OBJECTS.csv [--resume]
-  [--draw DIR]`` streams the run scan by scan through the detector
-  (:func:`~tunnelsense.street.write_objects`), writing the object table row by row
-  as objects finish; ``--resume`` continues an interrupted file by replay.
-* ``tunnelsense evaluate street RUNDIR OBJECTS.csv [--json]`` scores it against the
-  run's ``gt.csv`` (:func:`~tunnelsense.metrics.street_report`).
-"""
+"""``tunnelsense train|detect|evaluate street``: the street-parked vehicle detector."""
 
 from __future__ import annotations
 
 import json
-import os
 import time
 from pathlib import Path
 
@@ -24,23 +11,23 @@ import pandas as pd
 
 from tunnelsense._progress import Progress
 from tunnelsense.cli._common import (
+    CPUS,
     add_model_arguments,
     add_output_arguments,
     check_detect_outputs,
     check_model_output,
-    load_cli_model,
+    cli_model,
     save_cli_model,
-    signing_key,
 )
-from tunnelsense.io import (
-    open_run_stream,
-    read_objects,
-    read_run,
-    read_run_gt,
-)
+from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
 from tunnelsense.metrics import street_report, street_scores
 from tunnelsense.plotting import draw_run
-from tunnelsense.street import SEARCH_GRID, train_detector, write_objects
+from tunnelsense.street import (
+    SEARCH_GRID,
+    format_training,
+    train_detector,
+    write_objects,
+)
 
 __all__ = ["register"]
 
@@ -60,25 +47,14 @@ def _cmd_train(args) -> int:
           + (f"; searching {np.prod([len(v) for v in SEARCH_GRID.values()])} settings "
              f"on {args.jobs} job(s)" if args.search else ""))
     model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
-    if args.search:
-        s = summary["search"]
-        print(f"best parameters: {s['best_params']} (parked F1 {s['best_score']:.3f}, "
-              f"{s['folds']} folds)")
-    for label, s in summary["training_scores"].items():
-        print(f"training {label}: recall {_rate(s['recall'])}, precision "
-              f"{_rate(s['precision'])} ({s['tp']} of {s['tp'] + s['fn']} found)")
+    print(format_training(summary))
     save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
-def _rate(value):
-    return "n/a" if value is None or value != value else f"{100 * value:.1f} %"
-
-
 def _cmd_detect(args) -> int:
     check_detect_outputs(args, args.rundir, [args.out])
-    model = load_cli_model(args.model, last_step="cluster", command="train street",
-                           trust_pickle=args.trust_pickle, key=signing_key(args))
+    model = cli_model(args, "street")
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height)
     progress = Progress(source.n_scans, f"{source.name}: detecting",
@@ -139,7 +115,7 @@ def register(verbs) -> None:
                    help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+    p.add_argument("--jobs", type=int, default=CPUS,
                    help="parallel fits of --search (default: the number of CPUs)")
     add_output_arguments(p, signs=True)
     _add_range_unit(p)
@@ -158,9 +134,8 @@ def register(verbs) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted OBJECTS.csv (rows are replayed and "
                         "checked, not duplicated)")
-    add_output_arguments(p)
+    add_output_arguments(p, quiet=True)
     _add_range_unit(p)
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")
     p.set_defaults(func=_cmd_detect)

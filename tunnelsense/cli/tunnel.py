@@ -4,35 +4,29 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
-from tunnelsense._records import to_xy
 from tunnelsense.cli._common import (
+    CPUS,
     add_model_arguments,
     add_output_arguments,
-    add_quiet,
     check_detect_outputs,
     check_model_output,
-    load_cli_model,
+    cli_model,
     progress,
     save_cli_model,
-    signing_key,
 )
-from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.io import clusters_path, read_tour
-from tunnelsense.metrics import indicator_scores, results_scores, tunnel_report
+from tunnelsense.metrics import results_scores, tunnel_report
 from tunnelsense.tunnel import (
     detect_to_files,
-    detect_tour,
     fit_indicator_detector,
     make_indicator_pipeline,
 )
+from tunnelsense.tunnel._demo import run_demo
 from tunnelsense.tunnel._detect import SEARCH_GRID
-
-_CPUS = os.cpu_count() or 1
 
 
 def _cmd_train(args) -> int:
@@ -60,11 +54,9 @@ def _cmd_train(args) -> int:
 def _cmd_detect(args) -> int:
     start, out = time.perf_counter(), Path(args.out)
     check_detect_outputs(args, args.source, [out, clusters_path(out)])
-    model = load_cli_model(args.model, last_step="motion", command="train tunnel",
-                           trust_pickle=args.trust_pickle, key=signing_key(args))
     facts = detect_to_files(
-        model, args.source, out, resume=args.resume, overwrite=args.force,
-        n_threads=args.jobs, progress=progress(args, 1, "detecting"),
+        cli_model(args, "tunnel"), args.source, out, resume=args.resume,
+        overwrite=args.force, n_threads=args.jobs, progress=progress(args, 1, "detecting"),
         draw=args.draw, draw_every=args.draw_every)
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
@@ -81,8 +73,6 @@ def _cmd_detect(args) -> int:
 
 def _cmd_evaluate(args) -> int:
     tour = read_tour(args.seqdir)
-    if not Path(args.results).is_file():
-        raise FileNotFoundError(f"{args.results}: results file not found")
     scores = results_scores(args.results, tour, min_height=args.min_height)
     print(json.dumps(scores, indent=2) if args.json
           else tunnel_report(scores, f"{tour.name}: {len(tour)} frames"))
@@ -90,30 +80,9 @@ def _cmd_evaluate(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    start, n = time.perf_counter(), args.frames
-    train, *tests = [
-        make_tunnel_tour(n, scenario=scenario, random_state=args.seed + k,
-                         progress=progress(args, n, f"simulating a {scenario} tour"))
-        for k, scenario in enumerate(("light", "light", "heavy", "curved"))
-    ]
-    X, y, _ = to_xy([train])
-    if not any(len(b) for b in train.boxes(min_height=args.min_height)):
-        raise ValueError(f"--frames {n} is too short: the simulated training tour holds "
-                         f"no indicator at least {args.min_height:g} px tall to learn "
-                         "from (use --frames 300 or more)")
-    print("training the indicator detector")
-    model = make_indicator_pipeline(random_state=args.seed).fit(X, y)
-    found = total = false_alarms = 0
-    for tour in tests:
-        X, y, _ = to_xy([tour])
-        records = detect_tour(model, X, progress=progress(args, n, f"detecting {tour.name}"))
-        scores = indicator_scores(records, y, min_height=args.min_height)
-        t = scores["trajectory"]
-        found, total = found + t["detected"], total + t["indicators"]
-        false_alarms += t["false_alarms"]
-        print("\n" + tunnel_report(scores, f"{tour.name} ({tour.info.get('scenario')})"))
-    print(f"\n{found} of {total} indicators found, {false_alarms} false-alarm "
-          f"trajectories ({time.perf_counter() - start:.0f} s)")
+    for text in run_demo(args.frames, random_state=args.seed, min_height=args.min_height,
+                         progress=lambda total, desc: progress(args, total, desc)):
+        print(text)
     return 0
 
 
@@ -129,14 +98,13 @@ def register(verbs) -> None:
     p.add_argument("--search", action="store_true", help="grid-search "
                    f"{', '.join(SEARCH_GRID)} with GroupKFold over the tours (>= 2 tours)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=_CPUS, help="threads decoding the "
+    p.add_argument("--jobs", type=int, default=CPUS, help="threads decoding the "
                    "frames, and parallel fits of --search (default: the number of CPUs)")
     p.add_argument("--dask-scheduler", metavar="ADDRESS", help="run the fits of "
                    "--search on this Dask cluster (e.g. tcp://10.0.0.5:8786; needs the "
                    "'distributed' extra); the workers must see the tour folders at the "
                    "same paths")
-    add_quiet(p)
-    add_output_arguments(p, signs=True)
+    add_output_arguments(p, signs=True, quiet=True)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser(
@@ -154,11 +122,10 @@ def register(verbs) -> None:
                    "640x480)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run: "
                    "keep the lines of --out (and its .clusters.csv) and append the rest")
-    add_output_arguments(p)
-    p.add_argument("--jobs", type=int, default=_CPUS, help="reader threads that decode "
+    add_output_arguments(p, quiet=True)
+    p.add_argument("--jobs", type=int, default=CPUS, help="reader threads that decode "
                    "the next frames while the detector works (0: decode in the "
                    "detector's thread; default: the number of CPUs)")
-    add_quiet(p)
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(

@@ -3,6 +3,8 @@ and a scorer for scikit-learn's model selection."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from tunnelsense.io._results import read_hypotheses
 from tunnelsense.metrics._tunnel import indicator_scores, tunnel_scores
 
@@ -46,6 +48,8 @@ def results_scores(results, tour, *, min_height=14.0) -> dict:
     >>> scores["complete"], scores["cluster"]["false_alarm_rate"]
     (False, None)
     """
+    if not Path(results).is_file():
+        raise FileNotFoundError(f"{results}: results file not found")
     hypotheses, complete = read_hypotheses(results, tour.name)
     scores = tunnel_scores(hypotheses, tour.gt.assign(tour=tour.name),
                            min_height=min_height, complete=complete)

@@ -23,6 +23,7 @@ __all__ = [
     "OBJECT_CSV_COLUMNS",
     "SEARCH_GRID",
     "format_object",
+    "format_training",
     "make_parking_pipeline",
     "stream_objects",
     "train_detector",
@@ -136,6 +137,42 @@ def train_detector(runs, *, search=False, n_jobs=None):
         objects_from_targets(X, y), objects_from_targets(X, pipeline.predict(X)),
         zero_division=float("nan"))
     return pipeline, summary
+
+
+def _rate(value):
+    return "n/a" if value is None or value != value else f"{100 * value:.1f} %"
+
+
+def format_training(summary) -> str:
+    """The training summary of :func:`train_detector` as text: search and scores.
+
+    Parameters
+    ----------
+    summary : dict
+        The second value :func:`train_detector` returns.
+
+    Returns
+    -------
+    text : str
+        The best parameters of a search, then recall and precision per label on the
+        training runs (``n/a`` where undefined).
+
+    Examples
+    --------
+    >>> from tunnelsense.street import format_training
+    >>> scores = {"recall": 0.5, "precision": float("nan"), "tp": 1, "fn": 1}
+    >>> print(format_training({"training_scores": {"parked": scores}}))
+    training parked: recall 50.0 %, precision n/a (1 of 2 found)
+    """
+    lines = []
+    if "search" in summary:
+        s = summary["search"]
+        lines.append(f"best parameters: {s['best_params']} (parked F1 "
+                     f"{s['best_score']:.3f}, {s['folds']} folds)")
+    for label, s in summary["training_scores"].items():
+        lines.append(f"training {label}: recall {_rate(s['recall'])}, precision "
+                     f"{_rate(s['precision'])} ({s['tp']} of {s['tp'] + s['fn']} found)")
+    return "\n".join(lines)
 
 
 def stream_objects(pipeline, scans, *, all_objects=False):

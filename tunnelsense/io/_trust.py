@@ -1,0 +1,108 @@
+"""Opening the model file a user names: a pickle only when trusted, of the right kind.
+
+What the commands' ``--model``, ``--trust-pickle`` and ``--key-file`` do, callable
+from Python: :func:`read_signing_key` reads a fleet's key, :func:`load_trusted_model`
+refuses a pickle unless told to trust it and a model of another detector.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from tunnelsense.exceptions import UntrustedModelError
+from tunnelsense.io._model import KEY_ENV, load_model
+
+__all__ = ["PICKLE_SUFFIXES", "load_trusted_model", "read_signing_key"]
+
+#: Extensions of the pickle model files (``.skops`` is the safe format).
+PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
+
+
+def read_signing_key(path=None):
+    """A fleet's signing key: the stripped bytes of ``path``, else ``$TUNNELSENSE_MODEL_KEY``.
+
+    Parameters
+    ----------
+    path : str or Path, default=None
+        File holding the key; None reads the environment variable instead.
+
+    Returns
+    -------
+    key : bytes, str or None
+        None when neither is given.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "key"
+    >>> _ = f.write_bytes(b"fleet-secret\\n")
+    >>> read_signing_key(f)
+    b'fleet-secret'
+    """
+    if not path:
+        return os.environ.get(KEY_ENV) or None
+    try:
+        key = Path(path).read_bytes().strip()
+    except OSError as exc:
+        raise OSError(exc.errno, f"--key-file {path}: {exc.strerror}") from None
+    if not key:
+        raise ValueError(f"--key-file {path}: the file is empty")
+    return key
+
+
+def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None):
+    """Load a model file (:func:`~tunnelsense.io.load_model`) that a command may use.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.skops`` file, or a pickle (``.joblib``, ``.pkl``, ``.pickle``).
+    last_step : str
+        Name the pipeline's last step must have (``"motion"``, ``"cluster"``).
+    command : str
+        The command that writes such models, for the message (``"train street"``).
+    trust_pickle : bool, default=False
+        Load a pickle (it can run any code); a note says so on stderr.
+    key : bytes or str, default=None
+        Refuse a ``.skops`` file not signed with this key.
+
+    Returns
+    -------
+    model : Pipeline
+
+    Raises
+    ------
+    UntrustedModelError
+        A pickle without ``trust_pickle``.
+    ValueError
+        A model whose last step is not ``last_step``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from tunnelsense.io import save_model
+    >>> from tunnelsense.street import make_parking_pipeline
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "street.skops"
+    >>> _ = save_model(make_parking_pipeline(), path)
+    >>> load_trusted_model(path, last_step="cluster", command="train street").steps[-1][0]
+    'cluster'
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: model file not found")
+    pickle = path.suffix.lower() in PICKLE_SUFFIXES
+    if pickle and not trust_pickle:
+        raise UntrustedModelError(
+            f"--model {path}: a pickle runs code when loaded; pass --trust-pickle "
+            "only if you trust its source, or ship .skops models"
+        )
+    if pickle:
+        print(f"note: loading the pickle {path} (--trust-pickle): it can run any code",
+              file=sys.stderr)
+    model = load_model(path, allow_pickle=pickle, key=key)
+    steps = getattr(model, "steps", None)
+    if not steps or steps[-1][0] != last_step:
+        raise ValueError(f"{path}: not a model written by 'tunnelsense {command}'")
+    return model

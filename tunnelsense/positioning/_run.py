@@ -1,0 +1,173 @@
+"""Positioning a tour from files: what ``tunnelsense position`` and
+``tunnelsense evaluate position`` do, callable from Python."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tunnelsense.io._output import atomic_write, check_output, input_files
+from tunnelsense.positioning._evaluate import position_errors
+from tunnelsense.positioning._online import locate_online
+from tunnelsense.positioning._positioner import TunnelPositioner
+from tunnelsense.positioning._tables import (
+    read_indicator_map,
+    read_odometry,
+    read_positions,
+)
+
+__all__ = ["evaluate_positions", "position_tour", "tour_tables"]
+
+_TABLES = ("positions.csv", "odometry.csv", "indicators.csv")
+
+
+def tour_tables(tour, odometry=None, indicator_map=None):
+    """The odometry and indicator-map files of a tour, and every file it reads.
+
+    Parameters
+    ----------
+    tour : str or Path
+        Tour folder; a simulated one holds ``positions.csv``, ``odometry.csv`` and
+        ``indicators.csv``.
+    odometry, indicator_map : str or Path, default=None
+        Files to use instead of the tour's own.
+
+    Returns
+    -------
+    odometry, indicator_map : Path
+    inputs : list of Path
+        The tour's files and the tables: paths no output may overwrite.
+
+    Examples
+    --------
+    >>> odometry, imap, inputs = tour_tables("tour", indicator_map="map.csv")
+    >>> odometry.as_posix(), imap.as_posix()
+    ('tour/odometry.csv', 'map.csv')
+    """
+    tour = Path(tour)
+    odometry = Path(odometry or tour / "odometry.csv")
+    indicator_map = Path(indicator_map or tour / "indicators.csv")
+    inputs = [*input_files(tour), *(tour / n for n in _TABLES), odometry, indicator_map]
+    return odometry, indicator_map, inputs
+
+
+def position_tour(tour, out, *, model=None, results=None, odometry=None,
+                  indicator_map=None, smooth=False, overwrite=False, progress=None,
+                  inputs=()):
+    """Write the chainage of every frame of a tour, from odometry and indicator fixes.
+
+    Parameters
+    ----------
+    tour : str or Path
+        Tour folder (its frames are read when ``model`` is given).
+    out : str or Path
+        The ``frame,stamp,chainage,sigma`` file to write.
+    model : Pipeline, default=None
+        A fitted indicator detector, run frame by frame (:func:`locate_online`).
+    results : str or Path, default=None
+        Instead of ``model``, a results file of ``detect tunnel``.
+    odometry, indicator_map : str or Path, default=None
+        Files to use instead of the tour's own (:func:`tour_tables`).
+    smooth : bool, default=False
+        Smooth with every fix (offline); default: what was known at each frame.
+    overwrite : bool, default=False
+        Replace an existing ``out``.
+    progress : callable, default=None
+        ``progress(total, desc)`` returns a progress bar (or None) for the frames
+        detected with ``model``.
+    inputs : sequence of path, default=()
+        More files ``out`` must not be (the model file, a key file).
+
+    Returns
+    -------
+    positions : DataFrame
+    fixes : DataFrame
+        One row per trajectory; ``accepted`` marks those that gave a fix.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.io import write_tour
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = write_tour(make_tunnel_tour(20, random_state=0), folder / "tour")
+    >>> _ = (folder / "none.txt").write_text("")  # no detection: dead reckoning only
+    >>> positions, fixes = position_tour(folder / "tour", folder / "pos.csv",
+    ...                                  results=folder / "none.txt")
+    >>> len(positions), len(fixes)
+    (20, 0)
+    """
+    from tunnelsense.io import open_tour, read_mot_results
+
+    if (model is None) == (results is None):
+        raise ValueError("give exactly one of model and results")
+    odometry, indicator_map, tables = tour_tables(tour, odometry, indicator_map)
+    extra = [p for p in (*inputs, results) if p]
+    check_output(out, overwrite=overwrite, inputs=[*tables, *extra], what="--out")
+    odo, positioner = read_odometry(odometry), TunnelPositioner(smooth=smooth)
+    positioner.fit(read_indicator_map(indicator_map))
+    if results is not None:
+        positions, fixes = positioner.predict(read_mot_results(results), odo,
+                                              return_fixes=True)
+    else:
+        positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
+        frames = open_tour(tour).frames
+        bar = progress and progress(len(frames), "detecting and positioning")
+        positions, fixes = locate_online(model, frames, odo, positioner, progress=bar)
+    with atomic_write(out, "w") as f:
+        positions.to_csv(f, index=False, lineterminator="\n")
+    return positions, fixes
+
+
+def evaluate_positions(tour, positions, *, odometry=None, indicator_map=None, draw=None,
+                       overwrite=False):
+    """Score a position estimate against a tour's true positions; plot it if asked.
+
+    Parameters
+    ----------
+    tour : str or Path
+        Tour folder holding the true ``positions.csv``.
+    positions : str or Path
+        The estimate, written by :func:`position_tour`.
+    odometry, indicator_map : str or Path, default=None
+        Files to use instead of the tour's own (:func:`tour_tables`).
+    draw : str or Path, default=None
+        Also plot the errors against time into this PNG file.
+    overwrite : bool, default=False
+        Replace an existing ``draw`` file.
+
+    Returns
+    -------
+    errors : dict
+        :func:`position_errors` of the estimate.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.io import write_tour
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = write_tour(make_tunnel_tour(20, random_state=0), folder / "tour")
+    >>> _ = (folder / "none.txt").write_text("")
+    >>> _ = position_tour(folder / "tour", folder / "pos.csv", results=folder / "none.txt")
+    >>> errors = evaluate_positions(folder / "tour", folder / "pos.csv")
+    >>> errors["within_2_sigma"], errors["passes"]
+    (1.0, [])
+    """
+    odometry, indicator_map, inputs = tour_tables(tour, odometry, indicator_map)
+    if draw:
+        check_output(draw, overwrite=overwrite, inputs=[*inputs, positions], what="--draw")
+    truth = read_positions(Path(tour) / "positions.csv")
+    estimate = read_positions(positions, sigma=True)
+    odo = read_odometry(odometry) if odometry.is_file() else None
+    indicators = read_indicator_map(indicator_map)
+    errors = position_errors(truth, estimate, odo, indicators)
+    if draw:
+        import matplotlib.pyplot as plt
+
+        from tunnelsense.positioning._plot import plot_positioning
+
+        ax = plot_positioning(truth, estimate, odo, indicator_map=indicators)
+        with atomic_write(draw, "wb") as f:
+            ax.figure.savefig(f, format="png", dpi=100)
+        plt.close(ax.figure)
+    return errors
