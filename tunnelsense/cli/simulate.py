@@ -6,40 +6,17 @@ import time
 from pathlib import Path
 
 from tunnelsense._progress import Progress
-from tunnelsense.datasets import (
-    STREET_SCENARIOS,
-    TUNNEL_SCENARIOS,
-    make_street_scans,
-    make_tunnel_tour,
-)
-from tunnelsense.io import write_run, write_tour
+from tunnelsense.datasets import STREET_SCENARIOS, TUNNEL_SCENARIOS
+from tunnelsense.datasets._simulate import simulate_to_folder
 
 
 def _cmd_simulate(args) -> int:
-    out = Path(args.outdir)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not args.force:
-        raise FileExistsError(f"{out}: exists and is not an empty folder; refusing to "
-                              "write over it (pass --force to replace its files)")
     start = time.perf_counter()
-    if args.kind == "tunnel":
-        tour = make_tunnel_tour(args.frames, scenario=args.scenario, name=out.name,
-                                random_state=args.seed,
-                                progress=Progress(args.frames, "rendering frames"))
-        write_tour(tour, out, progress=Progress(len(tour), "writing frames"))
-        signs = tour.gt[tour.gt["class"] == 1]
-        what = (f"{len(tour)} frames, scenario {args.scenario}, seed {args.seed}, "
-                f"{signs['id'].nunique()} indicators in view, "
-                f"{signs.loc[signs['bb_height'] >= 14, 'id'].nunique()} of them seen at "
-                "least 14 px tall (what 'evaluate tunnel' counts)")
-    else:
-        run = make_street_scans(args.scans, scenario=args.scenario, name=out.name,
-                                random_state=args.seed)
-        write_run(run, out)
-        counts = run.gt["label"].value_counts()
-        what = (f"{len(run)} scans, scenario {args.scenario}, seed {args.seed}, "
-                f"{counts.get('parked', 0)} parked and {counts.get('passing', 0)} "
-                "passing vehicles")
-    print(f"wrote {out}: {what} ({time.perf_counter() - start:.1f} s)")
+    what = simulate_to_folder(
+        args.kind, args.outdir, args.frames if args.kind == "tunnel" else args.scans,
+        scenario=args.scenario, random_state=args.seed, overwrite=args.force,
+        progress=Progress)
+    print(f"wrote {Path(args.outdir)}: {what} ({time.perf_counter() - start:.1f} s)")
     return 0
 
 

@@ -6,10 +6,6 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
-from tunnelsense._progress import Progress
 from tunnelsense.cli._common import (
     CPUS,
     add_model_arguments,
@@ -17,13 +13,15 @@ from tunnelsense.cli._common import (
     check_detect_outputs,
     check_model_output,
     cli_model,
+    progress,
     save_cli_model,
 )
 from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
 from tunnelsense.metrics import street_report, street_scores
 from tunnelsense.plotting import draw_run
 from tunnelsense.street import (
-    SEARCH_GRID,
+    format_objects_written,
+    format_runs,
     format_training,
     train_detector,
     write_objects,
@@ -41,11 +39,7 @@ def _cmd_train(args) -> int:
     start = time.perf_counter()
     key = check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
-    labels = pd.concat([run.gt["label"] for run in runs]).value_counts()
-    print(f"training on {len(runs)} run(s), {sum(map(len, runs))} scans, "
-          f"{labels.get('parked', 0)} parked, {labels.get('passing', 0)} passing vehicles"
-          + (f"; searching {np.prod([len(v) for v in SEARCH_GRID.values()])} settings "
-             f"on {args.jobs} job(s)" if args.search else ""))
+    print(format_runs(runs, search=args.search, n_jobs=args.jobs))
     model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
     print(format_training(summary))
     save_cli_model(model, args, summary=summary, key=key, start=start)
@@ -57,16 +51,11 @@ def _cmd_detect(args) -> int:
     model = cli_model(args, "street")
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height)
-    progress = Progress(source.n_scans, f"{source.name}: detecting",
-                        enabled=not args.quiet, unit="scan")
-    scans = (progress.update(i) or r for i, r in enumerate(source, 1))
-    counts, resumed = write_objects(model, scans, args.out,
-                                    all_objects=args.all_objects, resume=args.resume,
-                                    overwrite=args.force)
-    progress.close()
-    print(f"{source.name}: {sum(counts.values())} objects "
-          + ", ".join(f"{c} {k}" for k, c in sorted(counts.items()))
-          + f" -> {args.out}" + (f" (resumed after {resumed} rows)" if resumed else ""))
+    counts, resumed = write_objects(
+        model, source, args.out, all_objects=args.all_objects, resume=args.resume,
+        overwrite=args.force,
+        progress=progress(args, source.n_scans, f"{source.name}: detecting", unit="scan"))
+    print(format_objects_written(source.name, counts, args.out, resumed))
     if args.draw:
         run = _read_runs([args.rundir], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans

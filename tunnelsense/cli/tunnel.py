@@ -25,28 +25,27 @@ from tunnelsense.tunnel import (
     fit_indicator_detector,
     make_indicator_pipeline,
 )
-from tunnelsense.tunnel._demo import run_demo
 from tunnelsense.tunnel._detect import SEARCH_GRID
+from tunnelsense.tunnel._reports import (
+    format_detection,
+    format_tours,
+    format_training,
+    run_demo,
+)
 
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
     key = check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
-    n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
-    print(f"training on {len(tours)} tour(s), {sum(map(len, tours))} frames, {n_ind} "
-          "indicators")
+    print(format_tours(tours))
     bar = progress(args, len(make_indicator_pipeline().steps), "fitting", unit="step")
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
         dask_scheduler=args.dask_scheduler,
         progress=bar and (lambda name, k, n: bar.update(k)),
         verbose=0 if args.quiet else 2)
-    if args.search:
-        s = summary["search"]
-        print(f"best parameters: {s['best_parameters']} (score {s['best_score']:.4f})")
-    kp = model.named_steps["keypoints"]
-    print(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
+    print(format_training(model, summary))
     save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
@@ -61,12 +60,7 @@ def _cmd_detect(args) -> int:
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
-    if facts["drawn"]:
-        print(f"drew {len(facts['drawn'])} pictures ({sum(facts['drawn']) / 1e6:.1f} "
-              f"MB) in {args.draw}")
-    print(f"wrote {out}: {facts['detections']} detections on {facts['frames']} frames, "
-          f"{facts['trajectories']} indicator trajectories, and every keypoint cluster "
-          f"to {clusters_path(out)} (for 'evaluate tunnel') "
+    print(f"{format_detection(facts, out, draw=args.draw)} "
           f"({time.perf_counter() - start:.1f} s)")
     return 0
 

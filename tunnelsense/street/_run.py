@@ -23,6 +23,8 @@ __all__ = [
     "OBJECT_CSV_COLUMNS",
     "SEARCH_GRID",
     "format_object",
+    "format_objects_written",
+    "format_runs",
     "format_training",
     "make_parking_pipeline",
     "stream_objects",
@@ -143,6 +145,42 @@ def _rate(value):
     return "n/a" if value is None or value != value else f"{100 * value:.1f} %"
 
 
+def format_runs(runs, *, search=False, n_jobs=1) -> str:
+    """What :func:`train_detector` is about to learn from: runs, scans, vehicles.
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> from tunnelsense.street import format_runs
+    >>> format_runs([make_street_scans(300, random_state=0)])  # doctest: +ELLIPSIS
+    'training on 1 run(s), 300 scans, ... parked, ... passing vehicles'
+    """
+    labels = {label: sum(int((run.gt["label"] == label).sum()) for run in runs)
+              for label in ("parked", "passing")}
+    text = (f"training on {len(runs)} run(s), {sum(map(len, runs))} scans, "
+            f"{labels['parked']} parked, {labels['passing']} passing vehicles")
+    if search:
+        settings = 1
+        for values in SEARCH_GRID.values():
+            settings *= len(values)
+        text += f"; searching {settings} settings on {n_jobs} job(s)"
+    return text
+
+
+def format_objects_written(name, counts, path, resumed=0) -> str:
+    """What :func:`write_objects` wrote: objects per label, and lines kept on resume.
+
+    Examples
+    --------
+    >>> from tunnelsense.street import format_objects_written
+    >>> format_objects_written("run", {"passing": 1, "parked": 2}, "objects.csv")
+    'run: 3 objects 2 parked, 1 passing -> objects.csv'
+    """
+    return (f"{name}: {sum(counts.values())} objects "
+            + ", ".join(f"{c} {k}" for k, c in sorted(counts.items()))
+            + f" -> {path}" + (f" (resumed after {resumed} rows)" if resumed else ""))
+
+
 def format_training(summary) -> str:
     """The training summary of :func:`train_detector` as text: search and scores.
 
@@ -228,7 +266,7 @@ def format_object(row):
 
 
 def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
-                  overwrite=False):
+                  overwrite=False, progress=None):
     """Detect the objects of scans and write them to a CSV file as they finish.
 
     Every line is flushed as soon as its object is final.  An existing file is
@@ -246,6 +284,8 @@ def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
     all_objects : bool, default=False
         Also write ``"roadside"`` and ``"other"`` objects.
     resume, overwrite : bool, default=False
+    progress : Progress, default=None
+        Updated with the number of scans read, closed at the end.
 
     Returns
     -------
@@ -255,6 +295,8 @@ def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
         Lines kept from an interrupted file.
     """
     counts = {}
+    if progress is not None:
+        scans = (progress.update(i) or scan for i, scan in enumerate(scans, 1))
     with ResultsWriter(path, header=",".join(OBJECT_CSV_COLUMNS), resume=resume,
                        overwrite=overwrite) as writer:
         for row in stream_objects(pipeline, scans, all_objects=all_objects):
@@ -262,4 +304,6 @@ def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
             writer.flush()
             counts[row[4]] = counts.get(row[4], 0) + 1
         resumed = writer.resumed_lines
+    if progress is not None:
+        progress.close()
     return counts, resumed

@@ -1,4 +1,9 @@
-"""The demonstration of ``tunnelsense demo``: simulate, train, detect, report."""
+"""The text reports of the tunnel commands, and the demonstration of ``tunnelsense demo``.
+
+:func:`format_tours` and :func:`format_training` say what ``train tunnel`` learnt
+from, and what; :func:`format_detection` what ``detect tunnel`` wrote;
+:func:`run_demo` simulates, trains, detects and reports.
+"""
 
 from __future__ import annotations
 
@@ -6,14 +11,77 @@ import time
 
 from tunnelsense._records import to_xy
 from tunnelsense.datasets import make_tunnel_tour
+from tunnelsense.io import clusters_path
 from tunnelsense.metrics import indicator_scores, tunnel_report
 from tunnelsense.tunnel._detect import detect_tour
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 
-__all__ = ["run_demo"]
+__all__ = ["format_detection", "format_tours", "format_training", "run_demo"]
 
 #: The scenarios of the demonstration's tours: the first trains, the others test.
 DEMO_SCENARIOS = ("light", "light", "heavy", "curved")
+
+
+def format_tours(tours) -> str:
+    """What a detector is trained on: tours, frames and indicators.
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> format_tours([make_tunnel_tour(5, random_state=0)])  # doctest: +ELLIPSIS
+    'training on 1 tour(s), 5 frames, ... indicators'
+    """
+    n_ind = sum(t.gt.loc[t.gt["class"] == 1, "id"].nunique() for t in tours)
+    return (f"training on {len(tours)} tour(s), {sum(map(len, tours))} frames, {n_ind} "
+            "indicators")
+
+
+def format_training(model, summary) -> str:
+    """The fitted detector in a few words: a search's best parameters, the keypoint band.
+
+    Parameters
+    ----------
+    model : Pipeline
+        Fitted by :func:`~tunnelsense.tunnel.fit_indicator_detector`.
+    summary : dict
+        Its training summary.
+
+    Examples
+    --------
+    >>> from tunnelsense._records import to_xy
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> X, y, _ = to_xy([make_tunnel_tour(30, random_state=0)])
+    >>> model = make_indicator_pipeline().fit(X, y)
+    >>> format_training(model, {}).startswith("keypoint band: [")
+    True
+    """
+    lines = []
+    if "search" in summary:
+        s = summary["search"]
+        lines.append(f"best parameters: {s['best_parameters']} "
+                     f"(score {s['best_score']:.4f})")
+    kp = model.named_steps["keypoints"]
+    lines.append(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
+    return "\n".join(lines)
+
+
+def format_detection(facts, out, *, draw=None) -> str:
+    """What :func:`~tunnelsense.tunnel.detect_to_files` wrote, from the facts it returns.
+
+    Examples
+    --------
+    >>> facts = {"drawn": [], "detections": 12, "frames": 30, "trajectories": 1}
+    >>> print(format_detection(facts, "out.txt"))
+    wrote out.txt: 12 detections on 30 frames, 1 indicator trajectories, and every keypoint cluster to out.clusters.csv (for 'evaluate tunnel')
+    """
+    lines = []
+    if facts["drawn"]:
+        lines.append(f"drew {len(facts['drawn'])} pictures "
+                     f"({sum(facts['drawn']) / 1e6:.1f} MB) in {draw}")
+    lines.append(f"wrote {out}: {facts['detections']} detections on {facts['frames']} "
+                 f"frames, {facts['trajectories']} indicator trajectories, and every "
+                 f"keypoint cluster to {clusters_path(out)} (for 'evaluate tunnel')")
+    return "\n".join(lines)
 
 
 def run_demo(n_frames=900, *, random_state=0, min_height=14.0, progress=None):
