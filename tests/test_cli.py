@@ -151,24 +151,24 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
 
-    from tunnelsense.io._trust import load_trusted_model as load_cli_model
     from tunnelsense.io import save_model
+    from tunnelsense.io._trust import load_trusted_model
 
     other = Pipeline([("scale", StandardScaler())]).fit([[0.0], [1.0]])
     save_model(other, tmp_path / "m.skops")
     with pytest.raises(
         ValueError, match="not a model written by 'tunnelsense train street'"
     ):
-        load_cli_model(
+        load_trusted_model(
             tmp_path / "m.skops", last_step="cluster", command="train street"
         )
     save_model(other, tmp_path / "m.joblib")
     from tunnelsense.exceptions import UntrustedModelError
 
     with pytest.raises(UntrustedModelError, match="pass --trust-pickle"):
-        load_cli_model(tmp_path / "m.joblib", last_step="scale", command="x")
+        load_trusted_model(tmp_path / "m.joblib", last_step="scale", command="x")
     assert (
-        load_cli_model(
+        load_trusted_model(
             tmp_path / "m.joblib", last_step="scale", command="x", trust_pickle=True
         )
         is not None
@@ -176,7 +176,7 @@ def test_cli_models_are_checked_for_their_detector(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--trust-pickle" in err and "can run any code" in err
     with pytest.raises(FileNotFoundError, match="model file not found"):
-        load_cli_model(tmp_path / "none.skops", last_step="cluster", command="x")
+        load_trusted_model(tmp_path / "none.skops", last_step="cluster", command="x")
 
 
 def test_unexpected_errors_are_one_line(monkeypatch, capsys):

@@ -1,10 +1,8 @@
 """The ``tunnelsense`` command: a thin layer over the library.
 
-Each command module parses its arguments and calls library functions; it holds no
-logic of its own.  A module adds its commands through ``register_top(sub)`` (top-level
-commands) and ``register(verbs)`` (a kind of the ``train`` / ``detect`` / ``evaluate``
-verbs).  Heavy optional libraries (matplotlib, dask) are imported by the library only
-when used, so that ``tunnelsense --help`` stays fast.
+Each command module parses its arguments and calls library functions.  It adds its
+commands through ``register_top(sub)`` (top-level) and ``register(verbs)`` (a kind of
+the ``train`` / ``detect`` / ``evaluate`` verbs).
 """
 
 from __future__ import annotations

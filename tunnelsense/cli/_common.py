@@ -10,7 +10,7 @@ from tunnelsense._progress import Progress
 from tunnelsense.io import save_model
 from tunnelsense.io._model import KEY_ENV
 from tunnelsense.io._output import check_draw_dir, check_output, input_files
-from tunnelsense.io._trust import PICKLE_SUFFIXES, load_trusted_model, read_signing_key
+from tunnelsense.io._trust import check_model_path, load_trusted_model, read_signing_key
 
 __all__ = [
     "CPUS",
@@ -30,7 +30,8 @@ _MODELS = {"tunnel": ("motion", "train tunnel"), "street": ("cluster", "train st
 
 
 def add_model_arguments(parser, *, help_model, group=None) -> None:
-    """``--model`` (in ``group`` if given, else required), ``--trust-pickle``, ``--key-file``."""
+    """``--model`` (in ``group`` if given, else required), ``--trust-pickle`` and
+    ``--key-file`` of a command that loads a model."""
     (group or parser).add_argument("--model", required=group is None, help=help_model)
     parser.add_argument(
         "--trust-pickle", action="store_true",
@@ -45,13 +46,16 @@ def _add_key_argument(parser, text) -> None:
                         f"environment variable {KEY_ENV}, if set)")
 
 
-def add_output_arguments(parser, *, signs=False, quiet=False) -> None:
-    """``--force``, and ``--key-file`` for a command that writes a model, ``--quiet``."""
+def add_output_arguments(parser, *, writes_model=False, quiet=False) -> None:
+    """``--force``; ``--model`` and ``--key-file`` to write a model; ``--quiet``."""
+    if writes_model:
+        parser.add_argument("--model", required=True, help="where to write the model: "
+                            ".skops (safe, no code runs on load) or .joblib (pickle)")
     parser.add_argument(
         "--force", action="store_true",
         help="replace an existing output file (never one of the command's inputs)",
     )
-    if signs:
+    if writes_model:
         _add_key_argument(parser, "sign the .skops model with the key in FILE")
     if quiet:
         parser.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -72,12 +76,9 @@ def cli_model(args, kind):
 
 def check_model_output(args, sources):
     """Refuse a ``--model`` to write before any work; return the signing key."""
-    if Path(args.model).suffix.lower() not in (*PICKLE_SUFFIXES, ".skops"):
-        raise ValueError(f"--model {args.model}: the extension chooses the format: "
-                         ".skops (safe, no code runs on load) or .joblib (pickle)")
     inputs = [f for d in sources for f in input_files(d)]
-    check_output(args.model, overwrite=args.force, what="--model",
-                 inputs=[*inputs, *filter(None, [args.key_file])])
+    check_model_path(args.model, overwrite=args.force,
+                     inputs=[*inputs, *filter(None, [args.key_file])])
     return read_signing_key(args.key_file)
 
 

@@ -6,26 +6,21 @@ import json
 import time
 from pathlib import Path
 
-from tunnelsense.cli._common import (
-    add_model_arguments,
-    add_output_arguments,
-    cli_model,
-    progress,
-)
+from tunnelsense.cli import _common as common
 
 __all__ = ["register", "register_top"]
 
 
 def _cmd_position(args) -> int:
-    from tunnelsense.positioning._run import position_tour
+    from tunnelsense.positioning import position_tour
 
     start = time.perf_counter()
-    model = cli_model(args, "tunnel") if args.model else None
+    model = common.cli_model(args, "tunnel") if args.model else None
     positions, fixes = position_tour(
         args.tour, args.out, model=model, results=args.results,
         odometry=args.odometry, indicator_map=args.map, smooth=args.smooth,
         overwrite=args.force, inputs=[args.model, args.key_file],
-        progress=lambda total, desc: progress(args, total, desc))
+        progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
     print(f"wrote {args.out}: {len(positions)} frames, {kept} of {len(fixes)} "
           f"trajectories gave a position fix ({time.perf_counter() - start:.1f} s)")
@@ -33,11 +28,11 @@ def _cmd_position(args) -> int:
 
 
 def _cmd_evaluate_position(args) -> int:
-    from tunnelsense.positioning import format_errors
-    from tunnelsense.positioning._run import evaluate_positions
+    from tunnelsense.positioning import evaluate_positions, format_errors
 
-    errors = evaluate_positions(args.tour, args.positions, odometry=args.odometry,
-                                indicator_map=args.map, draw=args.draw, overwrite=args.force)
+    errors = evaluate_positions(
+        args.tour, args.positions, odometry=args.odometry, indicator_map=args.map,
+        draw=args.draw, overwrite=args.force)
     print(json.dumps(errors, indent=2) if args.json else format_errors(
         errors, f"{args.positions} against {Path(args.tour) / 'positions.csv'}"))
     return 0
@@ -59,7 +54,7 @@ def register(verbs) -> None:
     p.add_argument("--draw", metavar="FILE.png", help="also plot the errors (fused and "
                    "dead reckoning) against time")
     p.add_argument("--json", action="store_true", help="print JSON")
-    add_output_arguments(p)
+    common.add_output_arguments(p)
     p.set_defaults(func=_cmd_evaluate_position)
 
 
@@ -72,11 +67,11 @@ def register_top(sub) -> None:
         "them with the odometry: frame,stamp,chainage,sigma per frame.")
     _add_tables(p)
     source = p.add_mutually_exclusive_group(required=True)
-    add_model_arguments(p, group=source, help_model="model written by 'train tunnel' "
-                        "(detect online)")
+    common.add_model_arguments(
+        p, group=source, help_model="model written by 'train tunnel' (detect online)")
     source.add_argument("--results", metavar="TXT", help="results file of 'detect tunnel'")
     p.add_argument("--out", required=True, metavar="POS.csv", help="file to write")
     p.add_argument("--smooth", action="store_true", help="offline: smooth with every "
                    "fix (default: what was known at each frame)")
-    add_output_arguments(p, quiet=True)
+    common.add_output_arguments(p, quiet=True)
     p.set_defaults(func=_cmd_position)

@@ -6,16 +6,7 @@ import json
 import time
 from pathlib import Path
 
-from tunnelsense.cli._common import (
-    CPUS,
-    add_model_arguments,
-    add_output_arguments,
-    check_detect_outputs,
-    check_model_output,
-    cli_model,
-    progress,
-    save_cli_model,
-)
+from tunnelsense.cli import _common as common
 from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
 from tunnelsense.metrics import street_report, street_scores
 from tunnelsense.plotting import draw_run
@@ -37,24 +28,24 @@ def _read_runs(paths, args):
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
-    key = check_model_output(args, args.rundirs)
+    key = common.check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
     print(format_runs(runs, search=args.search, n_jobs=args.jobs))
     model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
     print(format_training(summary))
-    save_cli_model(model, args, summary=summary, key=key, start=start)
+    common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
 def _cmd_detect(args) -> int:
-    check_detect_outputs(args, args.rundir, [args.out])
-    model = cli_model(args, "street")
+    common.check_detect_outputs(args, args.rundir, [args.out])
+    model = common.cli_model(args, "street")
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height)
     counts, resumed = write_objects(
         model, source, args.out, all_objects=args.all_objects, resume=args.resume,
-        overwrite=args.force,
-        progress=progress(args, source.n_scans, f"{source.name}: detecting", unit="scan"))
+        overwrite=args.force, progress=common.progress(
+            args, source.n_scans, f"{source.name}: detecting", unit="scan"))
     print(format_objects_written(source.name, counts, args.out, resumed))
     if args.draw:
         run = _read_runs([args.rundir], args)[0]
@@ -68,11 +59,9 @@ def _cmd_evaluate(args) -> int:
     rundir = Path(args.rundir)
     gt = read_run_gt(rundir / "gt.csv" if rundir.is_dir() else rundir)
     detected = read_objects(args.objects)
-    if args.json:
-        print(json.dumps(street_scores(gt, detected, min_iou=args.min_iou,
-                                       zero_division=None), indent=2))
-    else:
-        print(street_report(gt, detected, min_iou=args.min_iou))
+    scores = street_scores(gt, detected, min_iou=args.min_iou, zero_division=None)
+    print(json.dumps(scores, indent=2) if args.json
+          else street_report(gt, detected, min_iou=args.min_iou))
     return 0
 
 
@@ -89,24 +78,15 @@ def _add_range_unit(parser) -> None:
 
 
 def register(verbs) -> None:
-    """Add the ``street`` commands to the ``train``, ``detect`` and ``evaluate`` verbs.
-
-    Parameters
-    ----------
-    verbs : dict
-        ``{"train": sub, "detect": sub, "evaluate": sub}`` of argparse sub-parser
-        actions.
-    """
+    """Add the ``street`` kind to the ``train``, ``detect`` and ``evaluate`` verbs."""
     p = verbs["train"].add_parser("street", help="fit the parked-vehicle detector")
     p.add_argument("rundirs", nargs="+", metavar="RUNDIR",
                    help="laser run folders (scans.npz + gt.csv)")
-    p.add_argument("--model", required=True,
-                   help="where to save the model: .skops (safe) or .joblib (pickle)")
     p.add_argument("--search", action="store_true",
                    help="grid-search cut and link distance, GroupKFold by run")
-    p.add_argument("--jobs", type=int, default=CPUS,
+    p.add_argument("--jobs", type=int, default=common.CPUS,
                    help="parallel fits of --search (default: the number of CPUs)")
-    add_output_arguments(p, signs=True)
+    common.add_output_arguments(p, writes_model=True)
     _add_range_unit(p)
     p.set_defaults(func=_cmd_train)
 
@@ -114,8 +94,8 @@ def register(verbs) -> None:
     p.add_argument("rundir", metavar="RUN",
                    help="a laser run folder (scans.npz), a ROS 1 .bag file or a ROS 2 "
                    "bag folder of sensor_msgs/LaserScan")
-    add_model_arguments(p, help_model="a model saved by train street (.skops, or a "
-                        ".joblib pickle with --trust-pickle)")
+    common.add_model_arguments(p, help_model="a model saved by train street (.skops, "
+                               "or a .joblib pickle with --trust-pickle)")
     p.add_argument("--out", required=True, metavar="OBJECTS.csv",
                    help="object table to write")
     p.add_argument("--all-objects", action="store_true",
@@ -123,7 +103,7 @@ def register(verbs) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted OBJECTS.csv (rows are replayed and "
                         "checked, not duplicated)")
-    add_output_arguments(p, quiet=True)
+    common.add_output_arguments(p, quiet=True)
     _add_range_unit(p)
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")

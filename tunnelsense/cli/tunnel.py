@@ -8,16 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from tunnelsense.cli._common import (
-    CPUS,
-    add_model_arguments,
-    add_output_arguments,
-    check_detect_outputs,
-    check_model_output,
-    cli_model,
-    progress,
-    save_cli_model,
-)
+from tunnelsense.cli import _common as common
 from tunnelsense.io import clusters_path, read_tour
 from tunnelsense.metrics import results_scores, tunnel_report
 from tunnelsense.tunnel import (
@@ -36,27 +27,28 @@ from tunnelsense.tunnel._reports import (
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
-    key = check_model_output(args, args.seqdirs)
+    key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
     print(format_tours(tours))
-    bar = progress(args, len(make_indicator_pipeline().steps), "fitting", unit="step")
+    n_steps = len(make_indicator_pipeline().steps)
+    bar = common.progress(args, n_steps, "fitting", unit="step")
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
         dask_scheduler=args.dask_scheduler,
         progress=bar and (lambda name, k, n: bar.update(k)),
         verbose=0 if args.quiet else 2)
     print(format_training(model, summary))
-    save_cli_model(model, args, summary=summary, key=key, start=start)
+    common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
 def _cmd_detect(args) -> int:
     start, out = time.perf_counter(), Path(args.out)
-    check_detect_outputs(args, args.source, [out, clusters_path(out)])
+    common.check_detect_outputs(args, args.source, [out, clusters_path(out)])
     facts = detect_to_files(
-        cli_model(args, "tunnel"), args.source, out, resume=args.resume,
-        overwrite=args.force, n_threads=args.jobs, progress=progress(args, 1, "detecting"),
-        draw=args.draw, draw_every=args.draw_every)
+        common.cli_model(args, "tunnel"), args.source, out, resume=args.resume,
+        overwrite=args.force, n_threads=args.jobs, draw=args.draw,
+        draw_every=args.draw_every, progress=common.progress(args, 1, "detecting"))
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
@@ -75,7 +67,7 @@ def _cmd_evaluate(args) -> int:
 
 def _cmd_demo(args) -> int:
     for text in run_demo(args.frames, random_state=args.seed, min_height=args.min_height,
-                         progress=lambda total, desc: progress(args, total, desc)):
+                         progress=lambda total, desc: common.progress(args, total, desc)):
         print(text)
     return 0
 
@@ -87,26 +79,24 @@ def register(verbs) -> None:
         description="Fit the indicator detector (make_indicator_pipeline) on labelled "
         "tours and write it as a model file.")
     p.add_argument("seqdirs", nargs="+", metavar="SEQDIR", help="labelled tour folders")
-    p.add_argument("--model", required=True, help="where to write the model: .skops "
-                   "(safe, no code runs on load) or .joblib (pickle), by extension")
     p.add_argument("--search", action="store_true", help="grid-search "
                    f"{', '.join(SEARCH_GRID)} with GroupKFold over the tours (>= 2 tours)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--jobs", type=int, default=CPUS, help="threads decoding the "
+    p.add_argument("--jobs", type=int, default=common.CPUS, help="threads decoding the "
                    "frames, and parallel fits of --search (default: the number of CPUs)")
     p.add_argument("--dask-scheduler", metavar="ADDRESS", help="run the fits of "
                    "--search on this Dask cluster (e.g. tcp://10.0.0.5:8786; needs the "
                    "'distributed' extra); the workers must see the tour folders at the "
                    "same paths")
-    add_output_arguments(p, signs=True, quiet=True)
+    common.add_output_arguments(p, writes_model=True, quiet=True)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser(
         "tunnel", help="find indicators in a tour or video",
         description="Find indicators in a tour or video, frame by frame; write "
         "MOTChallenge results and every keypoint cluster beside them (.clusters.csv).")
-    add_model_arguments(p, help_model="model written by 'train tunnel' (.skops, or a "
-                        ".joblib pickle with --trust-pickle)")
+    common.add_model_arguments(p, help_model="model written by 'train tunnel' (.skops, "
+                               "or a .joblib pickle with --trust-pickle)")
     p.add_argument("source", help="MOTChallenge folder, image folder or video file")
     p.add_argument("--out", required=True, help="MOTChallenge results file to write")
     p.add_argument("--draw", metavar="DIR", help="also draw frames into DIR (clusters, "
@@ -116,9 +106,9 @@ def register(verbs) -> None:
                    "640x480)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run: "
                    "keep the lines of --out (and its .clusters.csv) and append the rest")
-    add_output_arguments(p, quiet=True)
-    p.add_argument("--jobs", type=int, default=CPUS, help="reader threads that decode "
-                   "the next frames while the detector works (0: decode in the "
+    common.add_output_arguments(p, quiet=True)
+    p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
+                   "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; default: the number of CPUs)")
     p.set_defaults(func=_cmd_detect)
 
@@ -136,9 +126,9 @@ def register(verbs) -> None:
 
 def register_top(sub) -> None:
     """Add the top-level ``demo`` command."""
-    text = ("simulate tunnel tours, train the indicator detector, detect and report")
     p = sub.add_parser(
-        "demo", help=text, description="Simulate a light-traffic training tour and "
+        "demo", help="simulate tunnel tours, train the indicator detector, detect and "
+        "report", description="Simulate a light-traffic training tour and "
         "three test tours (light traffic, heavy traffic with trucks, another camera in "
         "a curving tunnel), train the indicator detector on the first, detect on the "
         "others and print the paper's cluster and trajectory figures for each. Nothing "

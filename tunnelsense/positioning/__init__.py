@@ -17,6 +17,7 @@ from tunnelsense.positioning._fixes import detection_table, estimate_pass
 from tunnelsense.positioning._online import locate_online
 from tunnelsense.positioning._plot import plot_positioning
 from tunnelsense.positioning._positioner import TunnelPositioner
+from tunnelsense.positioning._run import evaluate_positions, position_tour, tour_tables
 from tunnelsense.positioning._stream import FIX_COLUMNS, PositionStream
 from tunnelsense.positioning._tables import (
     ESTIMATE_COLUMNS,
@@ -39,14 +40,17 @@ __all__ = [
     "dead_reckoning",
     "detection_table",
     "errors_table",
+    "evaluate_positions",
     "estimate_pass",
     "format_errors",
     "forward",
     "locate_online",
     "plot_positioning",
     "position_errors",
+    "position_tour",
     "read_indicator_map",
     "read_odometry",
     "read_positions",
     "rts_smooth",
+    "tour_tables",
 ]
