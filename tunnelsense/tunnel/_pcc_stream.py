@@ -27,7 +27,7 @@ from tunnelsense._payload import (
 from tunnelsense._records import FrameRecord, release_image
 from tunnelsense._streaming import StreamState
 
-__all__ = ["PCCStream", "frame_payload", "pearson_r", "straightness"]
+__all__ = ["PCCStream", "curve_fit_r", "frame_payload", "pearson_r", "straightness"]
 
 
 def pearson_r(x, y) -> float:
@@ -78,6 +78,49 @@ def straightness(x, y) -> float:
     if high <= 1e-12:
         return 0.0
     return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
+
+
+def curve_fit_r(x, y) -> float:
+    """How well the points ``(x_i, y_i)`` fit a smooth (quadratic) path.
+
+    The points are turned to their principal axes (``t`` along the path, ``n``
+    across it), ``n`` is fitted by a quadratic in ``t`` by least squares, and the
+    measure is ``sqrt(1 - mean(residual^2) / var(t))``: 1 for points on a line or a
+    parabola, close to 1 for a path that bends smoothly (an indicator's image path in
+    a curving tunnel), near 0 for points spread alike in every direction (a vehicle
+    ahead jittering in place).  For points on a straight line with scatter it is
+    ``sqrt(straightness)`` at most; like :func:`straightness` it treats every
+    orientation alike.  0 for fewer than four points or two distinct positions.
+
+    Examples
+    --------
+    >>> t = [0., 1, 2, 3, 4, 5, 6, 7]
+    >>> round(curve_fit_r(t, [0.05 * v * v for v in t]), 6)  # a bending path
+    1.0
+    >>> import numpy as np
+    >>> a = np.arange(8) * np.pi / 4  # points around a circle: no path
+    >>> round(curve_fit_r(np.cos(a), np.sin(a)), 3)
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) < 4:
+        return 0.0
+    pts = np.column_stack([x - x.mean(), y - y.mean()])
+    cov = pts.T @ pts / len(x)
+    w, v = np.linalg.eigh(cov)
+    if w[1] <= 1e-12:
+        return 0.0
+    t = pts @ v[:, 1]
+    n = pts @ v[:, 0]
+    design = np.column_stack([np.ones_like(t), t, t * t])
+    coef, *_ = np.linalg.lstsq(design, n, rcond=None)
+    resid = n - design @ coef
+    score = 1.0 - float(resid @ resid) / len(x) / float(w[1])
+    return float(np.sqrt(np.clip(score, 0.0, 1.0)))
+
+
+_MEASURES = {"pearson": pearson_r, "principal": straightness, "quadratic": curve_fit_r}
 
 
 class _Released:
@@ -163,7 +206,7 @@ class PCCStream(StreamState):
     """
 
     def __init__(self, verifier, *, release=True):
-        self.measure = pearson_r if verifier.criterion == "pearson" else straightness
+        self.measure = _MEASURES[verifier.criterion]
         self.min_r = float(verifier.min_r)
         self.min_length = int(verifier.min_length)
         self.vote = float(verifier.vote)
