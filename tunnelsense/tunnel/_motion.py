@@ -98,12 +98,12 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         or vertical line and low for a nearly horizontal one, so a camera mounted
         near the indicators' height (on a truck or bus), which sees them move almost
         horizontally, needs ``"principal"``.  ``"quadratic"`` is :func:`curve_fit_r`,
-        the fit of a quadratic path along the principal axis: in a curving tunnel
-        the vanishing point moves towards the curve's inside as the road turns, and
-        an indicator's image path bends, which a straight line fits ever worse the
-        longer the trajectory; a quadratic follows the bend (a curve of constant
-        radius seen from a camera turning at a constant rate) while a vehicle
-        jittering in place still fits no path.  ``payload["motion_r"]`` holds the
+        the multiple correlation of a quadratic path (Pearson's r generalized from
+        a line to a parabola): in a curving tunnel the vanishing point moves towards
+        the curve's inside as the road turns, and an indicator's image path bends,
+        which a straight line fits ever worse the longer the trajectory; a
+        quadratic follows the bend, while a vehicle ahead jittering in place or
+        drifting up and down the image still fits no path.  ``payload["motion_r"]`` holds the
         chosen measure (signed r for ``"pearson"``).
 
     Attributes

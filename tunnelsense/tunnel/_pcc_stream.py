@@ -81,16 +81,17 @@ def straightness(x, y) -> float:
 
 
 def curve_fit_r(x, y) -> float:
-    """How well the points ``(x_i, y_i)`` fit a smooth (quadratic) path.
+    """Multiple correlation of a quadratic path through the points ``(x_i, y_i)``.
 
-    The points are turned to their principal axes (``t`` along the path, ``n``
-    across it), ``n`` is fitted by a quadratic in ``t`` by least squares, and the
-    measure is ``sqrt(1 - mean(residual^2) / var(t))``: 1 for points on a line or a
-    parabola, close to 1 for a path that bends smoothly (an indicator's image path in
-    a curving tunnel), near 0 for points spread alike in every direction (a vehicle
-    ahead jittering in place).  For points on a straight line with scatter it is
-    ``sqrt(straightness)`` at most; like :func:`straightness` it treats every
-    orientation alike.  0 for fewer than four points or two distinct positions.
+    Pearson's r (eq. 5) generalized from a line to a parabola: ``y`` is fitted by
+    ``a0 + a1 x + a2 x^2`` by least squares and ``R = sqrt(1 - SS_res / SS_tot)``;
+    the same with ``x`` and ``y`` swapped, and the larger ``R`` is returned.  A path
+    that bends smoothly (an indicator's image path in a curving tunnel) keeps ``R``
+    close to 1 where a line fits it ever worse the longer the trajectory; as with
+    Pearson's r, a vehicle ahead that jitters in place, or drifts up and down the
+    image while keeping its column (approaching, receding), gets ``R`` far from 1,
+    because neither coordinate is a function of the other.  0 for fewer than four
+    points or when a coordinate does not vary.
 
     Examples
     --------
@@ -106,18 +107,20 @@ def curve_fit_r(x, y) -> float:
     y = np.asarray(y, dtype=np.float64)
     if len(x) < 4:
         return 0.0
-    pts = np.column_stack([x - x.mean(), y - y.mean()])
-    cov = pts.T @ pts / len(x)
-    w, v = np.linalg.eigh(cov)
-    if w[1] <= 1e-12:
-        return 0.0
-    t = pts @ v[:, 1]
-    n = pts @ v[:, 0]
-    design = np.column_stack([np.ones_like(t), t, t * t])
-    coef, *_ = np.linalg.lstsq(design, n, rcond=None)
-    resid = n - design @ coef
-    score = 1.0 - float(resid @ resid) / len(x) / float(w[1])
-    return float(np.sqrt(np.clip(score, 0.0, 1.0)))
+    best = 0.0
+    for u, v in ((x, y), (y, x)):
+        u = u - u.mean()
+        v = v - v.mean()
+        scale = float(np.abs(u).max())
+        total = float(v @ v)
+        if scale <= 1e-9 or total <= 1e-12 * max(scale * scale, 1.0):
+            continue
+        u = u / scale
+        design = np.column_stack([np.ones_like(u), u, u * u])
+        coef, *_ = np.linalg.lstsq(design, v, rcond=None)
+        resid = v - design @ coef
+        best = max(best, 1.0 - float(resid @ resid) / total)
+    return float(np.sqrt(np.clip(best, 0.0, 1.0)))
 
 
 _MEASURES = {"pearson": pearson_r, "principal": straightness, "quadratic": curve_fit_r}
