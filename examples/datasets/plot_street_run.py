@@ -53,4 +53,21 @@ fig.tight_layout()
 fig, ax = plt.subplots(figsize=(13, 4))
 plot_range_image(run, ax=ax)
 fig.tight_layout()
-plt.show()
+print(f"{run.name}: {len(run)} scans, {run.info['n_parked']} parked and "
+      f"{run.info['n_passing']} passing vehicles in the ground truth")
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

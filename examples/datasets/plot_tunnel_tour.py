@@ -19,7 +19,7 @@ from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.plotting import plot_frame
 
 tour = make_tunnel_tour(240, scenario="heavy", random_state=7, first_indicator_m=60.0)
-print(tour.info)
+print({k: tour.info[k] for k in sorted(tour.info)[:8]})
 print(tour.gt.groupby("class")["id"].nunique().rename("objects per class"))
 
 # %%
@@ -51,4 +51,21 @@ ax.set_xlabel("box centre x (px)")
 ax.set_ylabel("box centre y (px)")
 ax.set_title(f"indicator {first_id}: Pearson r = {r:.4f}")
 fig.colorbar(sc, label="box height (px)")
-plt.show()
+print(f"{tour.name}: {len(tour)} frames, indicator {first_id} in view for {len(track)} "
+      f"frames, its image path straight (Pearson r = {r:.4f})")
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

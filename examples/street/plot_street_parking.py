@@ -19,11 +19,12 @@ from tunnelsense.street import (
     plot_objects,
 )
 
-run = make_street_scans(1500, scenario="dense", random_state=0)
+run = make_street_scans(1200, scenario="dense", random_state=0)
 clusterer = ScanClusterer().fit(run.scans)
 objects = clusterer.detect(run.scans)
 print(objects.head())
-print(street_scores(run.gt, objects))
+scores = street_scores(run.gt, objects)
+print(scores)
 print(street_confusion_matrix(run.gt, objects))
 
 # %%
@@ -39,4 +40,24 @@ plot_dendrogram(scan, cut=clusterer.cut, ax=ax2)
 # The panoramic range image, ground truth above/below, detections beside it.
 fig, ax = plt.subplots(figsize=(14, 3.5))
 plot_objects(run, objects, ax=ax)
-plt.show()
+fig.tight_layout()
+parked = scores["parked"]
+print(f"{run.name}: {parked['tp']} parked vehicles found, {parked['fp']} false, "
+      f"{parked['fn']} missed (recall {parked['recall']:.2f}, "
+      f"precision {parked['precision']:.2f})")
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

@@ -19,8 +19,8 @@ import numpy as np
 from tunnelsense import to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores
+from tunnelsense.plotting import draw_detections
 from tunnelsense.tunnel import make_indicator_pipeline
-from tunnelsense.tunnel._pipeline import draw_detections
 
 train = make_tunnel_tour(300, scenario="heavy", random_state=0, first_indicator_m=40.0)
 test = make_tunnel_tour(240, scenario="heavy", random_state=7, first_indicator_m=60.0)
@@ -36,7 +36,8 @@ model = make_indicator_pipeline(
 # Detect, score, and draw three frames where the indicator is in view.
 Xt, yt, _ = to_xy([test])
 records = model.predict(Xt)
-print(indicator_scores(records, yt))
+scores = indicator_scores(records, yt)
+print(scores)
 
 pictures = list(draw_detections(records))
 detected = [i for i, r in enumerate(records) if len(r.payload["detections"])]
@@ -49,4 +50,23 @@ for ax, i in zip(axes, shown, strict=True):
     ax.set_title(f"{rec.tour}, frame {rec.frame}")
     ax.axis("off")
 fig.tight_layout()
-plt.show()
+cluster, trajectory = scores["cluster"], scores["trajectory"]
+print(f"{test.name}: {trajectory['detected']} of {trajectory['indicators']} indicators "
+      f"found, {cluster['correct']} of {cluster['total']} clusters on them detected, "
+      f"{cluster['false_alarms']} false alarms")
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

@@ -58,8 +58,6 @@ region_boxes = regions.transform(verified[i : i + 1])[0].payload["cluster_boxes"
 sampled = record.payload["sampled_keypoints"]
 kept = record.payload["keypoints"]
 rejected = sampled[~(sampled[:, None, :2] == kept[None, :, :2]).all(-1).any(-1)]
-print(f"{record.tour}, frame {record.frame}: {len(sampled)} keypoints, "
-      f"{len(kept)} verified, {len(record.payload['cluster_boxes'])} clusters")
 
 # %%
 # Draw: (a) the frame, (b) keypoints, (c) verification and clusters.
@@ -99,4 +97,21 @@ ax.set_xlim(left - 2 * height, left + width + 2 * height)
 ax.set_ylim(top + 2 * height, top - height)
 ax.set_title("close-up: keypoints (yellow) vs region (cyan)")
 ax.axis("off")
-plt.show()
+print(f"{record.tour}, frame {record.frame}: {len(sampled)} keypoints, {len(kept)} "
+      f"verified, {len(record.payload['cluster_boxes'])} clusters")
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

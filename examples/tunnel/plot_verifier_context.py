@@ -98,4 +98,23 @@ for ax, (name, out) in zip(axes, outputs.items(), strict=True):
 axes[0].legend(loc="lower left", fontsize=8)
 fig.suptitle(f"{test.name}, frame {Xt[i].frame}: indicator dashed in green")
 fig.tight_layout()
-plt.show()
+print(f"{test.name}, frame {Xt[i].frame}: " + "; ".join(
+    f"{name.split(' (')[0]}: {len(out[i].payload['keypoints'])} kept, "
+    f"{negatives_kept(out[i], yt[i])} outside the indicator"
+    for name, out in outputs.items()))
+
+# sphinx_gallery_start_ignore
+# Run as a plain script, the example saves its figures as PNG files into the folder
+# named by TUNNELSENSE_EXAMPLES_OUT (default: the current folder), and shows them when
+# matplotlib has an interactive backend.
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+if not os.environ.get("TUNNELSENSE_EXAMPLES_NO_SAVE"):
+    out = Path(os.environ.get("TUNNELSENSE_EXAMPLES_OUT", "."))
+    out.mkdir(parents=True, exist_ok=True)
+    for number in plt.get_fignums():
+        plt.figure(number).savefig(out / f"{Path(__file__).stem}-{number}.png", dpi=80)
+    if plt.get_backend().lower() != "agg":
+        plt.show()
+# sphinx_gallery_end_ignore

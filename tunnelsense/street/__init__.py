@@ -1,7 +1,8 @@
 """Street-parked vehicles from a vertically scanning laser range finder.
 
-Section III of Hirahara and Ikeuchi's method (``lrf-street-parking-detection.txt``) as
-array functions and scikit-learn estimators on scan records; see ``docs/street.md``.
+Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Panoramic
+Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
+see ``docs/street.md``.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
 clustering (``_clustering``), objects (``_sections``, ``_objects``), the online state
 (``_stream``), the estimator (``_detector``) and whole runs (``_run``).

@@ -137,7 +137,7 @@ def estimate_tilt(
         Largest tilt considered (degrees).
     tolerance : float, default=0.1
         Largest distance (m) of a road return from the road plane; the paper's road
-        band (|height| < 0.1 m).
+        band (``|height| < 0.1`` m).
     min_road_points : int, default=5
         Fewer road inliers than this: no estimate (NaN).
     resolution : float, default=0.25

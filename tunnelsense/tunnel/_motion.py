@@ -206,7 +206,10 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
             arrived, and at most ``L`` frames are held.  Held frames keep their
             payload arrays only: an in-memory image is released (reading ``.image``
             of the returned record then raises); a lazy source (an image file) is
-            kept.  ``state.n_waiting`` is the number of frames held.
+            kept.  ``state.n_waiting`` is the number of frames held.  Frames
+            without ``payload["ended_tracks"]`` (not from :class:`TrajectoryLinker`)
+            end their trajectories only with the tour: the state then holds the
+            whole tour.
 
         Examples
         --------

@@ -117,13 +117,13 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
 
     Attributes
     ----------
-    positive_centers_ : ndarray of shape (n_positive_centers, n_features_in_)
+    positive_centers_ : ndarray of shape (n_positive_centers, n_features)
         k-means centres of the positive descriptors.
-    negative_centers_ : ndarray of shape (n_negative_centers, n_features_in_)
+    negative_centers_ : ndarray of shape (n_negative_centers, n_features)
         k-means centres of the negative descriptors.
     center_scores_ : ndarray of shape (n_positive_centers,)
         ``Eu`` of every positive centre: its mean distance to the negative centres.
-    centers_ : ndarray of shape (n_centers_, n_features_in_)
+    centers_ : ndarray of shape (n_centers, n_features)
         The kept positive centres, best (largest ``Eu``) first.
     n_centers_ : int
         Number of kept centres.
