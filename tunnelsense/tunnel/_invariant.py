@@ -52,6 +52,25 @@ def _crop(image, box, margin):
     return image[r0:r1, c0:c1], (c0, r0)
 
 
+def _percentiles(counts, n):
+    """The 10th and 90th percentiles of ``n`` 8-bit values from their counts.
+
+    Equal to ``np.percentile(values, [10, 90])`` (linear interpolation between
+    the neighbouring order statistics).
+    """
+    cdf = np.cumsum(counts)
+    out = []
+    for q in (_LOW_Q, _HIGH_Q):
+        pos = q / 100.0 * (n - 1)
+        k = int(np.floor(pos))
+        a = float(np.searchsorted(cdf, k, side="right"))
+        b = float(np.searchsorted(cdf, min(k + 1, n - 1), side="right"))
+        t = pos - k
+        # numpy's lerp, term for term (exact equality with np.percentile)
+        out.append(b - (b - a) * (1 - t) if t >= 0.5 else a + (b - a) * t)
+    return out
+
+
 def patch_features(patch, box_hw, bins=16) -> np.ndarray:
     """The invariant features of one patch (see :func:`invariant_features`)."""
     import cv2  # noqa: PLC0415
@@ -61,12 +80,16 @@ def patch_features(patch, box_hw, bins=16) -> np.ndarray:
         p = np.clip(p, 0, 255).astype(np.uint8)
     if min(p.shape) >= 3:
         p = cv2.medianBlur(p, 3)
-    v = p.astype(np.float64)
-    lo, hi = np.percentile(v, [_LOW_Q, _HIGH_Q])
+    counts = np.bincount(p.ravel(), minlength=256)
+    lo, hi = _percentiles(counts, p.size)
     span = max(hi - lo, 1.0)
-    z = (v - lo) / span
-    counts, _ = np.histogram(np.clip(z, -0.5, 1.5), bins=bins, range=(-0.5, 1.5))
-    hist = counts / max(z.size, 1)
+    zlut = (np.arange(256, dtype=np.float64) - lo) / span
+    z = zlut[p]
+    # the histogram of z, one weighted entry per grey level: the same bins as
+    # np.histogram over the pixels, at a fraction of the cost
+    hist, _ = np.histogram(np.clip(zlut, -0.5, 1.5), bins=bins, range=(-0.5, 1.5),
+                           weights=counts)
+    hist = hist / max(z.size, 1)
     bright = z > 0.5
     fill = float(bright.mean())
     inner = z[bright]
