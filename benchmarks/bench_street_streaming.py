@@ -31,15 +31,16 @@ def stream_once(est, X):
     state = est.start_stream()
     lat = np.empty(len(X))
     rows = []
+    window = 0
     t0 = time.perf_counter()
     for i, record in enumerate(X):
         t = time.perf_counter()
-        state.push(record)
+        done = state.push(record)
         lat[i] = time.perf_counter() - t
-        rows.extend(state.pop_objects())
-    state.close()
-    rows.extend(state.pop_objects())
-    return time.perf_counter() - t0, lat, rows, state.max_window
+        window = max(window, state.n_held)
+        rows.extend(row for r in done for row in r.payload["finished_objects"])
+    rows.extend(row for r in state.close() for row in r.payload["finished_objects"])
+    return time.perf_counter() - t0, lat, rows, window
 
 
 def main(n_scans=3000, repeats=3):

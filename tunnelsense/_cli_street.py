@@ -39,9 +39,12 @@ def _read_runs(paths, args):
 
 
 def _cmd_train(args) -> int:
+    import numpy as np
+    import pandas as pd
+
     from tunnelsense.io import save_model
     from tunnelsense.io._output import check_output
-    from tunnelsense.street import train_detector
+    from tunnelsense.street import SEARCH_GRID, train_detector
 
     start = time.perf_counter()
     if Path(args.model).suffix.lower() not in (".skops", ".joblib"):
@@ -52,11 +55,11 @@ def _cmd_train(args) -> int:
     check_output(args.model, overwrite=args.force, inputs=inputs, what="--model")
     key = signing_key(args)
     runs = _read_runs(args.rundirs, args)
-    counts = {k: sum(r[k] for r in _run_counts(runs)) for k in ("parked", "passing")}
+    labels = pd.concat([run.gt["label"] for run in runs]).value_counts()
     print(f"training on {len(runs)} run(s), {sum(map(len, runs))} scans, "
-          f"{counts['parked']} parked, {counts['passing']} passing vehicles"
-          + (f"; searching {_grid_size()} settings on {args.jobs} job(s)"
-             if args.search else ""))
+          f"{labels.get('parked', 0)} parked, {labels.get('passing', 0)} passing vehicles"
+          + (f"; searching {np.prod([len(v) for v in SEARCH_GRID.values()])} settings "
+             f"on {args.jobs} job(s)" if args.search else ""))
     model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
     if args.search:
         s = summary["search"]
@@ -70,17 +73,6 @@ def _cmd_train(args) -> int:
     print(f"wrote {args.model} ({kind}{', signed' if key is not None else ''}; "
           f"{time.perf_counter() - start:.1f} s)")
     return 0
-
-
-def _run_counts(runs):
-    return [{k: int((run.gt["label"] == k).sum()) for k in ("parked", "passing")}
-            for run in runs]
-
-
-def _grid_size():
-    from tunnelsense.street import SEARCH_GRID
-
-    return len(SEARCH_GRID["cluster__cut"]) * len(SEARCH_GRID["cluster__link_distance"])
 
 
 def _rate(value):
@@ -114,7 +106,7 @@ def _cmd_detect(args) -> int:
           + ", ".join(f"{c} {k}" for k, c in sorted(counts.items()))
           + f" -> {args.out}" + (f" (resumed after {resumed} rows)" if resumed else ""))
     if args.draw:
-        from tunnelsense.street._plotting import draw_run
+        from tunnelsense.plotting import draw_run
 
         run = _read_runs([args.rundir], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "FINISHED_OBJECTS",
     "APPEARANCE",
     "APPEARANCE_SCORE",
     "BEAMS",
@@ -106,6 +107,9 @@ TILT = "tilt"
 IN_VIEW = "in_view"
 #: float (m/s), read when present: the ego speed at the scan.
 SPEED = "speed"
+#: Object-table rows (:data:`~tunnelsense.street.OBJECT_COLUMNS`) that became final
+#: by the time this scan was released (``tuple`` of tuples, in id order).
+FINISHED_OBJECTS = "finished_objects"
 
 #: The stage that adds each key (named in the error for a record that lacks it).
 MADE_BY = {
@@ -130,6 +134,7 @@ MADE_BY = {
     OBJECTS: "ScanClusterer",
     TILT: "ScanClusterer",
     IN_VIEW: "ScanClusterer",
+    FINISHED_OBJECTS: "ScanClusterer",
 }
 
 

@@ -42,7 +42,6 @@ __all__ = [
     "StreamingMixin",
     "StreamingPipeline",
     "check_next_key",
-    "decode_ahead",
     "start_stream",
     "stream_order",
     "tour_groups",
@@ -299,6 +298,9 @@ class _StatelessStream:
     def push(self, record):
         return list(self._map([record]))
 
+    def push_many(self, records):
+        return list(self._map(records)) if records else []
+
     def close(self):
         return []
 
@@ -376,6 +378,28 @@ class StreamingPipeline:
                 break
         return batch
 
+    def push_many(self, records) -> list:
+        """Feed consecutive records at once; the same result as pushing them one by one.
+
+        Each stage takes the whole chunk in one call (``push_many`` of its state,
+        ``transform`` of a stateless stage), which saves the per-call overhead where
+        records are small and many (laser scans).
+        """
+        records = list(records)
+        last = self._last_key
+        for r in records:
+            last = check_next_key(last, r)
+        self._last_key = last
+        batch = records
+        for state in self._states:
+            if not batch:
+                break
+            if hasattr(state, "push_many"):
+                batch = state.push_many(batch)
+            else:
+                batch = [out for r in batch for out in state.push(r)]
+        return batch
+
     def close(self) -> list:
         """End the stream; return the records still held by the stages."""
         batch = []
@@ -387,48 +411,25 @@ class StreamingPipeline:
             batch = out
         return batch
 
-    def run(self, records: Iterable) -> Iterator:
-        """Stream ``records`` through; yield the last step's records as they finish."""
-        for record in records:
-            yield from self.push(record)
+    def run(self, records: Iterable, *, chunk=1) -> Iterator:
+        """Stream ``records`` through; yield the last step's records as they finish.
+
+        Parameters
+        ----------
+        records : iterable of FrameRecord or ScanRecord
+        chunk : int, default=1
+            Records fed at once (:meth:`push_many`); the results are the same at any
+            chunk size, only later by up to ``chunk - 1`` records.
+        """
+        if chunk <= 1:
+            for record in records:
+                yield from self.push(record)
+        else:
+            held = []
+            for record in records:
+                held.append(record)
+                if len(held) == chunk:
+                    yield from self.push_many(held)
+                    held = []
+            yield from self.push_many(held)
         yield from self.close()
-
-
-def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
-    """Yield the records with their images decoded, decoding ahead in threads.
-
-    OpenCV releases the interpreter lock while it decodes, so reader threads decode
-    the next frames while the detector works on this one.  Records come out in input
-    order, each with a :class:`~tunnelsense.DecodedImage` source (in-memory images
-    pass unchanged); at most ``ahead`` decoded frames wait, so memory stays bounded.
-
-    Parameters
-    ----------
-    records : iterable of FrameRecord
-    n_threads : int, default=1
-        Reader threads; 0 decodes in the calling thread, as the records are taken.
-    ahead : int, default=8
-        Frames decoded ahead at most.
-
-    Yields
-    ------
-    record : FrameRecord
-    """
-    from collections import deque
-    from concurrent.futures import ThreadPoolExecutor
-
-    from tunnelsense._records import decode_once
-
-    if n_threads < 1:
-        for record in records:
-            yield decode_once(record)
-        return
-    with ThreadPoolExecutor(max_workers=n_threads,
-                            thread_name_prefix="decode") as pool:
-        pending = deque()
-        for record in records:
-            pending.append(pool.submit(decode_once, record))
-            if len(pending) >= ahead:
-                yield pending.popleft().result()
-        while pending:
-            yield pending.popleft().result()

@@ -127,6 +127,54 @@ def test_link_scans_breaks_on_gap_and_depth():
     assert link_scans(pos, depth, follows, 0.3).tolist() == [0, 1, 2, 3, 4]
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40).flatmap(lambda n: st.tuples(
+    st.just(n), st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)),
+                         max_size=60))))
+def test_components_equal_scipy(graph):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from tunnelsense.street._clustering import components
+
+    n, edges = graph
+    a = np.array([e[0] for e in edges], dtype=np.int64)
+    b = np.array([e[1] for e in edges], dtype=np.int64)
+    labels = components(n, a, b)
+    m = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    assert same_partition(labels, connected_components(m, directed=False)[1])
+    # every label is the smallest node of its component
+    assert all(labels[i] == np.flatnonzero(labels == labels[i]).min() for i in range(n))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 6), st.floats(0.0, 8.0)), max_size=40),
+       st.lists(st.booleans(), min_size=7, max_size=7))
+def test_link_scans_equals_the_rule_pair_by_pair(clusters, follows):
+    """Two clusters link when their scans are consecutive, the later follows the
+    earlier, and their mean depths differ by less than link_distance."""
+    from tunnelsense.street._clustering import components
+
+    clusters.sort(key=lambda c: c[0])
+    pos = np.array([c[0] for c in clusters], dtype=np.int64)
+    depth = np.array([c[1] for c in clusters])
+    follows = np.array(follows)
+    pairs = [(i, j) for i in range(len(pos)) for j in range(len(pos))
+             if pos[j] == pos[i] + 1 and follows[pos[j]]
+             and abs(depth[i] - depth[j]) < 0.5]
+    want = components(len(pos), np.array([p[0] for p in pairs], dtype=np.int64),
+                      np.array([p[1] for p in pairs], dtype=np.int64))
+    got = link_scans(pos, depth, follows, 0.5)
+    assert same_partition(got, want)
+    if len(got):
+        assert got[0] == 0 and np.all(np.diff(np.maximum.accumulate(got)) <= 1)
+
+
+def test_link_scans_wants_clusters_in_scan_order():
+    with pytest.raises(ValueError, match="position must be non-decreasing"):
+        link_scans(np.array([1, 0]), np.array([2.0, 2.0]), np.array([False, True]))
+
+
 def test_section_evidence_wall_and_hidden_lower_part():
     from tunnelsense.street import section_evidence
 

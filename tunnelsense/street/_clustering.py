@@ -28,6 +28,7 @@ import numpy as np
 
 __all__ = [
     "components",
+    "concat",
     "expand_ranges",
     "first_appearance",
     "link_pairs",
@@ -74,6 +75,19 @@ def components(n, a, b):
             if np.array_equal(jumped, labels):
                 break
             labels = jumped
+
+
+def concat(*parts):
+    """``np.r_`` of 1-d arrays and scalars, without its per-call indexing overhead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import concat
+    >>> concat(True, np.array([False, True])).tolist()
+    [True, False, True]
+    """
+    return np.concatenate([np.atleast_1d(p) for p in parts])
 
 
 def expand_ranges(starts, counts):
@@ -139,20 +153,20 @@ def _single_linkage_groups(x, y, group, cut):
     dx = np.diff(x)
     dy = np.diff(y)
     link = (np.sqrt(dx * dx + dy * dy) <= cut) & (group[1:] == group[:-1])
-    new_chain = np.r_[True, ~link]
+    new_chain = concat(True, ~link)
     chain = np.cumsum(new_chain) - 1
     starts = np.flatnonzero(new_chain)
     n_chains = len(starts)
-    lengths = np.diff(np.r_[starts, n])
+    lengths = np.diff(concat(starts, n))
     xmin = np.minimum.reduceat(x, starts)
     xmax = np.maximum.reduceat(x, starts)
     ymin = np.minimum.reduceat(y, starts)
     ymax = np.maximum.reduceat(y, starts)
     cgroup = group[starts]
     # 2. candidate chain pairs of the same group with boxes within cut
-    grp_change = np.r_[True, cgroup[1:] != cgroup[:-1]]
+    grp_change = concat(True, cgroup[1:] != cgroup[:-1])
     grp_first = np.flatnonzero(grp_change)
-    grp_size = np.diff(np.r_[grp_first, n_chains])
+    grp_size = np.diff(concat(grp_first, n_chains))
     grp_end = np.repeat(grp_first + grp_size, grp_size)  # one past the group's last
     partners = grp_end - np.arange(n_chains) - 1
     bi, ai = expand_ranges(np.arange(n_chains) + 1, partners)
@@ -186,7 +200,7 @@ def _single_linkage_groups(x, y, group, cut):
             ea, eb = ai[hit], bi[hit]
     # 3. components of the chain graph, numbered by first appearance within each group
     glob = first_appearance(components(n_chains, ea, eb)[chain])
-    pgroup_first = np.r_[True, group[1:] != group[:-1]]
+    pgroup_first = concat(True, group[1:] != group[:-1])
     base = np.maximum.accumulate(np.where(pgroup_first, glob, 0))
     return glob - base
 
@@ -237,7 +251,7 @@ def single_linkage(points, cut=0.6, *, groups=None):
             raise ValueError(
                 f"groups must have shape ({len(pts)},) like points; got {g.shape}"
             )
-        change = np.r_[True, g[1:] != g[:-1]] if len(g) else np.empty(0, bool)
+        change = concat(True, g[1:] != g[:-1]) if len(g) else np.empty(0, bool)
         if len(np.unique(g)) != int(change.sum()):
             raise ValueError("groups must be contiguous (each group in one run)")
         g = np.cumsum(change) - 1
@@ -267,8 +281,8 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5):
     n_positions = len(follows)
     count = np.bincount(pos, minlength=n_positions)
     start = np.cumsum(count) - count
-    prev_count = np.r_[0, count[:-1]]
-    prev_start = np.r_[0, start[:-1]]
+    prev_count = concat(0, count[:-1])
+    prev_start = concat(0, start[:-1])
     # every cluster against all clusters of the previous scan, if it directly follows
     n_prev = np.where(np.asarray(follows, dtype=bool), prev_count, 0)[pos]
     earlier, later = expand_ranges(prev_start[pos], n_prev)

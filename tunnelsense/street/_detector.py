@@ -17,9 +17,19 @@ from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import Interval
 
+from tunnelsense._payload import (
+    BEAMS,
+    CLUSTERS,
+    FINISHED_OBJECTS,
+    IN_VIEW,
+    OBJECTS,
+    POINTS,
+    SPEED,
+    TILT,
+)
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense._streaming import StreamingMixin
-from tunnelsense.street._stream import FINISHED, ScanStream
+from tunnelsense.street._stream import ScanStream
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer", "make_parking_pipeline"]
 
@@ -125,10 +135,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         continuation starts a new object-cluster.  In a region labelled as vehicles
         the limit is at least ``max_length`` (it cannot be one vehicle).  This bounds
         the memory of the online detector; batch runs the same checks, so both agree.
-        The default is about 3 times the longest object-cluster of parked or passing
-        vehicles in the simulated streets (27 m: cars nose to tail, bridged behind
-        passing vehicles), which the merge split must see whole.  None: wait for
-        every object-cluster to end (memory then follows the longest one).
+        None: wait for every object-cluster to end (memory then follows the longest
+        one).  See ``docs/street.md`` for how the default was chosen.
 
     Attributes
     ----------
@@ -153,6 +161,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
        id  first_scan  last_scan   label
     0   1          10         39  parked
     """
+
+    _payload_reads = ()
+    _payload_optional = (SPEED,)
+    _payload_adds = (POINTS, BEAMS, CLUSTERS, OBJECTS, TILT, IN_VIEW, FINISHED_OBJECTS)
 
     _parameter_constraints: dict = {
         "cut": [Interval(numbers.Real, 0, None, closed="neither")],
@@ -328,7 +340,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     def _batch(self, X):
         """The records of ``X`` through the stream (input order) and the object table."""
         out, _ = self._stream_batch(X)
-        rows = sorted((row for r in out for row in r.payload[FINISHED]),
+        rows = sorted((row for r in out for row in r.payload[FINISHED_OBJECTS]),
                       key=lambda row: row[1])
         table = pd.DataFrame(rows, columns=list(OBJECT_COLUMNS))
         table = table.astype({"id": np.int64, "first_scan": np.int64,

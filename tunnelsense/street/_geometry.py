@@ -22,7 +22,14 @@ from tunnelsense.street._restoration import (
 )
 from tunnelsense.street._roi import roi_mask
 
-__all__ = ["DEFAULT_SCAN_PERIOD", "History", "RoiPoints", "roi_points", "running_median"]
+__all__ = [
+    "DEFAULT_SCAN_PERIOD",
+    "DEFAULT_SPEED",
+    "History",
+    "RoiPoints",
+    "roi_points",
+    "running_median",
+]
 
 #: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
 #: the paper's measurement vehicle drove at about 40 km/h.
@@ -85,7 +92,7 @@ class History:
         tilts = np.asarray(tilts, dtype=np.float64)
         for i in range(len(tilts)):
             if np.isfinite(tilts[i]):
-                self.tilts = np.r_[self.tilts[-(HISTORY - 1):], tilts[i]]
+                self.tilts = np.append(self.tilts[-(HISTORY - 1):], tilts[i])
             else:
                 tilts[i] = float(np.median(self.tilts)) if len(self.tilts) else 0.0
         return tilts

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense.street._clustering import concat
+
 __all__ = [
     "ObjectProfiles",
     "bridged",
@@ -31,7 +33,14 @@ MIN_VISIBLE = 0.5
 
 
 def depth_region(depth, edges):
-    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``."""
+    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``.
+
+    Examples
+    --------
+    >>> from tunnelsense.street._objects import depth_region
+    >>> depth_region([2.5, 5.0, 7.0], (4.0, 6.6)).tolist()
+    [0, 1, 2]
+    """
     return np.searchsorted(edges, depth, side="right")
 
 
@@ -64,7 +73,7 @@ class ObjectProfiles:
         order = np.lexsort((position, objects))
         obj, pos = objects[order], position[order]
         # one row per (object, scan)
-        starts = np.flatnonzero(np.r_[True, (obj[1:] != obj[:-1]) | (pos[1:] != pos[:-1])])
+        starts = np.flatnonzero(concat(True, (obj[1:] != obj[:-1]) | (pos[1:] != pos[:-1])))
         weight = n_points[order]
         scan_weight = np.add.reduceat(weight, starts)
         scan_depth = np.add.reduceat(weight * depth[order], starts) / np.maximum(
@@ -73,9 +82,9 @@ class ObjectProfiles:
         if flags is not None:
             self.scan_flags_ = np.bitwise_or.reduceat(flags[order], starts)
         scan_obj, self.scan_position = obj[starts], pos[starts]
-        first_row = np.flatnonzero(np.r_[True, scan_obj[1:] != scan_obj[:-1]])
-        last_row = np.r_[first_row[1:], len(scan_obj)] - 1
-        self.rows = np.r_[first_row, len(scan_obj)]
+        first_row = np.flatnonzero(concat(True, scan_obj[1:] != scan_obj[:-1]))
+        last_row = concat(first_row[1:], len(scan_obj)) - 1
+        self.rows = concat(first_row, len(scan_obj))
         self.first = self.scan_position[first_row]
         self.last = self.scan_position[last_row]
         self.start_depth = scan_depth[first_row]
@@ -95,14 +104,15 @@ class ObjectProfiles:
         return self.scan_flags_[self.rows[o]:self.rows[o + 1]]
 
 
-def bridged(end_depth, start_depth, gap, near_between, *, link_distance, merge_gap,
-            occlusion_margin, bridge_occluded):
+def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
+            merge_gap, occlusion_margin, bridge_occluded):
     """The merge rule for a fragment starting after another one ends.
 
+    The first ends before scan ``after``, the second starts at scan ``before``.
     They join when the first's last and the second's first mean depths differ by less
-    than ``link_distance`` and the gap (m) between them is at most ``merge_gap``, or
-    (``bridge_occluded``) every scan of the gap shows something at least
-    ``occlusion_margin`` nearer (``near_between``: nearest depth in each gap scan).
+    than ``link_distance`` and the gap between them (``cum[before] - cum[after]``
+    metres) is at most ``merge_gap``, or (``bridge_occluded``) every scan of the gap
+    shows something at least ``occlusion_margin`` nearer.
 
     Examples
     --------
@@ -110,16 +120,19 @@ def bridged(end_depth, start_depth, gap, near_between, *, link_distance, merge_g
     >>> from tunnelsense.street._objects import bridged
     >>> rule = dict(link_distance=0.5, merge_gap=0.5, occlusion_margin=1.0,
     ...             bridge_occluded=True)
-    >>> bridged(5.0, 5.2, 3.0, np.array([2.5, 2.4]), **rule)
+    >>> cum = np.arange(8) * 1.5  # metres travelled up to every scan
+    >>> near = np.array([5.0, 5.0, 2.5, 2.4, 5.2, 5.2, 5.2])
+    >>> bridged(5.0, 5.2, 2, 4, cum, near, **rule)  # a passing vehicle hid the gap
     True
-    >>> bridged(5.0, 5.2, 3.0, np.array([2.5, np.inf]), **rule)
+    >>> near[3] = np.inf
+    >>> bridged(5.0, 5.2, 2, 4, cum, near, **rule)
     False
     """
     if not abs(end_depth - start_depth) < link_distance:
         return False
-    if gap <= merge_gap:
+    if cum[before] - cum[after] <= merge_gap:
         return True
-    hidden = near_between < min(end_depth, start_depth) - occlusion_margin
+    hidden = near[after:before] < min(end_depth, start_depth) - occlusion_margin
     return bool(bridge_occluded and np.all(hidden))
 
 
@@ -131,6 +144,38 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     (the paper's rule), or when ``b`` starts after ``a`` ends and :func:`bridged`
     joins them; fragments starting more than ``reach`` metres apart never join.
     ``rule`` holds the keywords of :func:`bridged`.
+
+    Parameters
+    ----------
+    prof : ObjectProfiles
+        The fragments.
+    region : ndarray of shape (n_fragments,) of int
+        Region of every fragment's mean depth (:func:`depth_region`).
+    cum, near, follows : ndarray
+        The window's distances, nearest depths and scan continuity.
+    reach : float
+        ``max_length + merge_gap``.
+
+    Returns
+    -------
+    root : ndarray of shape (n_fragments,) of int64
+        The smallest fragment of every fragment's merged object-cluster.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import (ObjectProfiles, depth_region,
+    ...                                          merge_fragments)
+    >>> # two fragments of a car 0.2 m apart, and a passing vehicle nearer
+    >>> prof = ObjectProfiles(np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 4, 5, 5]),
+    ...                       np.array([5.0, 5.0, 5.0, 5.1, 5.1, 2.0]), np.full(6, 1.4),
+    ...                       np.full(6, 20.0))
+    >>> merge_fragments(prof, depth_region(prof.depth, (4.0, 6.6)), np.arange(7) * 0.2,
+    ...                 np.array([5.0, 5.0, 5.0, np.inf, 2.0, 2.0]),
+    ...                 np.array([False, True, True, True, True, True]), reach=25.5,
+    ...                 link_distance=0.5, merge_gap=0.5, occlusion_margin=1.0,
+    ...                 bridge_occluded=True).tolist()
+    [0, 0, 2]
     """
     first, last = prof.first, prof.last
     stretch = np.cumsum(~follows) - 1
@@ -156,9 +201,8 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
                 join = overlap >= 0.5 * shorter
             else:
                 lo, hi = (a, b) if last[a] < first[b] else (b, a)
-                join = bridged(prof.end_depth[lo], prof.start_depth[hi],
-                               cum[first[hi]] - cum[last[lo] + 1],
-                               near[last[lo] + 1:first[hi]], **rule)
+                join = bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
+                               first[hi], cum, near, **rule)
             if join:
                 ra, rb = find(a), find(b)
                 if ra != rb:
@@ -261,7 +305,17 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance)
 def hidden_ends(near, follows, first, last, depth, cum, cap):
     """Scans right before ``first`` and after ``last`` (within one stretch of
     consecutive scans) whose nearest cluster is nearer than ``depth``; each walk stops
-    once it covers ``cap`` metres (no decision looks farther)."""
+    once it covers ``cap`` metres (no decision looks farther).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import hidden_ends
+    >>> near = np.array([5.0, 2.0, 2.0, 5.0, 5.0])  # something nearer in scans 1, 2
+    >>> hidden_ends(near, np.array([False, True, True, True, True]), 3, 4, 4.0,
+    ...             np.arange(6) * 0.5, 4.0)
+    (2, 0)
+    """
     before = 0
     p = first - 1
     while (p >= 0 and follows[p + 1] and near[p] < depth
@@ -294,7 +348,7 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     if vehicle:
         covered = near[seen[0]:seen[-1] + 1] < depth - link_distance
         covered[seen - seen[0]] = True
-        edges = np.r_[-1, np.flatnonzero(~covered), len(covered)] + seen[0]
+        edges = concat(-1, np.flatnonzero(~covered), len(covered)) + seen[0]
         longest = (cum[edges[1:]] - cum[edges[:-1] + 1]).max()
         seen_length = (cum[seen + 1] - cum[seen]).sum()
         if cut_short:

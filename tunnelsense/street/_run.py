@@ -10,10 +10,11 @@ to a CSV file line by line, flushed, so that an interrupted run keeps them.
 
 from __future__ import annotations
 
+from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS, to_xy
-from tunnelsense._streaming import ResultsWriter, StreamingPipeline
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.street._detector import OBJECT_COLUMNS, make_parking_pipeline
-from tunnelsense.street._stream import FINISHED
 
 __all__ = [
     "OBJECT_CSV_COLUMNS",
@@ -23,6 +24,10 @@ __all__ = [
     "train_detector",
     "write_objects",
 ]
+
+#: Scans fed into the stream at once by :func:`stream_objects` (the objects are the
+#: same at any chunk size; larger chunks save per-call overhead).
+SCAN_CHUNK = 64
 
 #: Columns of the object CSV file (the object table without ``run``).
 OBJECT_CSV_COLUMNS = OBJECT_COLUMNS[1:]
@@ -138,8 +143,8 @@ def stream_objects(pipeline, scans, *, all_objects=False):
     >>> rows == list(model[-1].detect(run.scans).itertuples(index=False, name=None))
     True
     """
-    for record in StreamingPipeline(pipeline).run(scans):
-        for row in record.payload[FINISHED]:
+    for record in StreamingPipeline(pipeline).run(scans, chunk=SCAN_CHUNK):
+        for row in record.payload[FINISHED_OBJECTS]:
             if all_objects or row[4] in RUN_LABELS:
                 yield row
 
@@ -165,7 +170,7 @@ def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,
     Every line is flushed as soon as its object is final.  An existing file is
     refused unless ``overwrite`` (replaced when complete) or ``resume`` (continued:
     the replayed lines are checked against it; see
-    :class:`~tunnelsense._streaming.ResultsWriter`).
+    :class:`~tunnelsense.io.ResultsWriter`).
 
     Parameters
     ----------

@@ -30,9 +30,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
-from tunnelsense.street._clustering import components, expand_ranges, first_appearance
+from tunnelsense.street._clustering import (
+    components,
+    concat,
+    expand_ranges,
+    first_appearance,
+)
 from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
@@ -45,10 +51,9 @@ from tunnelsense.street._objects import (
 )
 from tunnelsense.street._window import ScanWindow
 
-__all__ = ["FINISHED", "ScanStream"]
+__all__ = ["ScanStream"]
 
 #: Payload key of the object-table rows that became final by a released record.
-FINISHED = "finished_objects"
 #: Every this many scans of a run (absolute positions), object-clusters pending for
 #: longer than ``max_pending_length`` are closed (the same scans in batch and online).
 CHECK_EVERY = 64
@@ -166,10 +171,11 @@ class _RunState(ScanWindow):
         if len(pending):
             lookup = np.full(len(self.object_id), -1, dtype=np.int64)
             lookup[pending] = np.arange(len(pending))
-            a = lookup[self.links[0] - self.cluster_base]
-            b = lookup[self.links[1] - self.cluster_base]
-            keep = (a >= 0) & (b >= 0)
-            fragment = first_appearance(components(len(pending), a[keep], b[keep]))
+            earlier = lookup[self.links[0] - self.cluster_base]
+            later = lookup[self.links[1] - self.cluster_base]
+            keep = (earlier >= 0) & (later >= 0)
+            fragment = first_appearance(
+                components(len(pending), earlier[keep], later[keep]))
             position = self.position[pending] - self.base
             prof = ObjectProfiles(fragment, position, self.depth[pending],
                                   self.top[pending], self.n_points[pending])
@@ -184,9 +190,9 @@ class _RunState(ScanWindow):
             if not final_fragment.all():
                 frontier = self.base + int(prof.first[~final_fragment].min())
             if final_fragment.any():
-                sel = final_fragment[fragment]
-                _, objects = np.unique(root[fragment[sel]], return_inverse=True)
-                self._finalize(pending[sel], objects.ravel(), position[sel], ended)
+                done = final_fragment[fragment]  # clusters of final object-clusters
+                _, objects = np.unique(root[fragment[done]], return_inverse=True)
+                self._finalize(pending[done], objects.ravel(), position[done], ended)
         return self._number_and_release(frontier, ended, next_id)
 
     def _overdue(self, prof, root, region, final):
@@ -229,13 +235,13 @@ class _RunState(ScanWindow):
                           & (np.abs(cum[fb] - cum[first]) <= self.reach))
             for a in np.flatnonzero(candidates):
                 blocked[a] = fb <= last[a] or bridged(
-                    prof.end_depth[a], prof.start_depth[b], cum[fb] - cum[last[a] + 1],
-                    near[last[a] + 1:fb], **self.rule)
+                    prof.end_depth[a], prof.start_depth[b], last[a] + 1, fb, cum, near,
+                    **self.rule)
         # enough scans after the object-cluster to see whether its end is hidden
         last_of_root = np.full(prof.n, -1, dtype=np.int64)
         np.maximum.at(last_of_root, root, last)
         end = last_of_root[root]
-        stretch_end = np.flatnonzero(np.r_[~follows[1:], False])
+        stretch_end = np.flatnonzero(concat(~follows[1:], False))
         ends_known = np.searchsorted(stretch_end, end) < len(stretch_end)
         seen_after = (end < t) & ((cum[t + 1] - cum[np.minimum(end + 1, t)] >= self.cap)
                                   | ends_known)
@@ -331,8 +337,8 @@ class _RunState(ScanWindow):
                     points=points, beams=beams, clusters=local,
                     objects=self.object_id[c0:c0 + self.n_clusters[i]].copy(),
                     tilt=float(self.tilt[i]), in_view=in_view[p - self.released],
-                    **{FINISHED: ()}))
-            out[-1] = out[-1].evolve(**{FINISHED: tuple(self.rows)})
+                    **{FINISHED_OBJECTS: ()}))
+            out[-1] = out[-1].evolve(**{FINISHED_OBJECTS: tuple(self.rows)})
             self.rows = []
             self.released = release_end
             self.spans = [s for s in self.spans if s[1] >= release_end]

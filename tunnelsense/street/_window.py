@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tunnelsense.street._clustering import link_pairs, single_linkage
+from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
 from tunnelsense.street._sections import section_evidence
 
@@ -84,10 +84,10 @@ class ScanWindow:
                     "its run's first scan: expected one geometry per run")
         scans = np.array([r.scan for r in block], dtype=np.int64)
         stamps = np.array([r.stamp for r in block], dtype=np.float64)
-        prev = np.r_[scans[0] - 1 if self.last_scan is None else self.last_scan,
-                     scans[:-1]]
-        prev_stamps = np.r_[np.nan if self.last_stamp is None else self.last_stamp,
-                            stamps[:-1]]
+        prev = concat(scans[0] - 1 if self.last_scan is None else self.last_scan,
+                     scans[:-1])
+        prev_stamps = concat(np.nan if self.last_stamp is None else self.last_stamp,
+                            stamps[:-1])
         periods = stamps - prev_stamps
         if np.any(periods < 0):
             i = int(np.flatnonzero(periods < 0)[0])
@@ -140,31 +140,31 @@ class ScanWindow:
         first_new = self.cluster_base + len(self.position)
         n_prev = int(self.n_clusters[-1]) if len(self.n_clusters) else 0
         earlier, later = link_pairs(
-            np.r_[np.zeros(n_prev, np.int64), position + 1],
-            np.r_[self.depth[len(self.depth) - n_prev:], depth],
-            np.r_[False, follows], est.link_distance)
-        absolute = np.r_[np.arange(first_new - n_prev, first_new),
-                         first_new + np.arange(k)]
+            concat(np.zeros(n_prev, np.int64), position + 1),
+            concat(self.depth[len(self.depth) - n_prev:], depth),
+            concat(False, follows), est.link_distance)
+        absolute = concat(np.arange(first_new - n_prev, first_new),
+                         first_new + np.arange(k))
         # append to the window
         bounds = np.searchsorted(roi.scan, np.arange(n + 1))
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
             self.payload.append((roi.points[a:b], roi.beam[a:b], local[a:b]))
         self.records.extend(block)
-        self.scans = np.r_[self.scans, scans]
-        self.follows = np.r_[self.follows, follows]
-        self.near = np.r_[self.near, near]
-        self.cum = np.r_[self.cum, np.cumsum(np.r_[self.cum[-1], step])[1:]]
-        self.tilt = np.r_[self.tilt, roi.tilt]
-        self.n_clusters = np.r_[self.n_clusters, n_clusters]
-        self.first_cluster = np.r_[self.first_cluster, first_new + start]
-        self.position = np.r_[self.position, self.n_seen + position]
-        self.depth = np.r_[self.depth, depth]
-        self.top = np.r_[self.top, top]
-        self.n_points = np.r_[self.n_points, n_points.astype(np.float64)]
-        self.flags = np.r_[self.flags, flags]
-        self.object_id = np.r_[self.object_id, np.zeros(k, np.int64)]
-        self.links = (np.r_[self.links[0], absolute[earlier]],
-                      np.r_[self.links[1], absolute[later]])
+        self.scans = concat(self.scans, scans)
+        self.follows = concat(self.follows, follows)
+        self.near = concat(self.near, near)
+        self.cum = concat(self.cum, np.cumsum(concat(self.cum[-1], step))[1:])
+        self.tilt = concat(self.tilt, roi.tilt)
+        self.n_clusters = concat(self.n_clusters, n_clusters)
+        self.first_cluster = concat(self.first_cluster, first_new + start)
+        self.position = concat(self.position, self.n_seen + position)
+        self.depth = concat(self.depth, depth)
+        self.top = concat(self.top, top)
+        self.n_points = concat(self.n_points, n_points.astype(np.float64))
+        self.flags = concat(self.flags, flags)
+        self.object_id = concat(self.object_id, np.zeros(k, np.int64))
+        self.links = (concat(self.links[0], absolute[earlier]),
+                      concat(self.links[1], absolute[later]))
         self.n_seen += n
 
     def drop(self, d):

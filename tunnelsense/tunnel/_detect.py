@@ -20,7 +20,8 @@ from threadpoolctl import threadpool_limits
 
 from tunnelsense._fitting import fit_pipeline
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
-from tunnelsense._streaming import StreamingPipeline, decode_ahead
+from tunnelsense._streaming import StreamingPipeline
+from tunnelsense.io._images import decode_ahead
 from tunnelsense.io._results import (
     CLUSTERS_HEADER,
     RESULT_LINE,
