@@ -133,3 +133,16 @@ def test_bad_physical_parameters_are_refused(bad):
     name = next(iter(bad))
     with pytest.raises(ValueError, match=name):
         make_tunnel_tour(1, random_state=0, **bad)
+
+
+@pytest.mark.parametrize("radius", [5000.0, -5000.0])
+def test_change_of_grade_lifts_or_lowers_what_is_ahead(radius):
+    """A sag (radius > 0) raises the road ahead by Z^2 / 2R: the sign moves up."""
+    kw = dict(STILL, first_indicator_m=150.0)
+    flat = _indicator(make_tunnel_tour(1, random_state=3, **kw))
+    graded = _indicator(make_tunnel_tour(1, random_state=3,
+                                         vertical_curve_radius_m=radius, **kw))
+    shift = graded["bb_top"] - flat["bb_top"]
+    assert shift == pytest.approx(-800.0 * 150.0 / (2 * radius), rel=0.05)
+    with pytest.raises(ValueError, match="vertical_curve_radius_m"):
+        make_tunnel_tour(1, random_state=0, vertical_curve_radius_m=100.0)

@@ -99,7 +99,8 @@ def make_tunnel_tour(
         fixed-pattern sigma 0.3-1.5, straight with probability 0.4 else a radius
         of 800-4000 m curving either way, lamps every 8-20 m, signs 0.4-0.6 m x
         0.8-1.2 m at 2.2-3.5 m, speeds from 50-90 km/h up to 10-40 km/h more,
-        2-25 vehicles per km, 0-50 % trucks); the draw depends on the seed only
+        2-25 vehicles per km, 0-50 % trucks, a change of grade with probability
+        0.5: vertical radius 3-30 km, sag or crest); the draw depends on the seed only
         and ``**overrides`` replace drawn values.
     random_state : int, RandomState instance or None, default=None
         Seed; the same seed gives byte-identical images and ground truth.
@@ -123,9 +124,10 @@ def make_tunnel_tour(
         levels), applied to the scene before the noise: ``gain * I + offset``;
         ``fpn_sigma`` (0.8 grey levels: the column fixed-pattern noise; a
         per-pixel part of half that is added); ``indicator_size_m`` ((0.45, 1.0),
-        the sign's width and height in metres).  A constant road grade changes
-        nothing in the image (the camera tilts with the road); a grade change is
-        not modelled.
+        the sign's width and height in metres); ``vertical_curve_radius_m`` (inf:
+        a constant grade, which changes nothing in the image as the camera tilts
+        with the road; signed: > 0 a sag, the road ahead rising by ``s^2 / 2R`` at
+        ``s`` metres, < 0 a crest; at least 500 m).
 
     Returns
     -------
@@ -167,7 +169,9 @@ def make_tunnel_tour(
     fps = 30.0
     H, W = p["image_shape"]
     kappa = 0.0 if math.isinf(p["curve_radius_m"]) else 1.0 / p["curve_radius_m"]
-    cam = _Camera(p["focal_length_px"], (H, W), kappa)
+    vertical = p["vertical_curve_radius_m"]
+    kappa_v = 0.0 if math.isinf(vertical) else 1.0 / vertical
+    cam = _Camera(p["focal_length_px"], (H, W), kappa, kappa_v)
 
     t, speed, s_ego, lat, hgt, pitch = _ego_motion(rng, n_frames, fps, p)
     distance = float(s_ego[-1] + speed[-1] / fps)
@@ -310,6 +314,7 @@ def make_tunnel_tour(
         "traffic_per_km": float(p["traffic_per_km"]),
         "truck_fraction": float(p["truck_fraction"]),
         "pitch_deg": float(p["pitch_deg"]),
+        "vertical_curve_radius_m": float(vertical),
         "noise_corr_px": float(p["noise_corr_px"]),
         "gain": float(p["gain"]),
         "offset": float(p["offset"]),

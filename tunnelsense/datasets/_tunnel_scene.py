@@ -37,6 +37,7 @@ _DEFAULTS = {
     "offset": 0.0,  # sensor offset (grey levels)
     "fpn_sigma": 0.8,  # column fixed-pattern noise (the pixel part is half of it)
     "indicator_size_m": (0.45, 1.0),  # sign width, height
+    "vertical_curve_radius_m": math.inf,  # change of grade: > 0 sag, < 0 crest
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -60,6 +61,7 @@ RANDOMIZED_RANGES = {
     "speed_span_kmh": (10.0, 40.0),
     "traffic_per_km": (2.0, 25.0),
     "truck_fraction": (0.0, 0.5),
+    "vertical_curve_radius_m": (3000.0, 30000.0),  # |radius|; none with prob. 0.5
 }
 
 
@@ -78,6 +80,8 @@ def _randomized(seed):
     out["indicator_size_m"] = (u("indicator_width_m"), u("indicator_tall_m"))
     low = u("speed_low_kmh")
     out["speed_kmh"] = (low, low + u("speed_span_kmh"))
+    vertical = u("vertical_curve_radius_m") * (1.0 if rng.random() < 0.5 else -1.0)
+    out["vertical_curve_radius_m"] = math.inf if rng.random() < 0.5 else vertical
     return out
 
 _SCENARIOS = {
@@ -193,6 +197,13 @@ def _resolve_params(scenario, overrides, seed=0):
             f"(inf for a straight tunnel); got {p['curve_radius_m']!r}"
         )
     p["curve_radius_m"] = radius
+    vertical = float(p["vertical_curve_radius_m"])
+    if math.isnan(vertical) or abs(vertical) < 500.0:
+        raise ValueError(
+            "vertical_curve_radius_m must be a signed radius with |radius| >= 500 m "
+            f"(inf for a constant grade); got {p['vertical_curve_radius_m']!r}"
+        )
+    p["vertical_curve_radius_m"] = vertical
     p["traffic_per_km"] = _check_range("traffic_per_km", p["traffic_per_km"], 0.0, 60.0)
     p["truck_fraction"] = _check_range("truck_fraction", p["truck_fraction"], 0.0, 1.0)
     p["lateral_jitter_m"] = _check_range(
