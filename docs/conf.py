@@ -58,6 +58,7 @@ myst_heading_anchors = 3
 API_MODULES = {
     "tunnelsense.tunnel": "FIR indicator detector",
     "tunnelsense.street": "Laser parked-vehicle detector",
+    "tunnelsense.positioning": "Positioning in a tunnel",
     "tunnelsense": "Records, tours and runs",
     "tunnelsense.exceptions": "Exceptions",
     "tunnelsense.io": "Reading and writing files",

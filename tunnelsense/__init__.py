@@ -30,6 +30,7 @@ from tunnelsense._records import (
     to_xy,
 )
 from tunnelsense._version import __version__
+from tunnelsense.positioning import TunnelPositioner
 from tunnelsense.street import ScanClusterer, make_parking_pipeline
 from tunnelsense.tunnel import (
     IntensityKeypointSampler,
@@ -54,6 +55,7 @@ __all__ = [
     "make_indicator_pipeline",
     "ScanClusterer",
     "make_parking_pipeline",
+    "TunnelPositioner",
     "FrameSequence",
     "LaserGeometry",
     "MOT_GT_COLUMNS",

@@ -29,6 +29,7 @@ def _modules():
     names = [f"tunnelsense.cli.{m}" for m in _MODULES]
     if importlib.util.find_spec("tunnelsense.cli.street") is None:
         names.append(_STREET_FALLBACK)
+    names.append("tunnelsense._cli_position")  # position, evaluate position
     return [importlib.import_module(n) for n in names if importlib.util.find_spec(n)]
 
 

@@ -18,6 +18,7 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from tunnelsense._records import MOT_GT_COLUMNS, Tour
+from tunnelsense.datasets._odometry import TourKinematics, with_kinematics
 from tunnelsense.datasets._tunnel_camera import _Background, _Camera
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
@@ -323,7 +324,10 @@ def make_tunnel_tour(
         "indicator_tall_m": float(p["indicator_size_m"][1]),
         "indicator_height_m": float(p["indicator_height_m"]),
     }
-    return Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    # where the camera was (positions, odometry, indicator map): no random draws here
+    kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)
+    return with_kinematics(tour, kin)
 
 
 def _correlate(bank, sigma_px):

@@ -80,6 +80,7 @@ TRUSTED_TYPES = frozenset(
         "tunnelsense.tunnel._tracking.TrajectoryLinker",
         "tunnelsense.tunnel._motion.PCCVerifier",
         "tunnelsense.street._detector.ScanClusterer",
+        "tunnelsense.positioning._positioner.TunnelPositioner",
     ]
 )
 

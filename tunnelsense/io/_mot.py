@@ -304,4 +304,6 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
     with open(path / "seqinfo.ini", "w", encoding="utf-8") as f:
         parser.write(f)
     write_mot_gt(tour.gt, path / "gt" / "gt.txt")
+    if getattr(tour, "kinematics", None) is not None:  # simulated: positions, odometry
+        tour.kinematics.write(path)
     return path

@@ -1,0 +1,223 @@
+"""TunnelPositioner on long tours with the detector's output simulated statistically.
+
+Rendering 2 km of video takes minutes, so these tours have their detections drawn
+from the pinhole model (``simulate_indicator_detections``); ``test_end_to_end.py``
+runs the real detector on a rendered tour.
+"""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tunnelsense import FrameRecord
+from tunnelsense.datasets import (
+    make_tunnel_kinematics,
+    make_tunnel_odometry,
+    simulate_indicator_detections,
+)
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning import (
+    TunnelPositioner,
+    dead_reckoning,
+    detection_table,
+    estimate_pass,
+    forward,
+    position_errors,
+    rts_smooth,
+)
+from tunnelsense.utils import sklearn_api_checks
+
+
+def _tour(seed, distance=2000.0, scale_error=0.03, **detections):
+    truth = make_tunnel_kinematics(distance, random_state=seed)
+    positions, odometry, indicators = make_tunnel_odometry(
+        truth, scale_error=scale_error, random_state=seed)
+    det = simulate_indicator_detections(truth, random_state=seed, **detections)
+    return truth, positions, odometry, indicators, det
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_two_km_with_three_percent_scale_error(global_random_seed, smooth):
+    truth, positions, odometry, indicators, det = _tour(global_random_seed)
+    est, fixes = TunnelPositioner(smooth=smooth).fit(indicators).predict(
+        det, odometry, return_fixes=True)
+    errors = position_errors(positions, est, odometry, indicators)
+    dr = errors["dead_reckoning"]
+    assert dr["max"] > 50.0  # 3 % of 2 km
+    passes = [abs(p["error"]) for p in errors["passes"]]
+    assert len(passes) >= 9
+    assert fixes["accepted"].sum() >= len(passes)
+    err = np.abs(est["chainage"] - positions["chainage"]).to_numpy()
+    if smooth:
+        # offline: every fix known; < 1 m at each pass, 10x better than dead reckoning
+        assert max(passes) < 1.0
+        assert errors["max"] * 10 <= dr["max"]
+    else:
+        # online: before the second sign the scale error is not observable yet, so
+        # the error is the odometry's drift over that stretch; once two signs have
+        # been passed, < 1 m at every pass and everywhere
+        second = fixes.loc[fixes["accepted"], "pass_frame"].iloc[1]
+        after = est["frame"].to_numpy() > second
+        assert max(passes[2:]) < 1.0
+        assert err[after].max() < 1.0
+        first = truth.indicator_chainage[1]
+        assert errors["max"] <= 0.035 * first + 1.0
+    assert errors["within_2_sigma"] > 0.9
+
+
+def test_missed_sign_and_false_alarm(global_random_seed):
+    truth = make_tunnel_kinematics(2000.0, random_state=global_random_seed)
+    c = truth.indicator_chainage
+    false_at = c[6] + 57.0
+    _, positions, odometry, indicators, det = _tour(
+        global_random_seed, missed=[int(truth.indicator_ids[4])], false_alarms=[false_at])
+    est, fixes = TunnelPositioner(smooth=True).fit(indicators).predict(
+        det, odometry, return_fixes=True)
+    false_id = int(truth.indicator_ids.max()) + 1
+    row = fixes[fixes["track_id"] == false_id].iloc[0]
+    assert not row["accepted"] and "gate" in row["reason"]
+    assert row["mahalanobis"] > 10
+    assert int(truth.indicator_ids[4]) not in set(fixes.loc[fixes["accepted"],
+                                                           "indicator_id"])
+    errors = position_errors(positions, est, odometry, indicators)
+    assert errors["max"] * 10 <= errors["dead_reckoning"]["max"]
+    # across the missed sign the error grows only with the (calibrated) odometry
+    s = positions["chainage"].to_numpy()
+    gap = (s > c[3]) & (s < c[5])
+    assert np.abs(est["chainage"].to_numpy() - s)[gap].max() < 1.0
+    online = TunnelPositioner().fit(indicators).predict(det, odometry)
+    assert np.abs(online["chainage"].to_numpy() - s)[gap].max() < 2.0
+
+
+def test_streaming_equals_batch_and_is_immediate(global_random_seed):
+    _, _, odometry, indicators, det = _tour(global_random_seed, distance=800.0,
+                                            false_alarms=[500.0])
+    for smooth in (False, True):
+        pos = TunnelPositioner(smooth=smooth).fit(indicators)
+        batch = pos.predict(det, odometry)
+        stream = pos.start_stream()
+        by_frame = dict(iter(det.groupby("frame")))
+        online = []
+        for f, t, v, w in odometry.itertuples(index=False):
+            out = stream.push(f, t, v, w, by_frame.get(f))
+            assert out[0] == f  # this frame's position, at once
+            online.append(out)
+        got = stream.close()
+        pd.testing.assert_frame_equal(got, batch)
+        if not smooth:
+            pd.testing.assert_frame_equal(pd.DataFrame(online, columns=got.columns),
+                                          batch)
+
+
+def test_late_detections_are_delayed_measurements(global_random_seed):
+    """Detections released late correct the past; the final smoothed answer is equal."""
+    _, positions, odometry, indicators, det = _tour(global_random_seed, distance=800.0)
+    pos = TunnelPositioner(smooth=True).fit(indicators)
+    batch = pos.predict(det, odometry)
+    stream = pos.start_stream()
+    lag = 40  # the detector releases frames 40 frames late
+    frames = odometry["frame"].to_numpy()
+    for i, (f, t, v, w) in enumerate(odometry.itertuples(index=False)):
+        late = det[det["frame"] == f - lag] if i >= lag else None
+        stream.push(f, t, v, w, late, until=f - lag)
+    stream.add_detections(det[det["frame"] > frames[-1] - lag])
+    pd.testing.assert_frame_equal(stream.close(), batch)
+    fixed = stream.fixes["accepted"].sum()
+    assert fixed >= 3
+
+
+def test_without_scale_estimation_the_drift_stays():
+    _, positions, odometry, indicators, det = _tour(0)
+    s = positions["chainage"].to_numpy()
+    fixed = TunnelPositioner(estimate_scale=False).fit(indicators).predict(det, odometry)
+    scaled = TunnelPositioner().fit(indicators).predict(det, odometry)
+    tail = s > 1000
+    e_fixed = np.abs(fixed["chainage"].to_numpy() - s)[tail].max()
+    e_scaled = np.abs(scaled["chainage"].to_numpy() - s)[tail].max()
+    assert e_fixed > 3.0 > 1.0 > e_scaled  # 3 % of 200 m between signs
+
+
+def test_estimate_pass_is_exact_on_the_pinhole_model():
+    d = np.linspace(0.0, 80.0, 60)
+    h = 800.0 / (100.0 - d)
+    got, var = estimate_pass(d, h)
+    assert got == pytest.approx(100.0, abs=1e-9)
+    assert var < 1e-12
+    got, _ = estimate_pass(d, h, slope=-1 / 800.0)
+    assert got == pytest.approx(100.0, abs=1e-9)
+    # outlier boxes (merged with a lamp), a fifth of them, are left out
+    h2 = h.copy()
+    h2[::5] *= 2.3
+    assert estimate_pass(d, h2)[0] == pytest.approx(100.0, abs=1e-6)
+    # a receding object has no pass
+    assert np.isnan(estimate_pass(d, h[::-1])[0])
+    assert np.isnan(estimate_pass(d[:2], h[:2])[0])
+
+
+def test_rts_smoother_matches_a_least_squares_line():
+    """No process noise: the smoother's states all lie on the line through the fixes."""
+    inc = np.full(100, 1.03)
+    fixes = {10: [(0.0, 10.0, 1e-4)], 90: [(0.0, 90.0, 1e-4)]}
+    prior, post, pc, qc = forward([0.0, 1.0], np.diag([100.0, 0.01]), inc,
+                                  np.zeros(100), np.zeros(100), fixes)
+    x, _ = rts_smooth(inc, prior, post, pc, qc)
+    np.testing.assert_allclose(x[:, 0], np.arange(101.0), atol=1e-3)
+    np.testing.assert_allclose(x[:, 1], 1 / 1.03, atol=1e-5)
+
+
+def test_records_and_results_tables_are_the_same_input():
+    img = np.zeros((4, 4), np.uint8)
+    records = [FrameRecord("t", f, img, {"detections": np.array(
+        [[1.0, 2.0, 3.0, 10.0 + f, 7, 1.0]])}) for f in (1, 2, 3)]
+    table = pd.DataFrame({"frame": [1, 2, 3], "id": [7, 7, 7],
+                          "bb_height": [11.0, 12.0, 13.0]})
+    pd.testing.assert_frame_equal(detection_table(records), detection_table(table))
+
+
+def test_bad_inputs_are_named():
+    imap = pd.DataFrame({"id": [1, 2], "chainage": [100.0, 300.0]})
+    pos = TunnelPositioner().fit(imap)
+    odo = pd.DataFrame({"frame": [1, 2, 3], "stamp": [0.0, 0.1, 0.2],
+                        "speed": [20.0] * 3, "yaw_rate": 0.0})
+    with pytest.raises(InputFormatError, match="frames must increase"):
+        pos.predict(pd.DataFrame(columns=["frame", "id", "bb_height"]),
+                    odo.iloc[[0, 2, 1]])
+    with pytest.raises(InputFormatError, match="bb_height"):
+        pos.predict(pd.DataFrame({"frame": [1], "id": [1]}), odo)
+    with pytest.raises(InputFormatError, match="frame 9"):
+        pos.predict(pd.DataFrame({"frame": [9], "id": [1], "bb_height": [5.0]}), odo)
+    with pytest.raises(InputFormatError, match="distinct"):
+        TunnelPositioner().fit(pd.DataFrame({"id": [1, 1], "chainage": [1.0, 2.0]}))
+    with pytest.raises(InputFormatError, match="chainage"):
+        TunnelPositioner().fit(pd.DataFrame({"id": [1]}))
+    with pytest.raises(ValueError, match="gate"):
+        TunnelPositioner(gate=-1).fit(imap)
+
+
+def test_dead_reckoning_and_errors():
+    _, positions, odometry, indicators, _ = _tour(1, distance=500.0, scale_error=0.0)
+    dr = dead_reckoning(odometry)
+    # no scale error: the speed bias (0.05 m/s) over the tour's time, and noise
+    duration = positions["stamp"].iloc[-1]
+    assert dr[-1] - positions["chainage"].iloc[-1] == pytest.approx(0.05 * duration,
+                                                                   abs=0.3)
+    est = positions.assign(chainage=positions["chainage"] + 2.0, sigma=1.0)
+    errors = position_errors(positions, est, odometry, indicators)
+    assert errors["max"] == pytest.approx(2.0) and errors["within_2_sigma"] == 1.0
+    assert all(p["error"] == pytest.approx(2.0) for p in errors["passes"])
+
+
+@pytest.mark.parametrize("name, check", list(sklearn_api_checks(TunnelPositioner())))
+def test_sklearn_api_checks(name, check):
+    check()
+
+
+def test_a_fitted_positioner_round_trips_through_a_safe_model_file(tmp_path):
+    from tunnelsense.io import load_model, save_model
+
+    _, _, odometry, indicators, det = _tour(2, distance=600.0)
+    pos = TunnelPositioner(smooth=True, gate=3.5).fit(indicators)
+    save_model(pos, tmp_path / "p.skops")
+    back = load_model(tmp_path / "p.skops")
+    assert back.get_params() == pos.get_params()
+    pd.testing.assert_frame_equal(back.predict(det, odometry), pos.predict(det, odometry))

@@ -1,0 +1,197 @@
+"""Where a sign passes the camera, from the image path of its trajectory.
+
+An indicator of height ``H`` at depth ``Z`` is ``h = f H / Z`` pixels tall, so ``1 / h``
+falls linearly with the distance driven and reaches 0 where the sign passes the
+camera (time to contact).  Fitting ``1 / h`` against the odometry's distance and
+extrapolating to 0 gives the odometry distance of the pass -- from the whole
+trajectory, not only the last frame the sign is seen (it leaves the image some
+9 m before the camera passes it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from tunnelsense.exceptions import InputFormatError
+
+__all__ = ["DETECTION_TABLE_COLUMNS", "detection_table", "estimate_pass"]
+
+#: Columns of :func:`detection_table`.
+DETECTION_TABLE_COLUMNS = ("frame", "track_id", "bb_height")
+
+
+def detection_table(detections) -> pd.DataFrame:
+    """The detector's output as a table ``frame, track_id, bb_height``.
+
+    Parameters
+    ----------
+    detections : DataFrame or sequence of FrameRecord
+        A MOTChallenge results table (:func:`tunnelsense.io.read_mot_results`, or
+        any table with ``frame``, ``id`` or ``track_id``, and ``bb_height``), or the
+        frame records ``make_indicator_pipeline().predict`` returns (their
+        ``payload["detections"]``).
+
+    Returns
+    -------
+    table : DataFrame
+        Sorted by frame and track.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.positioning import detection_table
+    >>> detection_table(pd.DataFrame({"frame": [2, 1], "id": [7, 7],
+    ...                               "bb_height": [11.0, 10.0]}))
+       frame  track_id  bb_height
+    0      1         7       10.0
+    1      2         7       11.0
+    """
+    if isinstance(detections, pd.DataFrame):
+        table = detections.rename(columns={"id": "track_id"})
+        missing = [c for c in DETECTION_TABLE_COLUMNS if c not in table.columns]
+        if missing:
+            raise InputFormatError(
+                f"detections: a table needs the columns frame, id (or track_id) and "
+                f"bb_height; missing {missing}"
+            )
+        table = table[list(DETECTION_TABLE_COLUMNS)]
+    elif isinstance(detections, Sequence) or hasattr(detections, "__iter__"):
+        rows = []
+        tours = set()
+        for record in detections:
+            payload = getattr(record, "payload", None)
+            if payload is None or "detections" not in payload:
+                raise InputFormatError(
+                    "detections: expected frame records from the indicator pipeline's "
+                    "predict (payload['detections']) or a results table"
+                )
+            tours.add(record.tour)
+            det = np.asarray(payload["detections"], np.float64).reshape(-1, 6)
+            rows.extend((record.frame, int(d[4]), d[3]) for d in det)
+        if len(tours) > 1:
+            raise InputFormatError(
+                f"detections: frame records of one tour expected; got {sorted(tours)}"
+            )
+        table = pd.DataFrame(rows, columns=list(DETECTION_TABLE_COLUMNS))
+    else:
+        raise InputFormatError(
+            f"detections: expected a table or frame records; got {type(detections)}"
+        )
+    table = table.astype({"frame": np.int64, "track_id": np.int64,
+                          "bb_height": np.float64})
+    h = table["bb_height"].to_numpy()
+    if not np.all(np.isfinite(h)) or np.any(h <= 0):
+        raise InputFormatError("detections: bb_height must be finite and positive")
+    return table.sort_values(["frame", "track_id"], kind="stable").reset_index(
+        drop=True)
+
+
+def estimate_pass(distance, height, *, slope=None):
+    """Odometry distance at which a sign passes the camera, from its box heights.
+
+    Fits ``1 / h = a + b d`` (weighted by ``h**2``: a box's height error is a fixed
+    fraction of it) and solves ``a + b d = 0``.  Boxes whose relative error is more
+    than four robust standard deviations (and 1 %) off the line -- a box merged with
+    a lamp for a frame -- are left out and the line fitted again.
+
+    Parameters
+    ----------
+    distance : array-like of shape (n,)
+        Odometry distance at each detection (m), increasing.
+    height : array-like of shape (n,)
+        Box height of each detection (px).
+    slope : float or None, default=None
+        The known ``b = -c / (f H)`` (odometry scale ``c``, focal length ``f`` in px,
+        sign height ``H`` in m); None estimates it from the scale growth alone.
+
+    Returns
+    -------
+    pass_distance : float
+        NaN when the sign does not approach (``b >= 0``) or there are too few
+        detections (fewer than 3, or 2 with a known slope).
+    variance : float
+        Of ``pass_distance``, from the fit's residuals.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.positioning import estimate_pass
+    >>> d = np.arange(0.0, 50.0, 1.0)
+    >>> d_pass, var = estimate_pass(d, 800.0 / (60.0 - d))
+    >>> round(d_pass, 6)
+    60.0
+    """
+    d = np.asarray(distance, np.float64)
+    h = np.asarray(height, np.float64)
+    if len(d) < (2 if slope is not None else 3):
+        return float("nan"), float("nan")
+    # a box merged with a lamp now and then is an outlier: start from a line fitted
+    # robustly (Theil-Sen), then refit without the boxes whose relative error is far
+    # beyond the others' (robust scale, MAD)
+    a, b = _theil_sen(d - d[-1], 1.0 / h, slope)
+    keep = np.ones(len(d), bool)
+    for _ in range(10):
+        rel = h * (1.0 / h - a - b * (d - d[-1]))  # relative error of each box
+        scale = 1.4826 * np.median(np.abs(rel[keep]))
+        new = np.abs(rel) <= max(4.0 * scale, 0.01)
+        if new.sum() < (2 if slope is not None else 3):
+            return float("nan"), float("nan")
+        keep, done = new, np.array_equal(new, keep)
+        fit = _fit(d[keep], h[keep], d[-1], slope)
+        if fit is None:
+            return float("nan"), float("nan")
+        a, b = fit[:2]
+        if done:
+            break
+    return _solve(*fit)
+
+
+def _theil_sen(x, y, slope):
+    """Median of the pairwise slopes (or ``slope``), and the median intercept."""
+    if slope is None:
+        i, j = np.triu_indices(len(x), 1)
+        dx = x[j] - x[i]
+        ok = dx != 0
+        if not ok.any():
+            return 0.0, 0.0
+        slope = np.median((y[j] - y[i])[ok] / dx[ok])
+    return float(np.median(y - slope * x)), float(slope)
+
+
+def _fit(d, h, d_ref, slope):
+    """Weighted line fit of ``1 / h`` on ``d - d_ref``: ``(a, b, xm, sxx, sigma2, n)``."""
+    n = len(d)
+    if n < (2 if slope is not None else 3):
+        return None
+    x = d - d_ref  # relative to the last detection: a well-conditioned fit
+    y = 1.0 / h
+    w = h * h
+    w = w / w.sum()
+    if slope is None:
+        xm, ym = w @ x, w @ y
+        sxx = w @ (x - xm) ** 2
+        if sxx <= 0:
+            return None
+        b = (w @ ((x - xm) * (y - ym))) / sxx
+        a = ym - b * xm
+        dof = n - 2
+    else:
+        b = float(slope)
+        a = w @ (y - b * x)
+        xm, sxx = 0.0, np.inf
+        dof = n - 1
+    resid = y - a - b * x
+    sigma2 = (n * (w @ resid**2)) / max(dof, 1)  # per unit weight (weights sum to n)
+    return a, b, xm, sxx, sigma2, n, d_ref
+
+
+def _solve(a, b, xm, sxx, sigma2, n, d_ref):
+    if not b < 0:
+        return float("nan"), float("nan")
+    # variance of a + b x at x = x*, solved for x*: var(x*) = var(a + b x*) / b^2
+    x_star = -a / b
+    var_line = sigma2 / n * (1.0 + (x_star - xm) ** 2 / sxx)
+    return float(d_ref + x_star), float(var_line / (b * b))

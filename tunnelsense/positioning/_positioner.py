@@ -1,0 +1,246 @@
+"""TunnelPositioner: odometry and detected indicators fused into a chainage per frame."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, _fit_context
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.validation import check_is_fitted
+
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._fixes import detection_table
+from tunnelsense.positioning._stream import PositionStream
+from tunnelsense.positioning._tables import check_indicator_map, check_odometry
+
+__all__ = ["TunnelPositioner"]
+
+
+class TunnelPositioner(BaseEstimator):
+    """Chainage of the camera per frame from odometry and detected indicators.
+
+    Dead reckoning integrates the odometry's speed; its error grows with the
+    distance driven.  Each emergency-telephone indicator the detector finds stands at
+    a surveyed chainage and resets that error.  A 1-D Kalman filter over distance
+    holds the chainage and, with ``estimate_scale``, the odometry's scale factor
+    (two fixes 200 m apart make a wheel-radius error of a few per cent observable).
+
+    A trajectory's fix is the odometry distance at which its sign passes the camera,
+    extrapolated from the growth of its box height (``1 / h`` falls linearly with the
+    distance; :func:`estimate_pass`), so it does not matter that the sign leaves the
+    image some metres before the pass.  The fix is associated to the nearest
+    indicator of the map, and used only when that indicator lies within ``gate``
+    standard deviations of the predicted chainage (Mahalanobis gate): a false alarm
+    or a trajectory of a missed sign's neighbour is rejected, and the position then
+    drifts with the odometry until the next sign.
+
+    ``fit`` takes the indicator map; ``predict`` the detections and the odometry
+    of one tour.  ``predict`` runs the same stream state as :meth:`start_stream`,
+    with each frame's detections pushed with its odometry sample, so both give
+    identical positions.
+
+    Parameters
+    ----------
+    estimate_scale : bool, default=True
+        Estimate the odometry's scale factor along with the chainage.
+    smooth : bool, default=False
+        ``predict`` returns the Rauch-Tung-Striebel smoother's estimate given every
+        fix (offline) instead of the filter's estimate at each frame (online).
+    initial_chainage : float, default=0.0
+        Chainage of the first frame (m), e.g. the tunnel entrance from GPS.
+    initial_sigma : float, default=1.0
+        Its standard deviation (m).
+    scale_sigma : float, default=0.05
+        Prior standard deviation of the odometry's scale factor around 1.
+    speed_noise : float, default=0.2
+        Standard deviation of the odometry's speed noise (m/s).
+    scale_drift : float, default=1e-4
+        Random walk of the scale factor (1/sqrt(s)).
+    fix_sigma : float, default=0.3
+        Standard deviation of a fix (m), added to the pass fit's own.
+    gate : float, default=4.0
+        Largest Mahalanobis distance of an accepted fix (standard deviations).
+    min_height : float, default=8.0
+        Boxes shorter than this (px) are left out of the pass fit.
+    min_detections : int, default=5
+        Fewest boxes of a trajectory that gives a fix.
+    max_gap : int, default=6
+        A trajectory is complete when no box of it came for more than this many
+        frames (at least the detector's ``tracks__max_gap``).
+    max_extrapolation : float, default=60.0
+        Largest odometry distance (m) from a trajectory's last box to its pass.
+    focal_length_px : float or None, default=None
+        Focal length of the camera (px); with ``sign_height_m`` it fixes the slope
+        of the pass fit.  None uses the scale growth alone.
+    sign_height_m : float or None, default=None
+        Height of the indicators (m).
+
+    Attributes
+    ----------
+    indicator_chainage_ : ndarray of shape (n_indicators,)
+        The map's chainages, increasing.
+    indicator_ids_ : ndarray of shape (n_indicators,)
+        Their ids.
+    n_indicators_ : int
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import (make_tunnel_kinematics, make_tunnel_odometry,
+    ...                                   simulate_indicator_detections)
+    >>> from tunnelsense.positioning import TunnelPositioner
+    >>> truth = make_tunnel_kinematics(1000.0, random_state=0)
+    >>> positions, odometry, indicators = make_tunnel_odometry(truth, random_state=0)
+    >>> detections = simulate_indicator_detections(truth, random_state=0)
+    >>> est = TunnelPositioner().fit(indicators).predict(detections, odometry)
+    >>> list(est.columns)
+    ['frame', 'stamp', 'chainage', 'sigma']
+    >>> bool(abs(est["chainage"] - positions["chainage"]).iloc[-1] < 1.0)
+    True
+    """
+
+    _parameter_constraints: dict = {
+        "estimate_scale": ["boolean"],
+        "smooth": ["boolean"],
+        "initial_chainage": [Interval(numbers.Real, None, None, closed="neither")],
+        "initial_sigma": [Interval(numbers.Real, 0, None, closed="left")],
+        "scale_sigma": [Interval(numbers.Real, 0, 1, closed="both")],
+        "speed_noise": [Interval(numbers.Real, 0, None, closed="left")],
+        "scale_drift": [Interval(numbers.Real, 0, None, closed="left")],
+        "fix_sigma": [Interval(numbers.Real, 0, None, closed="neither")],
+        "gate": [Interval(numbers.Real, 0, None, closed="neither")],
+        "min_height": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_detections": [Interval(numbers.Integral, 2, None, closed="left")],
+        "max_gap": [Interval(numbers.Integral, 0, None, closed="left")],
+        "max_extrapolation": [Interval(numbers.Real, 0, None, closed="neither")],
+        "focal_length_px": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "sign_height_m": [Interval(numbers.Real, 0, None, closed="neither"), None],
+    }
+
+    def __init__(
+        self,
+        *,
+        estimate_scale=True,
+        smooth=False,
+        initial_chainage=0.0,
+        initial_sigma=1.0,
+        scale_sigma=0.05,
+        speed_noise=0.2,
+        scale_drift=1e-4,
+        fix_sigma=0.3,
+        gate=4.0,
+        min_height=8.0,
+        min_detections=5,
+        max_gap=6,
+        max_extrapolation=60.0,
+        focal_length_px=None,
+        sign_height_m=None,
+    ):
+        self.estimate_scale = estimate_scale
+        self.smooth = smooth
+        self.initial_chainage = initial_chainage
+        self.initial_sigma = initial_sigma
+        self.scale_sigma = scale_sigma
+        self.speed_noise = speed_noise
+        self.scale_drift = scale_drift
+        self.fix_sigma = fix_sigma
+        self.gate = gate
+        self.min_height = min_height
+        self.min_detections = min_detections
+        self.max_gap = max_gap
+        self.max_extrapolation = max_extrapolation
+        self.focal_length_px = focal_length_px
+        self.sign_height_m = sign_height_m
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None):
+        """Take the surveyed indicator map.
+
+        Parameters
+        ----------
+        X : DataFrame
+            The map: ``id, chainage`` (and ``side``), e.g.
+            :func:`~tunnelsense.positioning.read_indicator_map`.
+        y : None
+            Ignored.
+
+        Returns
+        -------
+        self : TunnelPositioner
+        """
+        table = check_indicator_map(X, "X (indicator map)")
+        self.indicator_chainage_ = table["chainage"].to_numpy(np.float64)
+        self.indicator_ids_ = table["id"].to_numpy(np.int64)
+        self.n_indicators_ = len(table)
+        return self
+
+    def start_stream(self) -> PositionStream:
+        """A fresh online state: ``push`` one odometry sample, get its position.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> from tunnelsense.positioning import TunnelPositioner
+        >>> pos = TunnelPositioner().fit(pd.DataFrame({"id": [1], "chainage": [50.0]}))
+        >>> stream = pos.start_stream()
+        >>> stream.push(1, 0.0, 20.0)
+        (1, 0.0, 0.0, 1.0)
+        >>> frame, stamp, chainage, sigma = stream.push(2, 0.5, 20.0)
+        >>> chainage
+        10.0
+        """
+        check_is_fitted(self)
+        return PositionStream(self)
+
+    def predict(self, detections, odometry, *, return_fixes=False):
+        """The chainage of every odometry frame.
+
+        Parameters
+        ----------
+        detections : DataFrame or sequence of FrameRecord
+            The detector's output for the tour: a MOTChallenge results table
+            (``frame, id, ..., bb_height, ...``) or the frame records
+            ``make_indicator_pipeline().predict`` returns.
+        odometry : DataFrame
+            ``frame, stamp, speed, yaw_rate`` of the tour.
+        return_fixes : bool, default=False
+            Also return the fix of every trajectory (where it passed, its indicator,
+            whether the gate kept it).
+
+        Returns
+        -------
+        positions : DataFrame
+            ``frame, stamp, chainage, sigma``.
+        fixes : DataFrame
+            Only with ``return_fixes``.
+        """
+        check_is_fitted(self)
+        odometry = check_odometry(odometry)
+        table = detection_table(detections)
+        frames = table["frame"].to_numpy()
+        missing = np.setdiff1d(frames, odometry["frame"].to_numpy())
+        if missing.size:
+            raise InputFormatError(
+                f"detections: frame {missing[0]} has no odometry sample (the odometry "
+                "must have a row for every frame with detections)")
+        # each frame's detections pushed with its odometry sample (sorted by frame)
+        starts = np.searchsorted(frames, odometry["frame"].to_numpy(), side="left")
+        ends = np.searchsorted(frames, odometry["frame"].to_numpy(), side="right")
+        tracks, heights = table["track_id"].tolist(), table["bb_height"].tolist()
+        frames = frames.tolist()
+        stream = self.start_stream()
+        for (f, t, v, _w), a, b in zip(odometry.itertuples(index=False), starts, ends,
+                                      strict=True):
+            stream._advance(f, t, v)  # noqa: SLF001 - push without a table per frame
+            if b > a:
+                stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])  # noqa: SLF001
+            stream._finish(f)  # noqa: SLF001
+        positions = stream.close()
+        return (positions, stream.fixes) if return_fixes else positions
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False
+        tags.requires_fit = True
+        return tags
+
