@@ -263,4 +263,4 @@ def test_demo_help_describes_the_scenarios(capsys):
     with pytest.raises(SystemExit):
         main(["simulate", "tunnel", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert "{light,heavy,curved}" in text and "curving tunnel" in text
+    assert "{light,heavy,curved,randomized}" in text and "curving tunnel" in text

@@ -28,8 +28,8 @@ def register_top(sub) -> None:
     kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
     for kind, text, unit, n, scenarios, help_scenario in (
         ("tunnel", "a far-infrared tunnel tour (MOTChallenge folder)", "frames", 1500,
-         TUNNEL_SCENARIOS, "light traffic, heavy traffic with trucks, or another "
-         "camera in a curving tunnel"),
+         TUNNEL_SCENARIOS, "light traffic, heavy traffic with trucks, another "
+         "camera in a curving tunnel, or a camera and tunnel drawn at random"),
         ("street", "a laser street run (scans.npz + gt.csv)", "scans", 4000,
          STREET_SCENARIOS, "the street's traffic and clutter"),
     ):

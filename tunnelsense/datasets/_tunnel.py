@@ -90,10 +90,20 @@ def make_tunnel_tour(
     ----------
     n_frames : int, default=1500
         Number of frames (>= 1).
-    scenario : {"light", "heavy", "curved"}, default="light"
+    scenario : {"light", "heavy", "curved", "randomized"}, default="light"
         ``"light"``: light traffic. ``"heavy"``: heavy traffic with many trucks.
         ``"curved"``: another camera (focal length 620 px, mounted 1.35 m high, noise
-        sigma 4) in a tunnel curving with a 1500 m radius.
+        sigma 4) in a tunnel curving with a 1500 m radius.  ``"randomized"``: the
+        camera, sensor, tunnel, signs, speed and traffic drawn uniformly from the
+        ranges of ``RANDOMIZED_RANGES`` in ``tunnelsense.datasets._tunnel_scene``
+        (focal length 550-900 px, mount 1.2-2.4 m, pitch +-1.5 deg, noise sigma
+        1.5-6 with correlation 0-1.5 px, gain 0.85-1.2, offset +-10, column
+        fixed-pattern sigma 0.3-1.5, straight with probability 0.4 else a radius
+        of 800-4000 m curving either way, lamps every 8-20 m, signs 0.4-0.6 m x
+        0.8-1.2 m at 2.2-3.5 m, speeds from 50-90 km/h up to 10-40 km/h more,
+        2-25 vehicles per km, 0-50 % trucks, a change of grade with probability
+        0.5: vertical radius 3-30 km, sag or crest); the draw depends on the seed only
+        and ``**overrides`` replace drawn values.
     random_state : int, RandomState instance or None, default=None
         Seed; the same seed gives byte-identical images and ground truth.
     name : str, default=None
@@ -109,7 +119,17 @@ def make_tunnel_tour(
         (1.9); ``noise_sigma`` (2.5); ``curve_radius_m`` (inf; signed, > 0 curves
         right); ``traffic_per_km`` (vehicles per km and lane, 6); ``truck_fraction``
         (0.1); ``lateral_jitter_m`` (0.1); ``pitch_jitter_deg`` (0.1); ``image_shape``
-        ((480, 640)).
+        ((480, 640)); ``pitch_deg`` (0, static camera pitch in degrees, up
+        positive); ``noise_corr_px`` (0: white; else the sigma in pixels of the
+        Gaussian kernel that correlates the temporal noise, whose standard
+        deviation stays ``noise_sigma``); ``gain`` (1) and ``offset`` (0, grey
+        levels), applied to the scene before the noise: ``gain * I + offset``;
+        ``fpn_sigma`` (0.8 grey levels: the column fixed-pattern noise; a
+        per-pixel part of half that is added); ``indicator_size_m`` ((0.45, 1.0),
+        the sign's width and height in metres); ``vertical_curve_radius_m`` (inf:
+        a constant grade, which changes nothing in the image as the camera tilts
+        with the road; signed: > 0 a sag, the road ahead rising by ``s^2 / 2R`` at
+        ``s`` metres, < 0 a crest; at least 500 m).
 
     Returns
     -------
@@ -138,20 +158,22 @@ def make_tunnel_tour(
     if isinstance(n_frames, bool) or not isinstance(n_frames, Integral) or n_frames < 1:
         raise ValueError(f"n_frames must be an int >= 1; got {n_frames!r}")
     n_frames = int(n_frames)
-    p = _resolve_params(scenario, overrides)
     if isinstance(random_state, Integral) and not isinstance(random_state, bool):
         seed = int(random_state)
         if seed < 0:
             raise ValueError(f"random_state must be >= 0; got {random_state!r}")
     else:
         seed = int(check_random_state(random_state).randint(0, 2**31 - 1))
+    p = _resolve_params(scenario, overrides, seed)
     rng = np.random.default_rng(seed)
     if name is None:
         name = f"tunnel-{scenario}-{seed}"
     fps = 30.0
     H, W = p["image_shape"]
     kappa = 0.0 if math.isinf(p["curve_radius_m"]) else 1.0 / p["curve_radius_m"]
-    cam = _Camera(p["focal_length_px"], (H, W), kappa)
+    vertical = p["vertical_curve_radius_m"]
+    kappa_v = 0.0 if math.isinf(vertical) else 1.0 / vertical
+    cam = _Camera(p["focal_length_px"], (H, W), kappa, kappa_v)
 
     t, speed, s_ego, lat, hgt, pitch = _ego_motion(rng, n_frames, fps, p)
     distance = float(s_ego[-1] + speed[-1] / fps)
@@ -188,10 +210,13 @@ def make_tunnel_tour(
     # sensor: temporal noise bank (random windows), fixed-pattern noise, vignetting
     pad = 24
     bank = rng.standard_normal((2, H + pad, W + pad), dtype=np.float32)
+    if p["noise_corr_px"] > 0:
+        bank = _correlate(bank, p["noise_corr_px"])
     bank *= np.float32(p["noise_sigma"])
-    fpn = (rng.normal(0, 0.8, W)[None, :] + rng.normal(0, 0.4, (H, W))).astype(
-        np.float32
-    )
+    fpn = (
+        rng.normal(0, p["fpn_sigma"], W)[None, :]
+        + rng.normal(0, p["fpn_sigma"] / 2, (H, W))
+    ).astype(np.float32)
     yy, xx = np.mgrid[0:H, 0:W]
     r2 = ((xx - W / 2) / (W / 2)) ** 2 + ((yy - H / 2) / (H / 2)) ** 2
     fpn += (3.0 - 3.0 * r2).astype(np.float32)  # slight vignetting
@@ -242,6 +267,9 @@ def make_tunnel_tour(
                 oid = veh_ids[key]
             if box is not None:
                 drawn.append((box[4], cls, oid, box, cls == VEHICLE))
+        if p["gain"] != 1.0 or p["offset"] != 0.0:
+            img *= np.float32(p["gain"])
+            img += np.float32(p["offset"])
         j, di, dj = noise_pick[f]
         img += bank[j, di : di + H, dj : dj + W]
         img += fpn
@@ -285,11 +313,32 @@ def make_tunnel_tour(
         "lamp_spacing_m": round(float(lamp_spacing), 4),
         "traffic_per_km": float(p["traffic_per_km"]),
         "truck_fraction": float(p["truck_fraction"]),
+        "pitch_deg": float(p["pitch_deg"]),
+        "vertical_curve_radius_m": float(vertical),
+        "noise_corr_px": float(p["noise_corr_px"]),
+        "gain": float(p["gain"]),
+        "offset": float(p["offset"]),
+        "fpn_sigma": float(p["fpn_sigma"]),
+        "indicator_width_m": float(p["indicator_size_m"][0]),
+        "indicator_tall_m": float(p["indicator_size_m"][1]),
+        "indicator_height_m": float(p["indicator_height_m"]),
     }
     tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
     # where the camera was (positions, odometry, indicator map): no random draws here
     kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)
     return with_kinematics(tour, kin)
+
+
+def _correlate(bank, sigma_px):
+    """White noise made spatially correlated (Gaussian kernel), unit variance kept."""
+    import cv2  # noqa: PLC0415
+
+    out = np.empty_like(bank)
+    for k in range(len(bank)):
+        out[k] = cv2.GaussianBlur(bank[k], (0, 0), float(sigma_px),
+                                  borderType=cv2.BORDER_REFLECT)
+        out[k] /= max(float(out[k].std()), 1e-6)
+    return out
 
 
 def _gt_rows(frame, drawn, W, H):

@@ -26,17 +26,20 @@ from tunnelsense.datasets._tunnel_scene import (
 class _Camera:
     """Pinhole camera; pose: lateral offset ``e``, height ``h``, pitch ``phi`` (up)."""
 
-    def __init__(self, f, shape, kappa):
+    def __init__(self, f, shape, kappa, kappa_v=0.0):
         self.f = float(f)
         self.height, self.width = shape
         self.cx = self.width / 2.0
         self.cy = self.height / 2.0
         self.kappa = float(kappa)
+        self.kappa_v = float(kappa_v)  # vertical curvature: > 0 the road rises ahead
 
     def to_camera(self, ds, d, y):
         """Road coordinates (arc length ahead, lateral, height) -> straight frame."""
         ds = np.asarray(ds, dtype=np.float64)
         d = np.asarray(d, dtype=np.float64)
+        if self.kappa_v != 0.0:  # a change of grade: the road ahead rises or falls
+            y = y + 0.5 * self.kappa_v * ds * ds
         k = self.kappa
         if k == 0.0:
             return d + 0.0 * ds, ds + 0.0 * d, y
@@ -115,8 +118,15 @@ class _Background:
         dx = self.xc / dz
         dy = (self.yc * c + sn) / dz
         inf = np.float32(np.inf)
+        kv = cam.kappa_v
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            z_road = np.where(dy < 0, h / -dy, inf)
+            if kv == 0.0:
+                z_road = np.where(dy < 0, h / -dy, inf)
+            else:  # the ray y = h + dy z meets the road y = kv z^2 / 2
+                disc = dy * dy + 2.0 * kv * h
+                root = np.sqrt(np.maximum(disc, 0))
+                z_road = np.where(disc >= 0, 2.0 * h / (root - dy), inf)
+                z_road = np.where(z_road > 0, z_road, inf)
             if k == 0.0:
                 z_l = np.where(dx < 0, (_WALL_LEFT + e) / -dx, inf)
                 z_r = np.where(dx > 0, (_WALL_RIGHT - e) / dx, inf)
@@ -124,25 +134,27 @@ class _Background:
                 z_l = self._curved_wall(dx, -_WALL_LEFT - e, k)
                 z_r = self._curved_wall(dx, _WALL_RIGHT - e, k)
             z_wall = np.minimum(z_l, z_r)
-            y_wall = h + dy * z_wall
+            y_wall = h + dy * z_wall - 0.5 * kv * np.minimum(z_wall, _Z_FAR) ** 2
             # circular arch, centre shifted by the curve at the hit depth
             a = dx * dx + dy * dy
-            cy = _ARCH_Y - h
             z_arch = None
             shift = 0.0
-            for _ in range(1 if k == 0.0 else 3):
+            lift = 0.0
+            for _ in range(1 if k == 0.0 and kv == 0.0 else 3):
                 cx = _ARCH_X - e + shift
+                cy = _ARCH_Y - h + lift
                 b = dx * cx + dy * cy
                 cc = cx * cx + cy * cy - _ARCH_R**2
                 disc = b * b - a * cc
                 z_arch = (b + np.sqrt(np.maximum(disc, 0))) / a
                 z_arch = np.where((disc >= 0) & (z_arch > 0), z_arch, _Z_FAR)
                 shift = 0.5 * k * np.minimum(z_arch, _Z_FAR) ** 2
+                lift = 0.5 * kv * np.minimum(z_arch, _Z_FAR) ** 2
         road = z_road <= z_wall
         arch = ~road & (y_wall > _WALL_HEIGHT)
         z = np.where(road, z_road, np.where(arch, z_arch, z_wall))
         z = np.minimum(z, _Z_FAR).astype(np.float32)
-        y = h + dy * z  # height of the hit point
+        y = h + dy * z - 0.5 * kv * z * z  # height of the hit point above the road
         x = e + dx * z - 0.5 * k * z * z  # lateral, relative to the ego lane centre
         idx = np.clip(((s_cam + z - self.s0) / self.ds).astype(np.int32), 0, None)
         idx = np.minimum(idx, len(self.lane_line) - 1)

@@ -101,7 +101,7 @@ def _box_of(cam, pose, xs, zs, ys):
 
 
 def _draw_indicator(img, cam, pose, ds, p, look):
-    w, hgt = _INDICATOR_SIZE
+    w, hgt = p.get("indicator_size_m", _INDICATOR_SIZE)
     yc = p["indicator_height_m"]
     x_out = _lining_x(yc, -1) + 0.05
     d = np.array([x_out, x_out + w])

@@ -10,7 +10,7 @@ import numpy as np
 
 __all__ = ["INDICATOR", "LAMP", "SHADOW", "TUNNEL_SCENARIOS", "VEHICLE"]
 
-TUNNEL_SCENARIOS = ("light", "heavy", "curved")
+TUNNEL_SCENARIOS = ("light", "heavy", "curved", "randomized")
 
 INDICATOR, LAMP, VEHICLE, SHADOW = 1, 2, 3, 4
 
@@ -31,11 +31,63 @@ _DEFAULTS = {
     "lateral_jitter_m": 0.1,  # lane-keeping wander amplitude
     "pitch_jitter_deg": 0.1,  # body pitch amplitude
     "image_shape": (480, 640),
+    "pitch_deg": 0.0,  # static camera pitch, up positive
+    "noise_corr_px": 0.0,  # Gaussian sigma (px) of the temporal noise's correlation
+    "gain": 1.0,  # sensor gain applied to the scene radiance (grey levels)
+    "offset": 0.0,  # sensor offset (grey levels)
+    "fpn_sigma": 0.8,  # column fixed-pattern noise (the pixel part is half of it)
+    "indicator_size_m": (0.45, 1.0),  # sign width, height
+    "vertical_curve_radius_m": math.inf,  # change of grade: > 0 sag, < 0 crest
 }
+
+#: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
+#: whether the tunnel is straight are drawn too): plausible FIR cameras, mountings
+#: and tunnels.
+RANDOMIZED_RANGES = {
+    "focal_length_px": (550.0, 900.0),
+    "mount_height_m": (1.2, 2.4),
+    "pitch_deg": (-1.5, 1.5),
+    "noise_sigma": (1.5, 6.0),
+    "noise_corr_px": (0.0, 1.5),
+    "gain": (0.85, 1.2),
+    "offset": (-10.0, 10.0),
+    "fpn_sigma": (0.3, 1.5),
+    "curve_radius_m": (800.0, 4000.0),  # |radius|; straight with probability 0.4
+    "lamp_spacing_m": (8.0, 20.0),
+    "indicator_height_m": (2.2, 3.5),
+    "indicator_width_m": (0.4, 0.6),
+    "indicator_tall_m": (0.8, 1.2),
+    "speed_low_kmh": (50.0, 90.0),
+    "speed_span_kmh": (10.0, 40.0),
+    "traffic_per_km": (2.0, 25.0),
+    "truck_fraction": (0.0, 0.5),
+    "vertical_curve_radius_m": (3000.0, 30000.0),  # |radius|; none with prob. 0.5
+}
+
+
+def _randomized(seed):
+    """The physical parameters of the ``"randomized"`` scenario for ``seed``."""
+    rng = np.random.default_rng([int(seed), 7919])
+    r = RANDOMIZED_RANGES
+    u = lambda key: float(rng.uniform(*r[key]))  # noqa: E731
+    out = {k: u(k) for k in (
+        "focal_length_px", "mount_height_m", "pitch_deg", "noise_sigma",
+        "noise_corr_px", "gain", "offset", "fpn_sigma", "lamp_spacing_m",
+        "indicator_height_m", "traffic_per_km", "truck_fraction",
+    )}
+    radius = u("curve_radius_m") * (1.0 if rng.random() < 0.5 else -1.0)
+    out["curve_radius_m"] = math.inf if rng.random() < 0.4 else radius
+    out["indicator_size_m"] = (u("indicator_width_m"), u("indicator_tall_m"))
+    low = u("speed_low_kmh")
+    out["speed_kmh"] = (low, low + u("speed_span_kmh"))
+    vertical = u("vertical_curve_radius_m") * (1.0 if rng.random() < 0.5 else -1.0)
+    out["vertical_curve_radius_m"] = math.inf if rng.random() < 0.5 else vertical
+    return out
 
 _SCENARIOS = {
     "light": {},
     "heavy": {"traffic_per_km": 22.0, "truck_fraction": 0.45},
+    "randomized": {},  # drawn per seed from RANDOMIZED_RANGES
     "curved": {
         "focal_length_px": 620.0,
         "mount_height_m": 1.35,
@@ -94,7 +146,7 @@ def _check_range(name, value, lo, hi=math.inf, *, closed_lo=True):
     return v
 
 
-def _resolve_params(scenario, overrides):
+def _resolve_params(scenario, overrides, seed=0):
     if not isinstance(scenario, str) or scenario not in _SCENARIOS:
         raise ValueError(
             f"scenario must be one of {list(TUNNEL_SCENARIOS)}; got {scenario!r}"
@@ -107,6 +159,8 @@ def _resolve_params(scenario, overrides):
         )
     p = dict(_DEFAULTS)
     p.update(_SCENARIOS[scenario])
+    if scenario == "randomized":
+        p.update(_randomized(seed))
     p.update(overrides)
 
     sp = p["speed_kmh"]
@@ -143,6 +197,13 @@ def _resolve_params(scenario, overrides):
             f"(inf for a straight tunnel); got {p['curve_radius_m']!r}"
         )
     p["curve_radius_m"] = radius
+    vertical = float(p["vertical_curve_radius_m"])
+    if math.isnan(vertical) or abs(vertical) < 500.0:
+        raise ValueError(
+            "vertical_curve_radius_m must be a signed radius with |radius| >= 500 m "
+            f"(inf for a constant grade); got {p['vertical_curve_radius_m']!r}"
+        )
+    p["vertical_curve_radius_m"] = vertical
     p["traffic_per_km"] = _check_range("traffic_per_km", p["traffic_per_km"], 0.0, 60.0)
     p["truck_fraction"] = _check_range("truck_fraction", p["truck_fraction"], 0.0, 1.0)
     p["lateral_jitter_m"] = _check_range(
@@ -150,6 +211,20 @@ def _resolve_params(scenario, overrides):
     )
     p["pitch_jitter_deg"] = _check_range(
         "pitch_jitter_deg", p["pitch_jitter_deg"], 0.0, 3.0
+    )
+    p["pitch_deg"] = _check_range("pitch_deg", p["pitch_deg"], -10.0, 10.0)
+    p["noise_corr_px"] = _check_range("noise_corr_px", p["noise_corr_px"], 0.0, 10.0)
+    p["gain"] = _check_range("gain", p["gain"], 0.1, 10.0)
+    p["offset"] = _check_range("offset", p["offset"], -255.0, 255.0)
+    p["fpn_sigma"] = _check_range("fpn_sigma", p["fpn_sigma"], 0.0, 20.0)
+    size = p["indicator_size_m"]
+    if np.ndim(size) != 1 or len(size) != 2:
+        raise ValueError(
+            f"indicator_size_m must be a (width, height) pair in metres; got {size!r}"
+        )
+    p["indicator_size_m"] = (
+        _check_range("indicator_size_m", size[0], 0.05, 3.0),
+        _check_range("indicator_size_m", size[1], 0.05, 3.0),
     )
     shape = p["image_shape"]
     if (
@@ -188,6 +263,8 @@ def _ego_motion(rng, n, fps, p):
     s = np.concatenate([[0.0], np.cumsum(speed[:-1] / fps)])
     e = _smooth_noise(rng, t, p["lateral_jitter_m"], (6.0, 11.0))
     pitch = np.deg2rad(_smooth_noise(rng, t, p["pitch_jitter_deg"], (0.7, 1.3, 2.1)))
+    if p["pitch_deg"]:
+        pitch = pitch + math.radians(p["pitch_deg"])
     bounce = _smooth_noise(rng, t, 0.01, (0.5, 0.9))
     h = p["mount_height_m"] + bounce
     return t, speed, s, e, h, pitch

@@ -34,6 +34,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from tunnelsense._payload import inside_boxes
+
 __all__ = [
     "HYPOTHESIS_COLUMNS",
     "gt_from_boxes",
@@ -199,9 +201,8 @@ def _match(hyp: pd.DataFrame, gt: pd.DataFrame, min_height: float):
         idx = g.get(key)
         if idx is None:
             continue
-        inside = (gl[idx] <= cx[j]) & (cx[j] < gl[idx] + gw[idx]) & (gtp[idx] <= cy[j]) & (
-            cy[j] < gtp[idx] + gh[idx]
-        )
+        boxes = np.column_stack((gl[idx], gtp[idx], gw[idx], gh[idx]))
+        inside = inside_boxes([cx[j]], [cy[j]], boxes)[0]
         if inside.any():
             hits = idx[inside]
             big = hits[gh[hits] >= min_height]
@@ -255,7 +256,6 @@ def tunnel_scores(hypotheses, gt, *, min_height=14.0, complete=True) -> dict:
     {'indicators': 1, 'detected': 1, 'false_alarms': 0, 'detection_rate': 1.0}
     """
     hyp = hypotheses.reset_index(drop=True)
-    gt = gt
     if "class" in gt.columns:
         gt = gt[gt["class"] == 1]
     if "tour" not in gt.columns:

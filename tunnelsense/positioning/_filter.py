@@ -36,7 +36,7 @@ def _update(x, P, h, z, r):
 
 
 def forward(x0, P0, increments, q_s, q_c, fixes, *, start=0):
-    """Run the filter over frames ``start .. start + len(increments)``.
+    """Run the filter over the frames from ``start`` to ``start + len(increments)``.
 
     Parameters
     ----------

@@ -31,7 +31,7 @@ from tunnelsense.tunnel._keypoints import (
     indicator_band,
     sample_keypoints,
 )
-from tunnelsense.tunnel._motion import PCCVerifier, pearson_r, straightness
+from tunnelsense.tunnel._motion import PCCVerifier, curve_fit_r, pearson_r, straightness
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import (
@@ -53,6 +53,7 @@ __all__ = [
     "box_histograms",
     "centres_in_boxes",
     "cluster_boxes",
+    "curve_fit_r",
     "detect_to_files",
     "detect_tour",
     "fit_indicator_detector",

@@ -16,7 +16,8 @@ import numbers
 
 import numpy as np
 from sklearn.base import _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._payload import (
     APPEARANCE,
@@ -29,6 +30,13 @@ from tunnelsense._payload import (
 )
 from tunnelsense._records import check_frames
 from tunnelsense.tunnel._common import FrameModeMixin, bin_lut
+from tunnelsense.tunnel._invariant import (
+    _crop,
+    invariant_features,
+    n_invariant_features,
+    patch_features,
+    perturb_patch,
+)
 from tunnelsense.tunnel._stumps import (
     WeightedAdaBoostCore,
     fit_stump,
@@ -126,6 +134,10 @@ def box_histograms(
     return out
 
 
+#: Bins of the normalized histogram of ``features="invariant"``.
+_INVARIANT_BINS = 16
+
+
 class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     """AdaBoost of histogram-bin stumps with positives weighted up (section 3.4).
 
@@ -168,6 +180,25 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         fraction of its height before its histogram is taken, so that it shows the
         indicator whole with a rim of the dark wall around it, in the same
         proportion at any distance.  ``0`` is the paper's bare rectangle.
+    features : {"histogram", "invariant"}, default="histogram"
+        Frame records: what the stumps decide on.  ``"histogram"`` is the paper's
+        normalized intensity histogram of ``bins`` bins.  ``"invariant"`` is
+        :func:`~tunnelsense.tunnel._invariant.invariant_features` (16 bins of the
+        median-filtered patch normalized by its own 10th and 90th percentiles, and
+        six shape and contrast figures): a camera with another gain, offset or
+        noise level moves a raw histogram's bins, and stumps learnt on one camera's
+        bins then fail on another's, while these features stay put.
+        ``payload["cluster_histograms"]`` holds the raw histogram either way.
+    augment : int, default=0
+        Frame records: every training cluster is also described ``augment`` times
+        as another camera would have seen it
+        (:func:`~tunnelsense.tunnel._invariant.perturb_patch`: gain 0.8-1.25,
+        offset +-15, extra noise sigma 0-4.5 with a correlation length 0-1.2 px,
+        blur 0-0.8 px, scale 0.75-1.25, the range of plausible FIR cameras and
+        mountings), so that the machine learns what does not depend on them.
+        ``0`` trains on the recorded clusters only (the paper).
+    random_state : int, RandomState instance or None, default=None
+        Frame records: seed of the augmentation draws.
 
     Attributes
     ----------
@@ -213,6 +244,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         "bins": [Interval(numbers.Integral, 2, None, closed="left")],
         "intensity_range": [tuple, list, None],
         "margin": [Interval(numbers.Real, 0, None, closed="left")],
+        "features": [StrOptions({"histogram", "invariant"})],
+        "augment": [Interval(numbers.Integral, 0, None, closed="left")],
+        "random_state": ["random_state"],
     }
     _tabular_methods = ("predict", "decision_function")
     _frames_instead = "transform, which stores payload['appearance']"
@@ -229,6 +263,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         bins=32,
         intensity_range=None,
         margin=0.25,
+        features="histogram",
+        augment=0,
+        random_state=None,
     ):
         self.n_estimators = n_estimators
         self.learning_rate = learning_rate
@@ -237,6 +274,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         self.bins = bins
         self.intensity_range = intensity_range
         self.margin = margin
+        self.features = features
+        self.augment = augment
+        self.random_state = random_state
 
     def fit(self, X, y=None, sample_weight=None):
         """Train the machine on histograms, or on the clusters of labelled frames.
@@ -265,16 +305,46 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 f"got {self.intensity_range!r}"
             )
 
+    def _n_features(self):
+        if self.features == "invariant":
+            return n_invariant_features(_INVARIANT_BINS)
+        return int(self.bins)
+
     def _frame_histograms(self, records):
+        """Per frame: record, boxes, raw histograms and the stumps' features."""
         kw = dict(bins=self.bins, margin=float(self.margin))
         for i, r in enumerate(records):
             boxes = boxes_of(r, i, "WeightedAdaBoost")
             if len(boxes) == 0:
-                yield r, boxes, np.empty((0, self.bins))
+                yield r, boxes, np.empty((0, self.bins)), np.empty((0, self._n_features()))
                 continue
             image = frame_image(r, i)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range)
-            yield r, boxes, box_histograms(image, boxes, lut=lut, **kw)
+            H = box_histograms(image, boxes, lut=lut, **kw)
+            if self.features == "invariant":
+                F = invariant_features(image, boxes, bins=_INVARIANT_BINS,
+                                       margin=float(self.margin))
+            else:
+                F = H
+            yield r, boxes, H, F
+
+    def _augmented(self, record, index, boxes, rng):
+        """Features of the frame's clusters as ``augment`` other cameras see them."""
+        image = frame_image(record, index)
+        lut = bin_lut(image.dtype, self.bins, self.intensity_range)
+        out = []
+        for _ in range(int(self.augment)):
+            rows = []
+            for box in boxes.tolist():
+                patch, _ = _crop(image, box, float(self.margin))
+                q, (bh, bw) = perturb_patch(patch, rng, (box[3], box[2]))
+                if self.features == "invariant":
+                    rows.append(patch_features(q, (bh, bw), _INVARIANT_BINS))
+                else:
+                    counts = np.bincount(lut[q].ravel(), minlength=self.bins)
+                    rows.append(counts / counts.sum())
+            out.append(np.array(rows).reshape(len(boxes), -1))
+        return out
 
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_frames(self, X, y=None, sample_weight=None):
@@ -287,11 +357,20 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             )
         if sample_weight is not None:
             raise ValueError("sample_weight is only supported for 2-D array input")
+        rng = np.random.default_rng(
+            check_random_state(self.random_state).randint(0, 2**31 - 1)
+        )
         H, labels = [], []
-        for (_, b, h), gt in zip(self._frame_histograms(records), boxes, strict=True):
-            H.append(h)
-            labels.append(centres_in_boxes(b, gt))
-        H = np.concatenate(H) if H else np.empty((0, self.bins))
+        frames = zip(self._frame_histograms(records), boxes, strict=True)
+        for i, ((r, b, _, f), gt) in enumerate(frames):
+            lab = centres_in_boxes(b, gt)
+            H.append(f)
+            labels.append(lab)
+            if self.augment and len(b):
+                for g in self._augmented(r, i, b, rng):
+                    H.append(g)
+                    labels.append(lab)
+        H = np.concatenate(H) if H else np.empty((0, self._n_features()))
         labels = np.concatenate(labels) if labels else np.empty(0, bool)
         n_pos = int(labels.sum())
         if n_pos == 0 or n_pos == len(labels):
@@ -300,7 +379,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 f"y marks {n_pos} of the {len(labels)} clusters of X as indicators"
             )
         self._fit_arrays(H, labels, None, True)
-        self.n_features_in_ = int(self.bins)
+        self.n_features_in_ = self._n_features()
         self.n_clusters_fit_ = len(labels)
         self.n_positive_fit_ = n_pos
         return self
@@ -313,8 +392,8 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 "fitted on frame records (classes [False, True])"
             )
         out = []
-        for r, _, H in self._frame_histograms(records):
-            score = self._decision(H) if len(H) else np.empty(0)
+        for r, _, H, F in self._frame_histograms(records):
+            score = self._decision(F) if len(F) else np.empty(0)
             out.append(
                 r.evolve(**{
                     APPEARANCE: score > 0,

@@ -32,12 +32,13 @@ from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense._streaming import StreamingMixin
 from tunnelsense.tunnel._pcc_stream import (
     PCCStream,
+    curve_fit_r,
     frame_payload,
     pearson_r,
     straightness,
 )
 
-__all__ = ["PCCVerifier", "pearson_r", "straightness"]
+__all__ = ["PCCVerifier", "curve_fit_r", "pearson_r", "straightness"]
 
 
 class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
@@ -90,13 +91,19 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     vote : float, default=0.8
         A trajectory is positive when more than this fraction of its clusters are
         indicators (the paper's 80 %).
-    criterion : {"pearson", "principal"}, default="pearson"
-        The straightness measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
+    criterion : {"pearson", "principal", "quadratic"}, default="pearson"
+        The path measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
         eq. 5 (the paper); ``"principal"`` is :func:`straightness`, which does not
         depend on the line's direction. Pearson's r is 0 for a perfectly horizontal
         or vertical line and low for a nearly horizontal one, so a camera mounted
         near the indicators' height (on a truck or bus), which sees them move almost
-        horizontally, needs ``"principal"``. ``payload["motion_r"]`` holds the
+        horizontally, needs ``"principal"``.  ``"quadratic"`` is :func:`curve_fit_r`,
+        the multiple correlation of a quadratic path (Pearson's r generalized from
+        a line to a parabola): in a curving tunnel the vanishing point moves towards
+        the curve's inside as the road turns, and an indicator's image path bends,
+        which a straight line fits ever worse the longer the trajectory; a
+        quadratic follows the bend, while a vehicle ahead jittering in place or
+        drifting up and down the image still fits no path.  ``payload["motion_r"]`` holds the
         chosen measure (signed r for ``"pearson"``).
 
     Attributes
@@ -121,7 +128,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_r": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_length": [Interval(numbers.Integral, 1, None, closed="left")],
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
-        "criterion": [StrOptions({"pearson", "principal"})],
+        "criterion": [StrOptions({"pearson", "principal", "quadratic"})],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson"):

@@ -27,7 +27,7 @@ from tunnelsense._payload import (
 from tunnelsense._records import FrameRecord, release_image
 from tunnelsense._streaming import StreamState
 
-__all__ = ["PCCStream", "frame_payload", "pearson_r", "straightness"]
+__all__ = ["PCCStream", "curve_fit_r", "frame_payload", "pearson_r", "straightness"]
 
 
 def pearson_r(x, y) -> float:
@@ -78,6 +78,52 @@ def straightness(x, y) -> float:
     if high <= 1e-12:
         return 0.0
     return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
+
+
+def curve_fit_r(x, y) -> float:
+    """Multiple correlation of a quadratic path through the points ``(x_i, y_i)``.
+
+    Pearson's r (eq. 5) generalized from a line to a parabola: ``y`` is fitted by
+    ``a0 + a1 x + a2 x^2`` by least squares and ``R = sqrt(1 - SS_res / SS_tot)``;
+    the same with ``x`` and ``y`` swapped, and the larger ``R`` is returned.  A path
+    that bends smoothly (an indicator's image path in a curving tunnel) keeps ``R``
+    close to 1 where a line fits it ever worse the longer the trajectory; as with
+    Pearson's r, a vehicle ahead that jitters in place, or drifts up and down the
+    image while keeping its column (approaching, receding), gets ``R`` far from 1,
+    because neither coordinate is a function of the other.  0 for fewer than four
+    points or when a coordinate does not vary.
+
+    Examples
+    --------
+    >>> t = [0., 1, 2, 3, 4, 5, 6, 7]
+    >>> round(curve_fit_r(t, [0.05 * v * v for v in t]), 6)  # a bending path
+    1.0
+    >>> import numpy as np
+    >>> a = np.arange(8) * np.pi / 4  # points around a circle: no path
+    >>> round(curve_fit_r(np.cos(a), np.sin(a)), 3)
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) < 4:
+        return 0.0
+    best = 0.0
+    for u, v in ((x, y), (y, x)):
+        u = u - u.mean()
+        v = v - v.mean()
+        scale = float(np.abs(u).max())
+        total = float(v @ v)
+        if scale <= 1e-9 or total <= 1e-12 * max(scale * scale, 1.0):
+            continue
+        u = u / scale
+        design = np.column_stack([np.ones_like(u), u, u * u])
+        coef, *_ = np.linalg.lstsq(design, v, rcond=None)
+        resid = v - design @ coef
+        best = max(best, 1.0 - float(resid @ resid) / total)
+    return float(np.sqrt(np.clip(best, 0.0, 1.0)))
+
+
+_MEASURES = {"pearson": pearson_r, "principal": straightness, "quadratic": curve_fit_r}
 
 
 class _Released:
@@ -163,7 +209,7 @@ class PCCStream(StreamState):
     """
 
     def __init__(self, verifier, *, release=True):
-        self.measure = pearson_r if verifier.criterion == "pearson" else straightness
+        self.measure = _MEASURES[verifier.criterion]
         self.min_r = float(verifier.min_r)
         self.min_length = int(verifier.min_length)
         self.vote = float(verifier.vote)

@@ -14,6 +14,7 @@ from tunnelsense.tunnel._verification import KMeansHistogramVerifier
 
 __all__ = [
     "INDICATOR_STEPS",
+    "PAPER_SETTINGS",
     "PIPELINE_DEFAULTS",
     "make_indicator_pipeline",
 ]
@@ -38,13 +39,41 @@ PIPELINE_DEFAULTS = {
     # above 1 %, so the detector verifies keypoints by the 7 x 3 patch histogram alone
     "verifier__context_size": None,
     "verifier__max_distance": 0.32,
+    # appearance that a change of camera does not move: the stumps decide on the
+    # median-filtered patch normalized by its own percentiles and on shape and
+    # contrast figures, not on one camera's raw histogram bins, and training sees
+    # every cluster also as two other cameras would (gain, offset, noise, blur,
+    # scale within the range of plausible FIR cameras)
+    "appearance__features": "invariant",
+    "appearance__augment": 2,
+    # an indicator's image path bends in a curving tunnel: a quadratic path's
+    # multiple correlation instead of the straight line's Pearson r
+    "motion__criterion": "quadratic",
+}
+
+#: The paper's detector (Wang et al. 2013, sections 3.1-3.7), for
+#: ``make_indicator_pipeline(preset="paper")``: fixed keypoint band [160, 190],
+#: keypoint rectangles, the bare rectangle's raw 32-bin histogram, trajectories
+#: bridging 3 frames, a straight-line Pearson r, and the verifier's paper settings.
+PAPER_SETTINGS = {
+    "keypoints__band": "fixed",
+    "verifier__context_size": None,
+    "verifier__max_distance": 0.14,
+    "verifier__margin": None,
+    "verifier__n_centers": 10,
+    "clusters__box": "keypoints",
+    "appearance__margin": 0.0,
+    "appearance__features": "histogram",
+    "appearance__augment": 0,
+    "tracks__max_gap": 3,
+    "motion__criterion": "pearson",
 }
 
 #: Step names of :func:`make_indicator_pipeline`, in order.
 INDICATOR_STEPS = ("keypoints", "verifier", "clusters", "appearance", "tracks", "motion")
 
 
-def make_indicator_pipeline(*, verifier=True, **params):
+def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     """The six FIR stages (sections 3.1-3.7) as a :class:`~sklearn.pipeline.Pipeline`.
 
     The steps keep their own (the paper's) defaults except for
@@ -57,7 +86,12 @@ def make_indicator_pipeline(*, verifier=True, **params):
     patch histogram alone (``verifier__context_size=None``,
     ``verifier__max_distance=0.32``): the appearance machine learns its negatives
     from the clusters the verifier lets through, and the context histogram leaves
-    too few of them in a one-tour training set (``docs/tunnel-detector.md``).
+    too few of them in a one-tour training set (``docs/tunnel-detector.md``);
+    camera-invariant appearance features with training-time augmentation
+    (``appearance__features="invariant"``, ``appearance__augment=2``), and the
+    quadratic path criterion of the motion check (``motion__criterion="quadratic"``),
+    which keep the detector working on another camera and in a curving tunnel
+    (``docs/validation.md``).
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),
@@ -71,6 +105,10 @@ def make_indicator_pipeline(*, verifier=True, **params):
     verifier : bool, default=True
         ``False`` replaces the keypoint verifier by ``"passthrough"`` (every sampled
         keypoint is clustered), for ablation.
+    preset : {"default", "paper"}, default="default"
+        ``"default"``: :data:`PIPELINE_DEFAULTS`.  ``"paper"``: the paper's plain
+        detector, :data:`PAPER_SETTINGS`, for comparison.  ``**params`` override
+        either.
     **params
         Parameters of the steps, either as ``step__name`` (``motion__min_r=0.9``) or,
         when a name belongs to exactly one step, plainly (``min_r=0.9``, ``cut=30``,
@@ -98,8 +136,11 @@ def make_indicator_pipeline(*, verifier=True, **params):
         ("tracks", TrajectoryLinker()),
         ("motion", PCCVerifier()),
     ]
+    if preset not in ("default", "paper"):
+        raise ValueError(f"preset must be 'default' or 'paper'; got {preset!r}")
+    settings = PIPELINE_DEFAULTS if preset == "default" else PAPER_SETTINGS
     pipe = Pipeline(steps).set_params(**{
-        k: v for k, v in PIPELINE_DEFAULTS.items()
+        k: v for k, v in settings.items()
         if verifier or not k.startswith("verifier__")
     })
     owners: dict = {}
