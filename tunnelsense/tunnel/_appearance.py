@@ -29,7 +29,12 @@ from tunnelsense._payload import (
     inside_boxes,
 )
 from tunnelsense._records import check_frames
-from tunnelsense.tunnel._common import FrameModeMixin, bin_lut, check_intensity_range
+from tunnelsense.tunnel._common import (
+    FrameModeMixin,
+    bin_lut,
+    check_intensity_range,
+    require_boxes,
+)
 from tunnelsense.tunnel._invariant import (
     _crop,
     invariant_features,
@@ -343,11 +348,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     def _fit_frames(self, X, y=None, sample_weight=None):
         self._check_range()
         records, boxes = check_frames(X, y)
-        if boxes is None:
-            raise ValueError(
-                "WeightedAdaBoost requires y: per frame, the (k, 4) indicator "
-                "boxes that label keypoint clusters positive"
-            )
+        require_boxes(boxes, "WeightedAdaBoost", "that label keypoint clusters positive")
         if sample_weight is not None:
             raise ValueError("sample_weight is only supported for 2-D array input")
         rng = np.random.default_rng(

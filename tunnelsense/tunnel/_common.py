@@ -23,6 +23,7 @@ __all__ = [
     "check_intensity_range",
     "is_record_input",
     "points_in_boxes",
+    "require_boxes",
 ]
 
 def is_record_input(X) -> bool:
@@ -130,6 +131,22 @@ def _tabular_only(method, name):
         return method(self, X, *args, **kwargs)
 
     return tabular
+
+
+def require_boxes(boxes, owner, purpose):
+    """Refuse ``boxes`` None (no ``y``): ``owner`` needs the indicator boxes ``purpose``.
+
+    Examples
+    --------
+    >>> require_boxes(None, "MyStage", "that label keypoints positive")
+    Traceback (most recent call last):
+    ...
+    ValueError: MyStage requires y: per frame, the (k, 4) indicator boxes that label keypoints positive
+    """
+    if boxes is None:
+        raise ValueError(
+            f"{owner} requires y: per frame, the (k, 4) indicator boxes {purpose}"
+        )
 
 
 def points_in_boxes(rows, cols, boxes) -> np.ndarray:

@@ -25,6 +25,7 @@ from tunnelsense.tunnel._common import (
     bin_lut,
     check_intensity_range,
     points_in_boxes,
+    require_boxes,
 )
 from tunnelsense.tunnel._descriptors import keypoint_descriptors, patch_histograms
 from tunnelsense.tunnel._kmeans import (
@@ -254,11 +255,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
     def _fit_frames(self, X, y=None):
         self._check_settings()
         records, boxes = check_frames(X, y)
-        if boxes is None:
-            raise ValueError(
-                "KMeansHistogramVerifier requires y: per frame, the (k, 4) "
-                "indicator boxes that label keypoints positive"
-            )
+        require_boxes(boxes, "KMeansHistogramVerifier", "that label keypoints positive")
         pos, neg = [], []
         for (_, kp, H), b in zip(self._frame_histograms(records), boxes, strict=True):
             inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
