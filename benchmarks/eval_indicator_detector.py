@@ -131,6 +131,12 @@ def main():
     ap.add_argument("--no-search", dest="search", action="store_false")
     ap.add_argument("--segments", type=int, default=3)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument(
+        "--before-cross-condition", action="store_true",
+        help="the defaults these tables were measured with: raw histograms "
+             "(appearance__features='histogram', appearance__augment=0) and the "
+             "straight-line motion check (motion__criterion='pearson')",
+    )
     args = ap.parse_args()
     t_start = time.perf_counter()
     print("simulating tours", flush=True)
@@ -142,6 +148,9 @@ def main():
     Xtr, ytr, _ = to_xy([train])
     data = {sc: to_xy([t])[:2] for sc, t in tests.items()}
     base = {"random_state": args.seed}
+    if args.before_cross_condition:
+        base.update(appearance__features="histogram", appearance__augment=0,
+                    motion__criterion="pearson")
 
     if args.search:
         print("grid search on the training tour", flush=True)
