@@ -146,6 +146,17 @@ def _check_range(name, value, lo, hi=math.inf, *, closed_lo=True):
     return v
 
 
+def _check_radius(name, value, minimum, straight):
+    """``value`` as a float signed radius with ``|value| >= minimum`` (inf: ``straight``)."""
+    radius = float(value)
+    if math.isnan(radius) or abs(radius) < minimum:
+        raise ValueError(
+            f"{name} must be a signed radius with |radius| >= {minimum:g} m "
+            f"(inf for {straight}); got {value!r}"
+        )
+    return radius
+
+
 def _resolve_params(scenario, overrides, seed=0):
     if not isinstance(scenario, str) or scenario not in _SCENARIOS:
         raise ValueError(
@@ -190,20 +201,12 @@ def _resolve_params(scenario, overrides, seed=0):
     )
     p["mount_height_m"] = _check_range("mount_height_m", p["mount_height_m"], 0.3, 4.0)
     p["noise_sigma"] = _check_range("noise_sigma", p["noise_sigma"], 0.0, 50.0)
-    radius = float(p["curve_radius_m"])
-    if math.isnan(radius) or abs(radius) < 200.0:
-        raise ValueError(
-            "curve_radius_m must be a signed radius with |radius| >= 200 m "
-            f"(inf for a straight tunnel); got {p['curve_radius_m']!r}"
-        )
-    p["curve_radius_m"] = radius
-    vertical = float(p["vertical_curve_radius_m"])
-    if math.isnan(vertical) or abs(vertical) < 500.0:
-        raise ValueError(
-            "vertical_curve_radius_m must be a signed radius with |radius| >= 500 m "
-            f"(inf for a constant grade); got {p['vertical_curve_radius_m']!r}"
-        )
-    p["vertical_curve_radius_m"] = vertical
+    p["curve_radius_m"] = _check_radius(
+        "curve_radius_m", p["curve_radius_m"], 200.0, "a straight tunnel"
+    )
+    p["vertical_curve_radius_m"] = _check_radius(
+        "vertical_curve_radius_m", p["vertical_curve_radius_m"], 500.0, "a constant grade"
+    )
     p["traffic_per_km"] = _check_range("traffic_per_km", p["traffic_per_km"], 0.0, 60.0)
     p["truck_fraction"] = _check_range("truck_fraction", p["truck_fraction"], 0.0, 1.0)
     p["lateral_jitter_m"] = _check_range(

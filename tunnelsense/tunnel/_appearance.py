@@ -29,7 +29,12 @@ from tunnelsense._payload import (
     inside_boxes,
 )
 from tunnelsense._records import check_frames
-from tunnelsense.tunnel._common import FrameModeMixin, bin_lut
+from tunnelsense.tunnel._common import (
+    FrameModeMixin,
+    bin_lut,
+    check_intensity_range,
+    require_boxes,
+)
 from tunnelsense.tunnel._invariant import (
     _crop,
     invariant_features,
@@ -296,14 +301,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         return super().fit(X, y, sample_weight=sample_weight)
 
     def _check_range(self):
-        if self.intensity_range is None:
-            return
-        r = tuple(self.intensity_range)
-        if len(r) != 2 or not r[0] < r[1]:
-            raise ValueError(
-                "intensity_range must be None or a pair (lo, hi) with lo < hi; "
-                f"got {self.intensity_range!r}"
-            )
+        check_intensity_range(self.intensity_range)
 
     def _n_features(self):
         if self.features == "invariant":
@@ -350,11 +348,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     def _fit_frames(self, X, y=None, sample_weight=None):
         self._check_range()
         records, boxes = check_frames(X, y)
-        if boxes is None:
-            raise ValueError(
-                "WeightedAdaBoost requires y: per frame, the (k, 4) indicator "
-                "boxes that label keypoint clusters positive"
-            )
+        require_boxes(boxes, "WeightedAdaBoost", "that label keypoint clusters positive")
         if sample_weight is not None:
             raise ValueError("sample_weight is only supported for 2-D array input")
         rng = np.random.default_rng(

@@ -20,8 +20,10 @@ from tunnelsense._records import (
 __all__ = [
     "FrameModeMixin",
     "bin_lut",
+    "check_intensity_range",
     "is_record_input",
     "points_in_boxes",
+    "require_boxes",
 ]
 
 def is_record_input(X) -> bool:
@@ -131,6 +133,22 @@ def _tabular_only(method, name):
     return tabular
 
 
+def require_boxes(boxes, owner, purpose):
+    """Refuse ``boxes`` None (no ``y``): ``owner`` needs the indicator boxes ``purpose``.
+
+    Examples
+    --------
+    >>> require_boxes(None, "MyStage", "that label keypoints positive")
+    Traceback (most recent call last):
+    ...
+    ValueError: MyStage requires y: per frame, the (k, 4) indicator boxes that label keypoints positive
+    """
+    if boxes is None:
+        raise ValueError(
+            f"{owner} requires y: per frame, the (k, 4) indicator boxes {purpose}"
+        )
+
+
 def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     """Whether each point ``(row, col)`` lies inside any box ``(left, top, w, h)``.
 
@@ -144,6 +162,27 @@ def points_in_boxes(rows, cols, boxes) -> np.ndarray:
     array([ True, False])
     """
     return inside_boxes(cols, rows, boxes).any(axis=1)
+
+
+def check_intensity_range(intensity_range):
+    """Refuse an ``intensity_range`` that is neither None nor a pair (lo, hi), lo < hi.
+
+    Examples
+    --------
+    >>> check_intensity_range((0, 4096))
+    >>> check_intensity_range((10, 10))
+    Traceback (most recent call last):
+    ...
+    ValueError: intensity_range must be None or a pair (lo, hi) with lo < hi; got (10, 10)
+    """
+    if intensity_range is None:
+        return
+    r = tuple(intensity_range)
+    if len(r) != 2 or not r[0] < r[1]:
+        raise ValueError(
+            "intensity_range must be None or a pair (lo, hi) with lo < hi; "
+            f"got {intensity_range!r}"
+        )
 
 
 def bin_lut(dtype, bins, intensity_range=None, binning="hard"):

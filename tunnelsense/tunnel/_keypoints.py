@@ -21,6 +21,7 @@ from sklearn.utils.validation import check_is_fitted
 from tunnelsense._payload import KEYPOINT_BAND, KEYPOINTS, check_image, where
 from tunnelsense._records import FrameSequence, check_frames, decode_once
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.tunnel._common import require_boxes
 from tunnelsense.tunnel._intensity import indicator_band, sample_keypoints
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
@@ -219,11 +220,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
         if self.band == "learned":
-            if boxes is None:
-                raise ValueError(
-                    "IntensityKeypointSampler(band='learned') requires y: per frame, "
-                    "the (k, 4) indicator boxes to learn the band from"
-                )
+            require_boxes(
+                boxes, "IntensityKeypointSampler(band='learned')", "to learn the band from"
+            )
             images = [
                 _check_depth(check_image(r.image, where(r, i)), i, r, self.pixel_dtype_)
                 for i, r in enumerate(records) if len(boxes[i])

@@ -293,23 +293,9 @@ class WeightedAdaBoostCore(ClassifierMixin, TransformerMixin, BaseEstimator):
             X, y, sample_weight = X[keep], y[keep], sample_weight[keep]
         self.classes_ = classes = np.unique(y)
         if len(classes) == 1:
-            (
-                self.stump_features_,
-                self.stump_thresholds_,
-                self._left,
-                self._right,
-                self.stump_weights_,
-                self.stump_errors_,
-            ) = (np.empty(0, np.intp),) * 4 + (np.empty(0),) * 2
+            stumps = (np.empty(0, np.intp),) * 4 + (np.empty(0),) * 2
         else:
-            (
-                self.stump_features_,
-                self.stump_thresholds_,
-                self._left,
-                self._right,
-                self.stump_weights_,
-                self.stump_errors_,
-            ) = samme(
+            stumps = samme(
                 X,
                 np.searchsorted(classes, y),
                 len(classes),
@@ -317,6 +303,14 @@ class WeightedAdaBoostCore(ClassifierMixin, TransformerMixin, BaseEstimator):
                 n_estimators=self.n_estimators,
                 learning_rate=self.learning_rate,
             )
+        (
+            self.stump_features_,
+            self.stump_thresholds_,
+            self._left,
+            self._right,
+            self.stump_weights_,
+            self.stump_errors_,
+        ) = stumps
         self.stump_classes_ = np.column_stack([self._left, self._right])
         self._total_weight = float(self.stump_weights_.sum())
         return self

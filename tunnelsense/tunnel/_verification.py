@@ -20,7 +20,13 @@ from tunnelsense._payload import (
     keypoints_of,
 )
 from tunnelsense._records import check_frames
-from tunnelsense.tunnel._common import FrameModeMixin, bin_lut, points_in_boxes
+from tunnelsense.tunnel._common import (
+    FrameModeMixin,
+    bin_lut,
+    check_intensity_range,
+    points_in_boxes,
+    require_boxes,
+)
 from tunnelsense.tunnel._descriptors import keypoint_descriptors, patch_histograms
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
@@ -226,14 +232,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                     f"positive ints{' or None' if name == 'context_size' else ''}; "
                     f"got {ps!r}"
                 )
-        if self.intensity_range is None:
-            return
-        r = tuple(self.intensity_range)
-        if len(r) != 2 or not r[0] < r[1]:
-            raise ValueError(
-                "intensity_range must be None or a pair (lo, hi) with lo < hi; "
-                f"got {self.intensity_range!r}"
-            )
+        check_intensity_range(self.intensity_range)
 
     def _frame_histograms(self, records):
         """Yield (record, keypoints, descriptors) per frame."""
@@ -256,11 +255,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
     def _fit_frames(self, X, y=None):
         self._check_settings()
         records, boxes = check_frames(X, y)
-        if boxes is None:
-            raise ValueError(
-                "KMeansHistogramVerifier requires y: per frame, the (k, 4) "
-                "indicator boxes that label keypoints positive"
-            )
+        require_boxes(boxes, "KMeansHistogramVerifier", "that label keypoints positive")
         pos, neg = [], []
         for (_, kp, H), b in zip(self._frame_histograms(records), boxes, strict=True):
             inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
