@@ -10,10 +10,12 @@ from tunnelsense.datasets._odometry import (
     make_tunnel_odometry,
     simulate_indicator_detections,
 )
+from tunnelsense.datasets._simulate import simulate_to_folder
 from tunnelsense.datasets._street import STREET_SCENARIOS, make_street_scans
 from tunnelsense.datasets._tunnel import TUNNEL_SCENARIOS, make_tunnel_tour
 
 __all__ = [
+    "simulate_to_folder",
     "STREET_SCENARIOS",
     "TUNNEL_SCENARIOS",
     "TourKinematics",

@@ -44,9 +44,13 @@ from tunnelsense.io._results import (
 )
 from tunnelsense.io._sources import open_tour, read_image_folder, read_video
 from tunnelsense.io._tables import read_mot_gt, write_mot_gt
+from tunnelsense.io._trust import check_model_path, load_trusted_model, read_signing_key
 from tunnelsense.io._writer import ResultsWriter
 
 __all__ = [
+    "check_model_path",
+    "load_trusted_model",
+    "read_signing_key",
     "CLUSTERS_HEADER",
     "CLUSTERS_SUFFIX",
     "MOT_RESULT_COLUMNS",

@@ -33,6 +33,12 @@ from tunnelsense.tunnel._keypoints import (
 )
 from tunnelsense.tunnel._motion import PCCVerifier, curve_fit_r, pearson_r, straightness
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
+from tunnelsense.tunnel._reports import (
+    format_detection,
+    format_tours,
+    format_training,
+    run_demo,
+)
 from tunnelsense.tunnel._tracking import TrajectoryLinker
 from tunnelsense.tunnel._verification import (
     KMeansHistogramVerifier,
@@ -44,6 +50,10 @@ from tunnelsense.tunnel._verification import (
 )
 
 __all__ = [
+    "format_detection",
+    "format_tours",
+    "format_training",
+    "run_demo",
     "IntensityKeypointSampler",
     "KMeansHistogramVerifier",
     "MSTClusterer",
