@@ -4,20 +4,15 @@ from __future__ import annotations
 
 import math
 import struct
-from collections import deque
-from collections.abc import Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from tunnelsense._records import decode_once
 from tunnelsense.exceptions import InputFormatError
 
 __all__ = [
     "IMAGE_EXTENSIONS",
-    "decode_ahead",
     "iter_video",
     "open_video",
     "read_image",
@@ -219,38 +214,3 @@ def iter_video(path, *, check_length=True):
     error = video_length_error(path, n, stated, "; the frames before were processed")
     if check_length and error is not None:
         raise error
-
-
-def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
-    """Yield the records with their images decoded, decoding ahead in threads.
-
-    OpenCV releases the interpreter lock while it decodes, so reader threads decode
-    the next frames while the detector works on this one.  Records come out in input
-    order, each with a :class:`~tunnelsense.DecodedImage` source (in-memory images
-    pass unchanged); at most ``ahead`` decoded frames wait, so memory stays bounded.
-
-    Parameters
-    ----------
-    records : iterable of FrameRecord
-    n_threads : int, default=1
-        Reader threads; 0 decodes in the calling thread, as the records are taken.
-    ahead : int, default=8
-        Frames decoded ahead at most.
-
-    Yields
-    ------
-    record : FrameRecord
-    """
-    if n_threads < 1:
-        for record in records:
-            yield decode_once(record)
-        return
-    with ThreadPoolExecutor(max_workers=n_threads,
-                            thread_name_prefix="decode") as pool:
-        pending = deque()
-        for record in records:
-            pending.append(pool.submit(decode_once, record))
-            if len(pending) >= ahead:
-                yield pending.popleft().result()
-        while pending:
-            yield pending.popleft().result()

@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import math
 import re
+from collections import deque
+from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import cv2
@@ -18,6 +21,7 @@ from tunnelsense._records import (
     ImageFile,
     Tour,
     VideoFrame,
+    decode_once,
     empty_mot_gt,
 )
 from tunnelsense.exceptions import InputFormatError
@@ -32,7 +36,7 @@ from tunnelsense.io._images import (
 from tunnelsense.io._mot import _check_sizes, read_tour
 from tunnelsense.io._tables import _MAX_INT
 
-__all__ = ["open_tour", "read_image_folder", "read_video"]
+__all__ = ["decode_ahead", "open_tour", "read_image_folder", "read_video"]
 
 
 def _natural_key(path):
@@ -220,3 +224,38 @@ def open_tour(source) -> Tour:
         f"{source}: not found (expected a MOTChallenge folder, an image folder or a "
         "video file)"
     )
+
+
+def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
+    """Yield the records with their images decoded, decoding ahead in threads.
+
+    OpenCV releases the interpreter lock while it decodes, so reader threads decode
+    the next frames while the detector works on this one.  Records come out in input
+    order, each with a :class:`~tunnelsense.DecodedImage` source (in-memory images
+    pass unchanged); at most ``ahead`` decoded frames wait, so memory stays bounded.
+
+    Parameters
+    ----------
+    records : iterable of FrameRecord
+    n_threads : int, default=1
+        Reader threads; 0 decodes in the calling thread, as the records are taken.
+    ahead : int, default=8
+        Frames decoded ahead at most.
+
+    Yields
+    ------
+    record : FrameRecord
+    """
+    if n_threads < 1:
+        for record in records:
+            yield decode_once(record)
+        return
+    with ThreadPoolExecutor(max_workers=n_threads,
+                            thread_name_prefix="decode") as pool:
+        pending = deque()
+        for record in records:
+            pending.append(pool.submit(decode_once, record))
+            if len(pending) >= ahead:
+                yield pending.popleft().result()
+        while pending:
+            yield pending.popleft().result()

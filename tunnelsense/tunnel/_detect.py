@@ -21,7 +21,7 @@ from threadpoolctl import threadpool_limits
 from tunnelsense._fitting import fit_pipeline
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._streaming import StreamingPipeline
-from tunnelsense.io._images import decode_ahead, iter_video, open_video
+from tunnelsense.io._images import iter_video, open_video
 from tunnelsense.io._results import (
     CLUSTERS_HEADER,
     RESULT_LINE,
@@ -29,7 +29,7 @@ from tunnelsense.io._results import (
     clusters_path,
     mot_result_lines,
 )
-from tunnelsense.io._sources import open_tour
+from tunnelsense.io._sources import decode_ahead, open_tour
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.plotting._detections import draw_detections
