@@ -135,6 +135,9 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         Number of kept centres.
     n_positive_, n_negative_ : int
         Numbers of positive and negative descriptors used in ``fit``.
+    quantum_ : float
+        The grid (a power of two) the descriptors and centres are rounded to, so
+        that every distance is exact and every decision the same on every CPU.
     n_features_in_ : int
         Descriptor length (for frames: ``bins``, or ``2 * bins`` with the context).
     n_frames_fit_ : int
