@@ -14,10 +14,9 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import check_random_state
-from sklearn.utils._param_validation import Interval
-from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
+from sklearn.utils.validation import check_is_fitted, column_or_1d
 from threadpoolctl import threadpool_limits
 
 from tunnelsense.tunnel._kmeans_grid import (
@@ -28,6 +27,7 @@ from tunnelsense.tunnel._kmeans_grid import (
     minibatch_kmeans,
     to_grid,
 )
+from tunnelsense.utils._sklearn_compat import Interval, _fit_context, validate_data
 
 __all__ = [
     "KMeansHistogramCore",

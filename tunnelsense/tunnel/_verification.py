@@ -10,8 +10,6 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._payload import (
     KEYPOINTS,
@@ -34,6 +32,7 @@ from tunnelsense.tunnel._kmeans import (
     rank_positive_centers,
     verify_histograms,
 )
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = [
     "KMeansHistogramVerifier",
