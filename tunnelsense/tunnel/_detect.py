@@ -75,7 +75,7 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     random_state : int, default=0
         Seed of the pipeline.
     n_jobs : int, default=1
-        Reader threads, the verifier's threads and the search's parallel fits.
+        Reader threads and the search's parallel fits (k-means runs on one thread).
     dask_scheduler : str or None, default=None
         Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
         needs the ``distributed`` extra); the workers must see the tours' files.
@@ -111,8 +111,9 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     # thread) overlaps the reader threads, which run without the interpreter lock
     import skops.io  # noqa: F401
     X = FrameSequence(decoded + list(frames))
-    model = make_indicator_pipeline(random_state=random_state,
-                                    verifier__n_jobs=n_jobs)
+    # k-means keeps its one BLAS thread: spinning BLAS or OpenMP threads make a fit
+    # several times slower on a loaded machine, and the centres do not depend on it
+    model = make_indicator_pipeline(random_state=random_state)
     found = None
     if search:
         # keypoints, verifier and clusters (the k-means) are fitted once per fold
