@@ -10,7 +10,8 @@ kinds those pipelines are written with, each of an exact type,
   estimator (:data:`~tunnelsense.io.TRUSTED_TYPES`), built with ``__new__`` and its
   attribute dict (no ``__init__``, no ``__setstate__`` of ours runs);
 * ``DictNode`` (string keys), ``ListNode``, ``TupleNode`` of the builtins;
-* ``JsonNode`` holding a JSON number, string, boolean or null;
+* ``JsonNode`` holding a JSON string, boolean, null or a finite number within
+  2**53 (no parameter or count of a model is larger; NaN and infinities never);
 * ``NdArrayNode`` of a NumPy ``.npy`` member of a numeric or boolean dtype, read
   with ``allow_pickle=False``,
 
@@ -127,6 +128,8 @@ class _Reader:
         if value is not None and not isinstance(value, bool | int | float | str):
             self.refuse(where, f"a JSON {type(value).__name__} (only numbers, strings, "
                         "booleans and null)")
+        if isinstance(value, int | float) and not abs(value) <= 2**53:
+            self.refuse(where, f"the number {value!r} (non-finite, or beyond 2**53)")
         return value
 
     def dict_value(self, node, where, depth):
@@ -308,12 +311,22 @@ def _check_frames_fit(est):
 def _check_scan(est):
     if problem := _array(est, "region_edges_", "f", (2,)):
         return problem
+    if not est.region_edges_[0] <= est.region_edges_[1]:
+        return "regions must be two increasing depths"
+    if not (len(est.labels_) == 3 and all(isinstance(s, str) for s in est.labels_)):
+        return "region_labels must be three strings"
+    if not (est.min_height < est.max_height and est.min_length < est.max_length):
+        return "min_height < max_height and min_length < max_length must hold"
     if not np.array_equal(est.region_edges_, np.asarray(est.regions, dtype=float)):
         return "region_edges_ must be the regions parameter"
     if est.labels_ != tuple(est.region_labels):
         return "labels_ must be the region_labels parameter"
     return None
 
+
+#: The methods with which the estimators' ``fit`` checks what their constraints
+#: cannot express (pairs, ranges).
+_FIT_CHECKS = ("_check_settings", "_check_range", "_check_region_params")
 
 #: Per class: its fitted attributes (documented in its docstring) and their check.
 _FITTED = {
@@ -352,6 +365,9 @@ def _check_step(path, where, est):
         )
     try:
         est._validate_params()
+        for method in _FIT_CHECKS:  # what fit checks beyond the constraints
+            if hasattr(est, method):
+                getattr(est, method)()
     except (ValueError, TypeError) as exc:  # InvalidParameterError is both
         raise UntrustedModelError(f"{path}: {where} ({name}): invalid parameter: "
                                   f"{exc}; refusing to load it") from None
