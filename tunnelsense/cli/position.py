@@ -19,7 +19,7 @@ def _cmd_position(args) -> int:
     positions, fixes = position_tour(
         args.tour, args.out, model=model, results=args.results,
         odometry=args.odometry, indicator_map=args.map, smooth=args.smooth,
-        overwrite=args.force, inputs=[args.model, args.key_file],
+        overwrite=args.force, inputs=[args.model, *common.key_files(args)],
         progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
     print(f"wrote {args.out}: {len(positions)} frames, {kept} of {len(fixes)} "

@@ -22,7 +22,14 @@ from tunnelsense.io._laser import (
     write_run,
     write_run_gt,
 )
+from tunnelsense.io._keys import (
+    generate_key_pair,
+    read_private_key,
+    read_public_key,
+    read_secret,
+)
 from tunnelsense.io._model import (
+    MAX_MODEL_BYTES,
     TRUSTED_TYPES,
     ModelVersionWarning,
     UntrustedModelError,
@@ -48,6 +55,11 @@ from tunnelsense.io._trust import check_model_path, load_trusted_model, read_sig
 from tunnelsense.io._writer import ResultsWriter
 
 __all__ = [
+    "MAX_MODEL_BYTES",
+    "generate_key_pair",
+    "read_private_key",
+    "read_public_key",
+    "read_secret",
     "check_model_path",
     "load_trusted_model",
     "read_signing_key",
