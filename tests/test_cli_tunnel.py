@@ -129,6 +129,7 @@ def test_streamed_outputs_equal_batch_predict(tour_dirs, models, batch_records, 
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "r.clusters.csv"), hyp)
 
 
+@pytest.mark.slow
 def test_video_source(tour_dirs, models, batch_records, tmp_path):
     import cv2
 
@@ -147,6 +148,7 @@ def test_video_source(tour_dirs, models, batch_records, tmp_path):
     assert len(list(draw.glob("*.png"))) == 120
 
 
+@pytest.mark.slow
 def test_skops_and_joblib_in_a_fresh_process(tour_dirs, models, batch_records, tmp_path):
     outs = {}
     for ext, path in models.items():
@@ -210,6 +212,7 @@ def test_resume_completes_a_truncated_file(
              str(other), "--resume"])
 
 
+@pytest.mark.slow
 def test_kill_then_resume(models, long_folder, full_long, tmp_path):
     data, full_companion = full_long
     out = tmp_path / "killed.txt"
@@ -269,6 +272,7 @@ def _learned(estimator):
             and not k.startswith("_")}
 
 
+@pytest.mark.slow
 def test_train_gives_the_model_fit_gives(models, tour_dirs):
     """'train tunnel' with its defaults equals make_indicator_pipeline().fit(X, y).
 

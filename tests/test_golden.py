@@ -98,6 +98,7 @@ def tunnel_results(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_tunnel_detections_unchanged(tunnel_results):
     expected = _golden(tunnel_results, "tunnel-results.txt")
     got_frames, got_ids, got_boxes = _mot_rows(tunnel_results)
@@ -114,6 +115,7 @@ def test_tunnel_detections_unchanged(tunnel_results):
     assert len(set(got_ids)) == len(set(want_ids))
 
 
+@pytest.mark.slow
 def test_tunnel_clusters_unchanged(tunnel_results):
     companion = tunnel_results.with_name(tunnel_results.stem + ".clusters.csv")
     assert companion.is_file()

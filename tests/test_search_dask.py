@@ -12,6 +12,9 @@ from tunnelsense.metrics import make_tunnel_scorer
 
 distributed = pytest.importorskip("distributed")  # the optional 'distributed' extra
 
+pytestmark = pytest.mark.slow
+
+
 GRID = {"motion__min_r": [0.5, 0.97]}
 #: few k-means steps: the test is where the fits run, not how good they are
 FAST = {"verifier__n_steps": 10, "verifier__max_full_samples": 1}

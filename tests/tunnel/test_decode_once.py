@@ -38,6 +38,7 @@ def decodes(monkeypatch):
     return counts
 
 
+@pytest.mark.slow
 def test_streaming_decodes_each_frame_once(fitted, decodes):
     model, folder, tour = fitted
     frames = open_tour(folder).frames
@@ -73,6 +74,7 @@ def test_decoded_image_pickles_as_its_origin(fitted):
     assert np.array_equal(back.load(), decoded.load())
 
 
+@pytest.mark.slow
 def test_fit_pipeline_equals_pipeline_fit(fitted):
     from tunnelsense._fitting import fit_pipeline
 

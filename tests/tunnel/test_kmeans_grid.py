@@ -23,7 +23,7 @@ def test_grid_distances_are_exact_integers(max_abs, d, global_random_seed):
     got = grid_sq_distances(X, C)
     # Python integers: the exact squared distances
     Xi, Ci = X.astype(np.int64).tolist(), C.astype(np.int64).tolist()
-    exact = [[sum((a - b) ** 2 for a, b in zip(x, c)) for c in Ci] for x in Xi]
+    exact = [[sum((a - b) ** 2 for a, b in zip(x, c, strict=True)) for c in Ci] for x in Xi]
     assert got.tolist() == [[float(v) for v in row] for row in exact]
     assert all(v < 2**53 for row in exact for v in row)
     # whatever order the products are summed in (columns reversed, one at a time)

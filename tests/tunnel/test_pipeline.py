@@ -54,6 +54,7 @@ def test_steps_and_parameters():
         make_indicator_pipeline(bins=16)  # verifier and appearance both have bins
 
 
+@pytest.mark.slow
 def test_fit_predict_score_and_persist(tours, tmp_path):
     X, y, _ = to_xy(tours[:2])
     pipe = make_indicator_pipeline(**SMALL).fit(X, y)
