@@ -1,28 +1,31 @@
 """Laser runs in ROS bags give the same detections as the same scans in scans.npz."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from tunnelsense import LaserGeometry, Run
 from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.io import open_run_stream, read_run, write_run
+from tunnelsense.io import open_run_stream, read_run, write_run, write_run_bag
 
-rosbag = pytest.importorskip("tunnelsense.io._rosbag")
 pytest.importorskip("rosbags")  # the optional 'rosbag' extra
+
+SPEED = 10.0  # m/s: the ego speed of the recorded run (36 km/h, not the 40 assumed)
 
 
 def _as_recorded(run):
     """The run as a LaserScan driver records it: float32 ranges and geometry, t >= 0,
-    and nothing else (a bag holds no ego speed)."""
+    and an ego speed (which a bag holds on an odometry topic)."""
     g = run.geometry
     f32 = {k: float(np.float32(getattr(g, k))) for k in
            ("angle_min", "angle_increment", "range_min", "range_max")}
     geometry = LaserGeometry(**f32, mount_height=g.mount_height)
     ranges = run.scans.ranges().astype(np.float32).astype(np.float64)
     stamps = np.array([s.stamp for s in run.scans]) + 1.0
-    return Run.from_arrays(run.name, ranges, stamps, geometry, run.gt)
+    return Run.from_arrays(run.name, ranges, stamps, geometry, run.gt,
+                           info={"speed": SPEED})
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +33,20 @@ def runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("bags")
     run = _as_recorded(make_street_scans(1200, random_state=4, name="street"))
     npz = write_run(run, root / "npz")
-    ros2 = rosbag.write_run_bag(run, root / "ros2", version="ros2")
-    ros1 = rosbag.write_run_bag(run, root / "street.bag", version="ros1")
+    ros2 = write_run_bag(run, root / "ros2", version="ros2")
+    ros1 = write_run_bag(run, root / "street.bag", version="ros1")
+    # as a ROS driver records: no stored mount height, no odometry
+    bare = write_run_bag(run, root / "bare.bag", version="ros1", odometry_topic=None,
+                         store_mount_height=False)
     model = root / "m.skops"
     assert main(["train", "street", str(npz), "--model", str(model)]) == 0
-    return {"npz": npz, "ros2": ros2, "ros1": ros1, "model": model, "run": run}
+    return {"npz": npz, "ros2": ros2, "ros1": ros1, "bare": bare, "model": model,
+            "run": run}
+
+
+def _detect(runs, name, out, *extra):
+    return main(["detect", "street", "--model", str(runs["model"]), str(runs[name]),
+                 "--out", str(out), "--quiet", *extra])
 
 
 @pytest.mark.parametrize("kind", ["ros2", "ros1"])
@@ -42,10 +54,7 @@ def test_detect_street_on_a_bag_equals_scans_npz(runs, kind, tmp_path):
     outs = {}
     for name in ("npz", kind):
         outs[name] = tmp_path / f"{name}.csv"
-        extra = ["--mount-height", "2.0"] if name != "npz" else []
-        assert main(["detect", "street", "--model", str(runs["model"]),
-                     str(runs[name]), "--out", str(outs[name]), "--quiet",
-                     *extra]) == 0
+        assert _detect(runs, name, outs[name]) == 0
     rows = outs["npz"].read_text().splitlines()
     assert len(rows) > 5
     assert outs[kind].read_text().splitlines() == rows
@@ -63,6 +72,56 @@ def test_bag_round_trip_and_streaming(runs, kind):
                           no_return_as_inf(run.scans.ranges()))
     stamps = [s.stamp for s in open_run_stream(runs[kind])]
     assert np.allclose(stamps, [s.stamp for s in run.scans], atol=1e-9)
+    # the ego speed comes back from the odometry topic, on every scan
+    assert back.info["speed_topic"] == "/odom"
+    assert {s.payload["speed"] for s in back.scans} == {SPEED}
+    assert {s.payload["speed"] for s in open_run_stream(runs[kind])} == {SPEED}
+
+
+def test_a_bag_without_mount_height_asks_for_it(runs, tmp_path, capsys):
+    with pytest.raises(InputFormatError, match="--mount-height"):
+        read_run(runs["bare"])
+    out = tmp_path / "o.csv"
+    assert _detect(runs, "bare", out) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--mount-height METRES" in err
+    assert "bare.bag" in err and "internal error" not in err
+    assert not out.exists()
+
+
+def test_a_bag_without_speed_asks_for_it_and_speed_sets_lengths(runs, tmp_path,
+                                                                 capsys):
+    out = tmp_path / "o.csv"
+    assert _detect(runs, "bare", out, "--mount-height", "2.0") == 1
+    err = capsys.readouterr().err
+    assert "gives no ego speed" in err and "--speed M/S" in err
+    assert not out.exists()
+    # --speed gives what the odometry topic gave: the same objects as scans.npz
+    assert _detect(runs, "bare", out, "--mount-height", "2.0", "--speed",
+                   str(SPEED), "--all-objects") == 0
+    assert _detect(runs, "npz", tmp_path / "ref.csv", "--all-objects") == 0
+    assert out.read_text() == (tmp_path / "ref.csv").read_text()
+    # and lengths follow the speed: an object seen over the same scans at twice the
+    # speed is twice as long
+    assert _detect(runs, "bare", tmp_path / "fast.csv", "--mount-height", "2.0",
+                   "--speed", str(2 * SPEED), "--all-objects") == 0
+    same = pd.read_csv(out).merge(pd.read_csv(tmp_path / "fast.csv"),
+                                  on=["first_scan", "last_scan"])
+    assert len(same) >= 5
+    assert np.median(same["length_y"] / same["length_x"]) == pytest.approx(2.0,
+                                                                            rel=0.05)
+
+
+def test_speed_arguments_are_checked(runs):
+    with pytest.raises(InputFormatError, match="speed must be a positive number"):
+        open_run_stream(runs["ros2"], speed=-3.0)
+    with pytest.raises(InputFormatError, match="no nav_msgs/Odometry .* '/gps'.*/odom"):
+        open_run_stream(runs["ros2"], speed_topic="/gps")
+    with pytest.raises(InputFormatError, match="speed_topic applies to a ROS bag"):
+        read_run(runs["npz"], speed_topic="/odom")
+    # a given speed replaces the odometry's, in bags and run folders alike
+    assert {s.payload["speed"] for s in open_run_stream(runs["ros1"], speed=3.0)} == {3.0}
+    assert {s.payload["speed"] for s in read_run(runs["npz"], speed=3.0).scans} == {3.0}
 
 
 def test_bag_errors_are_clear(runs, tmp_path):
