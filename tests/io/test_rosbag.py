@@ -87,6 +87,11 @@ def test_a_bag_without_mount_height_asks_for_it(runs, tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "--mount-height METRES" in err
     assert "bare.bag" in err and "internal error" not in err
     assert not out.exists()
+    # info too asks for it, and takes it
+    assert main(["info", str(runs["bare"])]) == 1
+    assert "--mount-height METRES" in capsys.readouterr().err
+    assert main(["info", str(runs["bare"]), "--mount-height", "1.5"]) == 0
+    assert "mount height 1.5 m" in capsys.readouterr().out
 
 
 def test_a_bag_without_speed_asks_for_it_and_speed_sets_lengths(runs, tmp_path,

@@ -18,9 +18,9 @@ def _cmd_info(args) -> int:
 
         facts = describe_model(args.source, **common.verify_keys(args))
     else:
-        facts = describe(args.source)
+        facts = describe(args.source, mount_height=args.mount_height)
     print(json.dumps(facts, indent=2, sort_keys=True) if args.json
-          else format_description(facts))
+          else format_description(facts, verbose=args.verbose))
     return 0
 
 
@@ -34,6 +34,12 @@ def register_top(sub) -> None:
                    "run folder (scans.npz + gt.csv), ROS bag, or model file (.skops, "
                    ".joblib)")
     p.add_argument("--json", action="store_true",
-                   help="print the facts as JSON (numbers as numbers)")
+                   help="print every fact as JSON (numbers as numbers)")
+    p.add_argument("--verbose", action="store_true",
+                   help="also list the run information's records (such as every "
+                   "simulated vehicle) and long tables")
+    p.add_argument("--mount-height", type=float, metavar="METRES",
+                   help="a ROS bag's laser height above the road, when the bag does "
+                   "not say")
     common.add_verify_arguments(p)
     p.set_defaults(func=_cmd_info)
