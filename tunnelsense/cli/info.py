@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extras_for_runs
 from tunnelsense.io import describe, format_description
 
 _HELP = ("describe a tour (MOTChallenge folder, image folder, video), a laser run or "
@@ -18,6 +19,7 @@ def _cmd_info(args) -> int:
 
         facts = describe_model(args.source, **common.verify_keys(args))
     else:
+        require_extras_for_runs([args.source])
         facts = describe(args.source, mount_height=args.mount_height)
     print(json.dumps(facts, indent=2, sort_keys=True) if args.json
           else format_description(facts, verbose=args.verbose))

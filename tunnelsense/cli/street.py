@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extras_for_runs
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
 from tunnelsense.io._rosbag import is_bag
@@ -48,6 +49,7 @@ def _check_bag_speed(path, info, model=None) -> None:
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
+    require_extras_for_runs(args.rundirs)
     key = common.check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
     print(format_runs(runs, search=args.search, n_jobs=args.jobs))
@@ -58,6 +60,7 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    require_extras_for_runs([args.rundir], draw=args.draw)
     common.check_detect_outputs(args, args.rundir, [args.out])
     model = common.cli_model(args, "street")
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extra
 from tunnelsense.io import clusters_path, read_tour
 from tunnelsense.metrics import results_scores, tunnel_report
 from tunnelsense.tunnel import (
@@ -27,6 +28,8 @@ from tunnelsense.tunnel._reports import (
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
+    if args.dask_scheduler:
+        require_extra("distributed", "--dask-scheduler")
     key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
     print(format_tours(tours))
