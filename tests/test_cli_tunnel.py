@@ -372,3 +372,16 @@ def test_evaluate_spells_a_missing_rate_n_a(tmp_path, capsys):
     scores = json.loads(capsys.readouterr().out)
     assert scores["cluster"]["detection_rate"] is None
     assert scores["trajectory"]["detection_rate"] is None
+
+
+def test_train_progress_names_each_stage(tmp_path, capsys):
+    from tunnelsense.tunnel import make_indicator_pipeline
+
+    tour = write_tour(make_tunnel_tour(60, random_state=5, first_indicator_m=20.0),
+                      tmp_path / "t")
+    assert main(["train", "tunnel", str(tour), "--model", str(tmp_path / "m.skops")]) == 0
+    err = capsys.readouterr().err.replace("\r", "\n")
+    assert "decoding frames: 100%" in err and "60/60" in err
+    for name, _ in make_indicator_pipeline().steps:
+        assert f"fitting {name}:" in err, name
+    assert "fitted: 100%" in err and "6/6" in err

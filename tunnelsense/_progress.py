@@ -73,6 +73,10 @@ class Progress:
         if done >= self.total:
             self.close()
 
+    def describe(self, desc):
+        """Say what is being done now."""
+        self._bar.set_description_str(desc)  # drawn at once: every stage is seen
+
     def close(self):
         _OPEN.discard(self)
         self._bar.close()

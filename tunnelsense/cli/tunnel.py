@@ -15,7 +15,6 @@ from tunnelsense.metrics import results_scores, tunnel_report
 from tunnelsense.tunnel import (
     detect_to_files,
     fit_indicator_detector,
-    make_indicator_pipeline,
 )
 from tunnelsense.tunnel._detect import SEARCH_GRID
 from tunnelsense.tunnel._reports import (
@@ -33,13 +32,12 @@ def _cmd_train(args) -> int:
     key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
     print(format_tours(tours))
-    n_steps = len(make_indicator_pipeline().steps)
-    bar = common.progress(args, n_steps, "fitting", unit="step")
+    bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
-        dask_scheduler=args.dask_scheduler,
-        progress=bar and (lambda name, k, n: bar.update(k)),
-        verbose=0 if args.quiet else 2)
+        dask_scheduler=args.dask_scheduler, progress=bars)
+    if bars is not None:
+        bars.close()
     print(format_training(model, summary))
     common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0

@@ -18,7 +18,7 @@ import numpy as np
 from sklearn.model_selection import GroupKFold
 from threadpoolctl import threadpool_limits
 
-from tunnelsense._fitting import fit_pipeline
+from tunnelsense._fitting import counted, fit_pipeline, search_ticks
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._search import PrefixGridSearch
 from tunnelsense._streaming import StreamingPipeline
@@ -81,7 +81,9 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
         needs the ``distributed`` extra); the workers must see the tours' files.
     progress : callable or None, default=None
-        ``progress(step_name, k, n_steps)`` before each step of a plain fit.
+        ``progress(stage, done, total)`` as the work goes on, ``stage`` naming it:
+        ``"decoding frames"``; then ``"fitting <step>"`` before each step of a plain
+        fit (``done`` steps of ``total``), or the search's fits done and its refit.
     search_progress : callable or None, default=None
         ``search_progress(done, total)`` after each fit of a search.
     verbose : int, default=0
@@ -106,7 +108,8 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
     X, y, groups = to_xy(tours)
-    frames = decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1))
+    frames = counted(decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1)),
+                     "decoding frames", len(X), progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
     # every frame is queued now: the model writer's import (about 1 s, in this
     # thread) overlaps the reader threads, which run without the interpreter lock
@@ -121,14 +124,16 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         found = PrefixGridSearch(
             model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
             scoring=make_tunnel_scorer("youden"), n_jobs=n_jobs,
-            progress=search_progress,
+            progress=search_ticks(progress, SEARCH_GRID, min(len(tours), 3),
+                                  search_progress),
         )
         with _dask(dask_scheduler) if dask_scheduler else contextlib.nullcontext():
             found.fit(X, y, groups=groups)
         model = found.best_estimator_
         output = model.predict(X)
     else:
-        model, output = fit_pipeline(model, X, y, progress=progress)
+        model, output = fit_pipeline(model, X, y, progress=progress and (
+            lambda name, k, n: progress(f"fitting {name}" if name else "fitted", k, n)))
     return model, _summary(tours, model, output, y, found)
 
 
