@@ -189,3 +189,64 @@ def test_the_user_guide_page_runs_as_shown(tmp_path, monkeypatch, capsys):
                 shown = captured.out + captured.err
                 assert status == (1 if "error:" in shown else 0), shown
     assert (tmp_path / "objects.csv").exists()
+
+
+def _bag_with_twists(path, twist_topics):
+    """A ROS 1 bag of 40 scans at 10 Hz and ``geometry_msgs/TwistStamped`` at 4 Hz
+    on each topic, the vehicle speeding up from 5 to 9 m/s (velocity along x and y)."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+
+    def header(k, t):
+        sec, nanosec = divmod(int(round(t * 1e9)), 1_000_000_000)
+        return T["std_msgs/msg/Header"](seq=k, stamp=T["builtin_interfaces/msg/Time"](
+            sec=sec, nanosec=nanosec), frame_id="x")
+
+    with Writer(path) as writer:
+        scans = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan",
+                                      typestore=store)
+        twists = [writer.add_connection(t, "geometry_msgs/msg/TwistStamped",
+                                        typestore=store) for t in twist_topics]
+        for k in range(40):
+            t = 1.0 + 0.1 * k
+            msg = T["sensor_msgs/msg/LaserScan"](
+                header=header(k, t), angle_min=-1.0, angle_max=-1.0 + 0.1 * 9,
+                angle_increment=0.1, time_increment=0.0, scan_time=0.0,
+                range_min=0.1, range_max=8.0, ranges=np.full(10, 3.0, np.float32),
+                intensities=np.empty(0, np.float32))
+            writer.write(scans, int(t * 1e9), store.serialize_ros1(
+                msg, "sensor_msgs/msg/LaserScan"))
+        for j, conn in enumerate(twists):
+            for k in range(17):
+                t = 1.0 + 0.25 * k
+                speed = 5.0 + (t - 1.0) + j  # the second topic: 1 m/s faster
+                v = T["geometry_msgs/msg/Vector3"]
+                msg = T["geometry_msgs/msg/TwistStamped"](
+                    header=header(k, t), twist=T["geometry_msgs/msg/Twist"](
+                        linear=v(x=0.6 * speed, y=0.8 * speed, z=0.0),
+                        angular=v(x=0.0, y=0.0, z=0.0)))
+                writer.write(conn, int(t * 1e9), store.serialize_ros1(
+                    msg, "geometry_msgs/msg/TwistStamped"))
+    return path
+
+
+def test_the_speed_of_a_twist_topic_is_interpolated_at_each_scan(tmp_path):
+    bag = _bag_with_twists(tmp_path / "twist.bag", ["/twist"])
+    scans = list(open_run_stream(bag, mount_height=1.8))
+    stamps = np.array([s.stamp for s in scans])
+    speeds = np.array([s.payload["speed"] for s in scans])
+    assert np.allclose(speeds, 5.0 + (stamps - 1.0), atol=1e-9)  # linear in time
+    run = read_run(bag, mount_height=1.8)
+    assert run.info["speed_topic"] == "/twist"
+    assert [s.payload["speed"] for s in run.scans] == list(speeds)
+
+    two = _bag_with_twists(tmp_path / "two.bag", ["/a", "/b"])
+    with pytest.raises(InputFormatError, match=r"2 odometry topics \(/a, /b\).*"
+                                               r"--speed-topic"):
+        open_run_stream(two, mount_height=1.8)
+    fast = [s.payload["speed"] for s in open_run_stream(two, mount_height=1.8,
+                                                        speed_topic="/b")]
+    assert np.allclose(fast, speeds + 1.0)
