@@ -191,7 +191,7 @@ def test_the_user_guide_page_runs_as_shown(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "objects.csv").exists()
 
 
-def _bag_with_twists(path, twist_topics):
+def _bag_with_twists(path, twist_topics, offset=0.0, n_twists=17):
     """A ROS 1 bag of 40 scans at 10 Hz and ``geometry_msgs/TwistStamped`` at 4 Hz
     on each topic, the vehicle speeding up from 5 to 9 m/s (velocity along x and y)."""
     from rosbags.rosbag1 import Writer
@@ -220,9 +220,9 @@ def _bag_with_twists(path, twist_topics):
             writer.write(scans, int(t * 1e9), store.serialize_ros1(
                 msg, "sensor_msgs/msg/LaserScan"))
         for j, conn in enumerate(twists):
-            for k in range(17):
-                t = 1.0 + 0.25 * k
-                speed = 5.0 + (t - 1.0) + j  # the second topic: 1 m/s faster
+            for k in range(n_twists):
+                t = 1.0 + 0.25 * k + offset
+                speed = 5.0 + (t - offset - 1.0) + j  # the second topic: 1 m/s faster
                 v = T["geometry_msgs/msg/Vector3"]
                 msg = T["geometry_msgs/msg/TwistStamped"](
                     header=header(k, t), twist=T["geometry_msgs/msg/Twist"](
@@ -250,3 +250,19 @@ def test_the_speed_of_a_twist_topic_is_interpolated_at_each_scan(tmp_path):
     fast = [s.payload["speed"] for s in open_run_stream(two, mount_height=1.8,
                                                         speed_topic="/b")]
     assert np.allclose(fast, speeds + 1.0)
+
+
+def test_odometry_that_does_not_cover_the_scans_is_refused(tmp_path):
+    # odometry stamped by another clock, 100 s later: no speed is guessed
+    late = _bag_with_twists(tmp_path / "late.bag", ["/twist"], offset=100.0)
+    with pytest.raises(InputFormatError, match=r"outside the messages of /twist .*"
+                                               r"--speed M/S"):
+        open_run_stream(late, mount_height=1.8)
+    # the scans (1.0 to 4.9 s) overhang odometry from 1.5 s by 0.5 s: held
+    early = _bag_with_twists(tmp_path / "early.bag", ["/twist"], offset=0.5)
+    speeds = [s.payload["speed"] for s in open_run_stream(early, mount_height=1.8)]
+    assert speeds[0] == pytest.approx(5.0) and speeds[-1] == pytest.approx(8.4)
+    # ends 1.9 s before the last scans: refused while reading, naming the scan
+    short = _bag_with_twists(tmp_path / "short.bag", ["/twist"], n_twists=9)
+    with pytest.raises(InputFormatError, match=r"scan at t=4\.\d+ s lies outside"):
+        list(open_run_stream(short, mount_height=1.8))

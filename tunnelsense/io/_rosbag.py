@@ -27,6 +27,9 @@ __all__ = ["BagRun", "is_bag", "open_bag_run", "read_bag_run"]
 
 _LASERSCAN = ("sensor_msgs/msg/LaserScan", "sensor_msgs/LaserScan")
 _HEIGHT_TOPIC = "/tunnelsense/mount_height"
+#: Longest time (s) the speed of the first or last odometry message is held before or
+#: after it; a scan further from the odometry is an error, not a guessed speed.
+SPEED_HOLD = 1.0
 #: Message types that give the ego speed (ROS 2 name, ROS 1 name).
 _ODOMETRY = ("nav_msgs/msg/Odometry", "nav_msgs/Odometry")
 _TWIST = ("geometry_msgs/msg/TwistStamped", "geometry_msgs/TwistStamped")
@@ -77,7 +80,13 @@ class BagRun:
         """The ego speed (m/s) at ``stamp`` (s), or None when the bag gives none."""
         if not isinstance(self._speed, tuple):
             return self._speed
-        _, stamps, speeds = self._speed
+        topic, stamps, speeds = self._speed
+        if not stamps[0] - SPEED_HOLD <= stamp <= stamps[-1] + SPEED_HOLD:
+            raise InputFormatError(
+                f"{self.path}: the scan at t={stamp:.3f} s lies outside the messages "
+                f"of {topic} (t={stamps[0]:.3f} to {stamps[-1]:.3f} s), which give no "
+                "speed there; pass the speed (--speed M/S)"
+            )
         return float(np.interp(stamp, stamps, speeds))
 
     def __len__(self):
@@ -135,8 +144,9 @@ def open_bag_run(path, *, topic=None, mount_height=None, speed=None,
         The ego speed (m/s), the same for every scan.  ``None``: interpolated at each
         scan's stamp from the bag's ``nav_msgs/Odometry`` or
         ``geometry_msgs/TwistStamped`` topic (the length of the twist's linear
-        velocity; held constant before its first and after its last message), or
-        no speed when the bag has no such topic.
+        velocity; held at most :data:`SPEED_HOLD` = 1 s before its first and after
+        its last message, a scan further away is an error), or no speed when the
+        bag has no such topic.
     speed_topic : str, default=None
         The odometry or twist topic to read; ``None``: the only one in the bag.
 
@@ -202,7 +212,9 @@ def open_bag_run(path, *, topic=None, mount_height=None, speed=None,
     if problem is not None:
         raise InputFormatError(f"{path}: {problem}")
     name = path.stem if path.is_file() else path.name
-    return BagRun(path, topic, LaserGeometry(**values), n_scans, name, speed)
+    run = BagRun(path, topic, LaserGeometry(**values), n_scans, name, speed)
+    run.speed_at(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)  # up front
+    return run
 
 
 def _check_speed(speed):
