@@ -53,7 +53,11 @@ def _cmd_train(args) -> int:
     key = common.check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
     print(format_runs(runs, search=args.search, n_jobs=args.jobs))
-    model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
+    bars = common.stage_progress(args)
+    model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs,
+                                    progress=bars)
+    if bars is not None:
+        bars.close()
     print(format_training(summary))
     common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
@@ -120,7 +124,7 @@ def register(verbs) -> None:
                    help="grid-search cut and link distance, GroupKFold by run")
     p.add_argument("--jobs", type=int, default=common.CPUS,
                    help="parallel fits of --search (default: the number of CPUs)")
-    common.add_output_arguments(p, writes_model=True)
+    common.add_output_arguments(p, writes_model=True, quiet=True)
     _add_range_unit(p)
     p.set_defaults(func=_cmd_train)
 
