@@ -30,6 +30,7 @@ __all__ = [
     "cli_model",
     "progress",
     "save_cli_model",
+    "stage_progress",
     "verify_keys",
 ]
 
@@ -94,6 +95,34 @@ def add_output_arguments(parser, *, writes_model=False, quiet=False) -> None:
 def progress(args, total, desc, **kwargs):
     """A progress bar on stderr, or None with ``--quiet``."""
     return None if getattr(args, "quiet", False) else Progress(total, desc, **kwargs)
+
+
+class _StageBars:
+    """``progress(stage, done, total)``: a bar per stage, named by it; the fitting
+    steps of a pipeline ("fitting <step>") share one bar, named by the step."""
+
+    def __init__(self):
+        self._stage, self._bar = None, None
+
+    def __call__(self, stage, done, total):
+        group = "fitting" if stage.startswith("fitting") or stage == "fitted" else stage
+        if group != self._stage:
+            self.close()
+            self._stage = group
+            self._bar = Progress(total, stage, unit="fit" if "fits" in stage else "it")
+        self._bar.describe(stage)
+        self._bar.update(done)
+
+    def close(self):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def stage_progress(args):
+    """A ``progress(stage, done, total)`` for library calls with named stages (a
+    progress bar per stage on stderr), or None with ``--quiet``."""
+    return None if getattr(args, "quiet", False) else _StageBars()
 
 
 def cli_model(args, kind):

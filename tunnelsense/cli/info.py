@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extras_for_runs
 from tunnelsense.io import describe, format_description
 
 _HELP = ("describe a tour (MOTChallenge folder, image folder, video), a laser run or "
@@ -18,9 +19,10 @@ def _cmd_info(args) -> int:
 
         facts = describe_model(args.source, **common.verify_keys(args))
     else:
-        facts = describe(args.source)
+        require_extras_for_runs([args.source])
+        facts = describe(args.source, mount_height=args.mount_height)
     print(json.dumps(facts, indent=2, sort_keys=True) if args.json
-          else format_description(facts))
+          else format_description(facts, verbose=args.verbose))
     return 0
 
 
@@ -34,6 +36,12 @@ def register_top(sub) -> None:
                    "run folder (scans.npz + gt.csv), ROS bag, or model file (.skops, "
                    ".joblib)")
     p.add_argument("--json", action="store_true",
-                   help="print the facts as JSON (numbers as numbers)")
+                   help="print every fact as JSON (numbers as numbers)")
+    p.add_argument("--verbose", action="store_true",
+                   help="also list the run information's records (such as every "
+                   "simulated vehicle) and long tables")
+    p.add_argument("--mount-height", type=float, metavar="METRES",
+                   help="a ROS bag's laser height above the road, when the bag does "
+                   "not say")
     common.add_verify_arguments(p)
     p.set_defaults(func=_cmd_info)

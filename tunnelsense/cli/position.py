@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extra
 
 __all__ = ["register", "register_top"]
 
@@ -28,6 +29,8 @@ def _cmd_position(args) -> int:
 
 
 def _cmd_evaluate_position(args) -> int:
+    if args.draw:
+        require_extra("plot", "--draw")
     from tunnelsense.positioning import evaluate_positions, format_errors
 
     errors = evaluate_positions(

@@ -5,11 +5,13 @@
   detections as MOTChallenge results files with their ``.clusters.csv`` companion,
   written line by line (:class:`ResultsWriter`).
 * Laser runs: ``scans.npz`` with ROS ``sensor_msgs/LaserScan`` field names, and
-  ``gt.csv`` (``id,first_scan,last_scan,label``).
+  ``gt.csv`` (``id,first_scan,last_scan,label``); ROS bags of ``LaserScan`` (the
+  ``rosbag`` extra), read by the same functions and written by :func:`write_run_bag`.
 * Fitted models: a safe ``.skops`` format (no code runs on load; versions, training
   summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
+from tunnelsense.io._bag_writer import write_run_bag
 from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
 from tunnelsense.io._keys import (
@@ -97,6 +99,7 @@ __all__ = [
     "write_mot_gt",
     "write_mot_results",
     "write_run",
+    "write_run_bag",
     "write_run_gt",
     "write_tour",
 ]
