@@ -27,6 +27,14 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, {day}"
 
 
+def load() -> str:
+    """The machine's load averages (1, 5, 15 minutes): how busy it was."""
+    try:
+        return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    except OSError:
+        return "load average unknown"
+
+
 def output_path(name: str, out: str | None) -> Path:
     path = Path(out) if out else STATIC / name
     path.parent.mkdir(parents=True, exist_ok=True)

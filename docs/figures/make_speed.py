@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import machine, output_path  # noqa: E402
+from _common import load, machine, output_path  # noqa: E402
 
 _DECODE = (
     "import sys, glob, cv2, numpy as np\n"
@@ -49,7 +49,7 @@ TOURS = {"light traffic": ("light", 102), "heavy traffic": ("heavy", 103),
 
 
 def cli(*argv):
-    return [sys.executable, "-m", "tunnelsense", *argv]
+    return [sys.executable, "-m", "tunnelsense.cli", *argv]
 
 
 def timed(cmd):
@@ -142,8 +142,8 @@ def draw(rows, frames, path, note):
                           for n in names], fontsize=9)
         ax.set_ylabel(unit)
         ax.set_title(title, fontsize=10)
-        ax.set_ylim(0, 1.18 * max(max(p), max(o)))
-        ax.legend(loc="lower right", fontsize=8)
+        ax.set_ylim(0, 1.25 * max(max(p), max(o)))
+        ax.legend(loc="upper left", fontsize=8)
     fig.suptitle(f"FIR indicator detector beside the PNG decode, 640 x 480 frames, "
                  f"{frames}-frame tours (median of runs)", fontsize=11)
     fig.supxlabel(note, fontsize=7, color="0.4")
@@ -163,10 +163,12 @@ def main(argv=None):
     def log(s):
         print(s, file=sys.stderr, flush=True)
 
+    before = load()
     with tempfile.TemporaryDirectory(prefix="tunnelsense-speed-") as tmp:
         train_s, rows = measure(args.frames, args.repeats, Path(tmp), log)
     note = (f"python docs/figures/make_speed.py --frames {args.frames} "
-            f"--repeats {args.repeats} | {machine()}")
+            f"--repeats {args.repeats} | {machine()} | {before} before, "
+            f"{load()} after")
     draw(rows, args.frames, path, note)
     print(f"train tunnel, {args.frames} frames, whole process: median {train_s:.1f} s\n")
     print("| tour | keypoints a frame | decode (s) | detect (s) | detect / decode "
