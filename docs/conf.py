@@ -238,5 +238,16 @@ def _optional_pages(app, docname, source):
     source[0] = source[0].replace("%OPTIONAL_PAGES%", "\n   ".join(present))
 
 
+def _argparse_domain_any_xref():
+    """MyST resolves a Markdown link to an anchor (``[text](#anchor)``) by asking every
+    domain's ``resolve_any_xref``; sphinx-argparse's domain does not define it, which
+    warns (an error under ``-W``).  It has no targets such a link could mean."""
+    from sphinxarg.ext import ArgParseDomain
+
+    if "resolve_any_xref" not in vars(ArgParseDomain):
+        ArgParseDomain.resolve_any_xref = lambda self, *args, **kwargs: []
+
+
 def setup(app):
     app.connect("source-read", _optional_pages)
+    _argparse_domain_any_xref()
