@@ -35,6 +35,7 @@ extensions = [
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
+    "sphinxarg.ext",
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
@@ -69,13 +70,64 @@ API_MODULES = {
 }
 
 
+#: Functions the ``tunnelsense`` command is built from (its reports, the demo, the
+#: checks it runs before any work): public so that a script can do what a command
+#: does, but listed apart from the estimators, on their own page.
+CLI_HELPERS = {
+    "tunnelsense.tunnel": ["format_detection", "format_tours", "format_training",
+                           "run_demo"],
+    "tunnelsense.street": ["format_object", "format_objects_written", "format_runs",
+                           "format_training"],
+    "tunnelsense.positioning": ["format_errors"],
+    "tunnelsense.io": ["check_model_path", "format_description", "load_trusted_model",
+                       "read_signing_key"],
+    "tunnelsense.datasets": ["simulate_to_folder"],
+}
+
+#: Public estimator or pipeline -> (label of its user-guide section, the section's
+#: title).  The API page of each links there; every public class with ``fit`` must
+#: have an entry (checked when the reference is written).
+USER_GUIDE = {
+    "tunnelsense.tunnel.IntensityKeypointSampler": ("ug-keypoints", "3.1 keypoints"),
+    "tunnelsense.tunnel.KMeansHistogramVerifier": ("ug-verifier", "3.2 verification"),
+    "tunnelsense.tunnel.MSTClusterer": ("ug-clusters", "3.3 clusters"),
+    "tunnelsense.tunnel.WeightedAdaBoost": ("ug-appearance", "3.4 appearance"),
+    "tunnelsense.tunnel.TrajectoryLinker": ("ug-tracks", "3.5 trajectories"),
+    "tunnelsense.tunnel.PCCVerifier": ("ug-motion", "3.6-3.7 motion check"),
+    "tunnelsense.tunnel.make_indicator_pipeline": ("ug-indicator-detector",
+                                                   "The FIR indicator detector"),
+    "tunnelsense.street.ScanClusterer": ("ug-street-method",
+                                         "Street-parked vehicles"),
+    "tunnelsense.street.make_parking_pipeline": ("ug-street-api",
+                                                 "Street-parked vehicles: API"),
+    "tunnelsense.positioning.TunnelPositioner": ("ug-positioning",
+                                                 "Positioning in a tunnel"),
+}
+
+
 def _write_api_pages(out_dir: Path) -> list[str]:
     import importlib
     import inspect
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    seen: set[int] = set()
+    seen: dict[int, str] = {}
     pages = []
+
+    def page(name, heading, intro, groups):
+        lines = [heading, "=" * len(heading), ""] + intro
+        for group, (module, attrs) in groups.items():
+            if not attrs:
+                continue
+            lines += [group, "-" * len(group), "", f".. currentmodule:: {module}", "",
+                      ".. autosummary::", "   :toctree: .", "   :nosignatures:", ""]
+            lines += [f"   {a}" for a in sorted(attrs, key=str.lower)] + [""]
+        path = out_dir / f"{name}.rst"
+        text = "\n".join(lines)
+        if not path.exists() or path.read_text() != text:
+            path.write_text(text)
+        pages.append(str(path.relative_to(HERE)))
+
+    helpers: dict[str, tuple[str, list[str]]] = {}
     for name, title in API_MODULES.items():
         module = importlib.import_module(name)
         groups: dict[str, list[str]] = {"Classes": [], "Functions": [], "Constants": []}
@@ -86,29 +138,55 @@ def _write_api_pages(out_dir: Path) -> list[str]:
             if inspect.isclass(obj) or inspect.isfunction(obj):
                 if id(obj) in seen:
                     continue
-                seen.add(id(obj))
+                seen[id(obj)] = f"{name}.{attr}"
+                if attr in CLI_HELPERS.get(name, ()):
+                    helpers.setdefault(f"``{name}``", (name, []))[1].append(attr)
+                    continue
+                if (inspect.isclass(obj) and hasattr(obj, "fit")
+                        and f"{name}.{attr}" not in USER_GUIDE):
+                    raise RuntimeError(f"{name}.{attr}: no user-guide section in "
+                                       "USER_GUIDE (docs/conf.py)")
                 groups["Classes" if inspect.isclass(obj) else "Functions"].append(attr)
             else:
                 groups["Constants"].append(attr)
         heading = f"``{name}``: {title}"
-        lines = [heading, "=" * len(heading), "", f".. automodule:: {name}",
-                 "   :no-members:", "", f".. currentmodule:: {name}", ""]
-        for group, attrs in groups.items():
-            if not attrs:
-                continue
-            lines += [group, "-" * len(group), "", ".. autosummary::",
-                      "   :toctree: .", "   :nosignatures:", ""]
-            lines += [f"   {a}" for a in sorted(attrs, key=str.lower)] + [""]
-        path = out_dir / f"{name}.rst"
-        text = "\n".join(lines)
-        if not path.exists() or path.read_text() != text:
-            path.write_text(text)
-        pages.append(str(path.relative_to(HERE)))
+        intro = [f".. automodule:: {name}", "   :no-members:", ""]
+        page(name, heading, intro, {g: (name, a) for g, a in groups.items()})
+    missing = {f"{m}.{a}" for m, names in CLI_HELPERS.items() for a in names} - set(
+        seen.values())
+    if missing:
+        raise RuntimeError(f"CLI_HELPERS lists names that are not public: {missing}")
+    page("cli-helpers", "Command-line helpers",
+         ["The functions the ``tunnelsense`` command is built from: its reports, the",
+          "demo, and the checks it makes before any work.  Use them to do from a",
+          "script what a command does; see :doc:`/cli` for the commands themselves.",
+          ""], helpers)
+    _alias_names(seen)
     return pages
 
 
+def _alias_names(seen: dict[int, str]) -> None:
+    """Every public path of each documented object, for its "Examples using" list
+    (an example may import it from the top-level package or from its module)."""
+    import importlib
+    import inspect
+
+    for name in API_MODULES:
+        module = importlib.import_module(name)
+        for attr in module.__all__:
+            obj = getattr(module, attr)
+            if (inspect.isclass(obj) or inspect.isfunction(obj)) and id(obj) in seen:
+                ALIASES.setdefault(seen[id(obj)], set()).add(f"{name}.{attr}")
+                ALIASES[seen[id(obj)]].add(f"{obj.__module__}.{obj.__qualname__}")
+
+
+ALIASES: dict[str, set[str]] = {}
 autosummary_generate = _write_api_pages(HERE / "generated" / "api")
 autosummary_imported_members = True
+autosummary_context = {
+    "user_guide": USER_GUIDE,
+    "aliases": {k: " ".join(sorted(v)) for k, v in ALIASES.items()},
+}
 autodoc_default_options = {"inherited-members": False}
 autodoc_typehints = "none"
 numpydoc_show_class_members = False
@@ -131,6 +209,10 @@ sphinx_gallery_conf = {
     "show_memory": False,
     "abort_on_example_error": True,
     "run_stale_examples": False,
+    # "Examples using X" on each API page (the class and function templates)
+    "doc_module": ("tunnelsense",),
+    "backreferences_dir": "generated/backreferences",
+    "reference_url": {"tunnelsense": None},
 }
 # Examples save their pictures when run as plain scripts; under the gallery the
 # scraper collects the figures instead, so no file is written into the docs tree.
@@ -156,5 +238,16 @@ def _optional_pages(app, docname, source):
     source[0] = source[0].replace("%OPTIONAL_PAGES%", "\n   ".join(present))
 
 
+def _argparse_domain_any_xref():
+    """MyST resolves a Markdown link to an anchor (``[text](#anchor)``) by asking every
+    domain's ``resolve_any_xref``; sphinx-argparse's domain does not define it, which
+    warns (an error under ``-W``).  It has no targets such a link could mean."""
+    from sphinxarg.ext import ArgParseDomain
+
+    if "resolve_any_xref" not in vars(ArgParseDomain):
+        ArgParseDomain.resolve_any_xref = lambda self, *args, **kwargs: []
+
+
 def setup(app):
     app.connect("source-read", _optional_pages)
+    _argparse_domain_any_xref()

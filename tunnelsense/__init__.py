@@ -7,7 +7,7 @@ Two published methods, as estimators that compose in :class:`sklearn.pipeline.Pi
   (Hirahara and Ikeuchi).
 
 A sample is one frame or one scan (:class:`FrameRecord`, :class:`ScanRecord`); see
-``docs/architecture.md``.
+:doc:`/architecture`.
 """
 
 from tunnelsense._records import (

@@ -94,10 +94,9 @@ def make_tunnel_tour(
         ``"light"``: light traffic. ``"heavy"``: heavy traffic with many trucks.
         ``"curved"``: another camera (focal length 620 px, mounted 1.35 m high, noise
         sigma 4) in a tunnel curving with a 1500 m radius.  ``"randomized"``: the
-        camera, sensor, tunnel, signs, speed and traffic drawn uniformly from the
-        ranges of ``RANDOMIZED_RANGES`` in ``tunnelsense.datasets._tunnel_scene``
-        (focal length 550-900 px, mount 1.2-2.4 m, pitch +-1.5 deg, noise sigma
-        1.5-6 with correlation 0-1.5 px, gain 0.85-1.2, offset +-10, column
+        camera, sensor, tunnel, signs, speed and traffic drawn uniformly from
+        these ranges (focal length 550-900 px, mount 1.2-2.4 m, pitch +-1.5 deg,
+        noise sigma 1.5-6 with correlation 0-1.5 px, gain 0.85-1.2, offset +-10, column
         fixed-pattern sigma 0.3-1.5, straight with probability 0.4 else a radius
         of 800-4000 m curving either way, lamps every 8-20 m, signs 0.4-0.6 m x
         0.8-1.2 m at 2.2-3.5 m, speeds from 50-90 km/h up to 10-40 km/h more,

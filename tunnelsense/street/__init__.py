@@ -2,11 +2,12 @@
 
 Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Panoramic
 Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
-see ``docs/street.md``.
-The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
-clustering (``_clustering``), objects (``_sections``, ``_objects``), the online state
-(``_stream``), the estimator (``_detector``) and whole runs (``_run``).
+user guide: :doc:`/street`.
 """
+
+# The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
+# (_clustering), objects (_sections, _objects), the online state (_stream), the
+# estimator (_detector) and whole runs (_run).
 
 from tunnelsense.street._clustering import link_scans, single_linkage
 from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer

@@ -5,8 +5,8 @@ Stages 1-3 (sections 3.1-3.3): :class:`IntensityKeypointSampler` (keypoint detec
 (keypoint clustering); stages 4-6 (sections 3.4-3.7): :class:`WeightedAdaBoost`,
 :class:`TrajectoryLinker`, :class:`PCCVerifier`; :func:`make_indicator_pipeline` puts
 the six in a Pipeline.  Each is a frame stage (frame records in, frame records out);
-the verifier, the clusterer and the appearance machine also take 2-D arrays.  See
-``docs/tunnel-stages.md`` and ``docs/tunnel-detector.md``.
+the verifier, the clusterer and the appearance machine also take 2-D arrays.  User
+guide: :doc:`/tunnel-stages`, :doc:`/tunnel-detector`.
 """
 
 from tunnelsense.tunnel._appearance import (

@@ -146,7 +146,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     """AdaBoost of histogram-bin stumps with positives weighted up (section 3.4).
 
     Stage 4 of the FIR indicator detector.  The class takes frame records or 2-D
-    arrays (see :class:`~tunnelsense.tunnel._common.FrameModeMixin`):
+    arrays:
 
     * frame records with ``payload["cluster_boxes"]`` from :class:`MSTClusterer`
       (``y``: per frame the ``(k, 4)`` indicator boxes).  The histogram of every
@@ -159,8 +159,8 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
       function in [-2, 2], > 0: positive) and ``payload["cluster_histograms"]``
       ((m, bins) float64, read by :class:`TrajectoryLinker` as appearance);
     * 2-D arrays of histograms with class labels: the tabular classifier
-      :class:`~tunnelsense.tunnel._stumps.WeightedAdaBoostCore` (``predict``,
-      ``decision_function``; ``transform`` gives the decision function as columns).
+      (``predict``, ``decision_function``; ``transform`` gives the decision
+      function as columns).
 
     Parameters
     ----------
@@ -187,7 +187,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     features : {"histogram", "invariant"}, default="histogram"
         Frame records: what the stumps decide on.  ``"histogram"`` is the paper's
         normalized intensity histogram of ``bins`` bins.  ``"invariant"`` is
-        :func:`~tunnelsense.tunnel._invariant.invariant_features` (16 bins of the
+        the invariant features (16 bins of the
         median-filtered patch normalized by its own 10th and 90th percentiles, and
         six shape and contrast figures): a camera with another gain, offset or
         noise level moves a raw histogram's bins, and stumps learnt on one camera's
@@ -196,7 +196,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     augment : int, default=0
         Frame records: every training cluster is also described ``augment`` times
         as another camera would have seen it
-        (:func:`~tunnelsense.tunnel._invariant.perturb_patch`: gain 0.8-1.25,
+        (gain 0.8-1.25,
         offset +-15, extra noise sigma 0-4.5 with a correlation length 0-1.2 px,
         blur 0-0.8 px, scale 0.75-1.25, the range of plausible FIR cameras and
         mountings), so that the machine learns what does not depend on them.

@@ -55,8 +55,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
     negative ones are clustered by k-means; a keypoint is kept when its descriptor
     is near a kept positive centre (:func:`verify_histograms`).
 
-    The class takes frame records or 2-D arrays (see
-    :class:`~tunnelsense.tunnel._common.FrameModeMixin`):
+    The class takes frame records or 2-D arrays:
 
     * frame records (``payload["keypoints"]`` from :class:`IntensityKeypointSampler`;
       ``y`` per frame the ``(k, 4)`` indicator boxes): ``transform`` returns the same
@@ -64,9 +63,8 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
       (shape (n_kept, 3), int32, raster order), and ``payload["sampled_keypoints"]``,
       all the keypoints the sampler found;
     * 2-D arrays of descriptors (``y`` equal to ``pos_label`` for positives): the
-      tabular core :class:`~tunnelsense.tunnel._kmeans.KMeansHistogramCore`
-      (``predict``: 1 for verified rows; ``transform``: distances to the kept
-      centres).  A verifier fitted on frames also verifies raw descriptors.
+      tabular verifier (``predict``: 1 for verified rows; ``transform``:
+      distances to the kept centres).  A verifier fitted on frames also verifies raw descriptors.
 
     Parameters
     ----------

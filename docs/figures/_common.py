@@ -1,0 +1,41 @@
+"""Helpers shared by the figure scripts of ``docs/figures``: where the pictures go,
+and a one-line note of the machine and date to print beside each figure."""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+from pathlib import Path
+
+#: The pictures are committed here and shown by the documentation pages.
+STATIC = Path(__file__).resolve().parent.parent / "_static"
+
+
+def machine() -> str:
+    """CPU model, core count and the day: what a reader needs to weigh a figure."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    day = datetime.datetime.now(datetime.UTC).date().isoformat()
+    return f"{cpu}, {os.cpu_count()} cores, {day}"
+
+
+def load() -> str:
+    """The machine's load averages (1, 5, 15 minutes): how busy it was."""
+    try:
+        return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    except OSError:
+        return "load average unknown"
+
+
+def output_path(name: str, out: str | None) -> Path:
+    path = Path(out) if out else STATIC / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path

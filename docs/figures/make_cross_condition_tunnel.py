@@ -1,0 +1,144 @@
+"""Cross-condition matrix of the FIR indicator detector, drawn as two heat maps.
+
+The detector is fitted on ONE simulated tour of a condition (row) and evaluated on two
+tours of every condition (column).  A cell's colour is the share of the indicators
+(taller than 14 px) found; its text is ``found/indicators`` and the number of
+false-alarm trajectories, as ``tunnelsense evaluate tunnel`` counts them
+(:func:`tunnelsense.metrics.indicator_scores`).  Left: the paper's method
+(``make_indicator_pipeline(preset="paper")``); right: the default detector
+(``make_indicator_pipeline()``).
+
+Run from a source checkout or an unpacked sdist, with the ``plot`` extra installed::
+
+    python docs/figures/make_cross_condition_tunnel.py [--frames 600] [--out PNG]
+
+It writes ``docs/_static/cross_condition_tunnel.png`` and prints the matrix as a
+Markdown table.  With 600 frames a tour (18 tours) it takes about 10-15 minutes on a
+2-core machine; ``--frames 300`` halves it (fewer indicators per tour).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import machine, output_path  # noqa: E402
+
+from tunnelsense import to_xy  # noqa: E402
+from tunnelsense.datasets import make_tunnel_tour  # noqa: E402
+from tunnelsense.metrics import indicator_scores  # noqa: E402
+from tunnelsense.tunnel import make_indicator_pipeline  # noqa: E402
+
+CAMERA_A = dict(focal_length_px=700.0, mount_height_m=1.3, noise_sigma=3.0)
+CAMERA_B = dict(focal_length_px=560.0, mount_height_m=1.6, noise_sigma=5.0)
+#: Every tour: signs every 100 m (more of them per simulated second).
+COMMON = dict(indicator_spacing_m=100.0)
+
+#: Condition name -> parameters of :func:`~tunnelsense.datasets.make_tunnel_tour`.
+CONDITIONS = {
+    "plain": dict(scenario="light", **CAMERA_A),
+    "heavy": dict(scenario="heavy", **CAMERA_A),
+    "other-camera": dict(scenario="light", **CAMERA_B),
+    "curve-right": dict(scenario="light", curve_radius_m=1500.0, **CAMERA_A),
+    "curve-left": dict(scenario="light", curve_radius_m=-1500.0, **CAMERA_A),
+    "other-curve-fast": dict(scenario="light", curve_radius_m=1500.0,
+                             speed_kmh=(100.0, 130.0), **CAMERA_B),
+}
+#: Method name -> arguments of :func:`~tunnelsense.tunnel.make_indicator_pipeline`.
+METHODS = {"the paper's method": dict(preset="paper"), "default": {}}
+#: Seed of each condition's training tour and of its two test tours (each condition
+#: adds ten times its index, so no two conditions share a tour).
+TRAIN_SEED = 2001
+TEST_SEEDS = (3001, 3002)
+
+
+def tour(condition, seed, n_frames):
+    kw = dict(CONDITIONS[condition])
+    scenario = kw.pop("scenario")
+    offset = 10 * list(CONDITIONS).index(condition)
+    return make_tunnel_tour(n_frames, scenario=scenario, random_state=seed + offset,
+                            **COMMON, **kw)
+
+
+def matrix(n_frames, log=print):
+    """``{method: array (rows, cols, 3)}`` of found, indicators, false alarms."""
+    tests = {c: [to_xy([tour(c, s, n_frames)])[:2] for s in TEST_SEEDS]
+             for c in CONDITIONS}
+    log(f"simulated the test tours ({time.perf_counter() - START:.0f} s)")
+    n = len(CONDITIONS)
+    out = {m: np.zeros((n, n, 3), int) for m in METHODS}
+    for i, a in enumerate(CONDITIONS):
+        X, y, _ = to_xy([tour(a, TRAIN_SEED, n_frames)])
+        for method, params in METHODS.items():
+            model = make_indicator_pipeline(random_state=0, **params).fit(X, y)
+            for j, b in enumerate(CONDITIONS):
+                for Xt, yt in tests[b]:
+                    s = indicator_scores(model.predict(Xt), yt)["trajectory"]
+                    out[method][i, j] += (s["detected"], s["indicators"],
+                                          s["false_alarms"])
+        log(f"fitted on {a} ({time.perf_counter() - START:.0f} s)")
+    return out
+
+
+def draw(result, path, note):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(CONDITIONS)
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5.6), layout="constrained")
+    for ax, (method, m) in zip(axes, result.items(), strict=True):
+        share = m[..., 0] / np.maximum(m[..., 1], 1)
+        im = ax.imshow(share, vmin=0, vmax=1, cmap="viridis")
+        for i in range(len(names)):
+            for j in range(len(names)):
+                found, total, fa = m[i, j]
+                colour = "black" if share[i, j] > 0.6 else "white"
+                ax.text(j, i, f"{found}/{total}\n{fa} FA", ha="center", va="center",
+                        fontsize=9, color=colour)
+        ax.set_xticks(range(len(names)), names, rotation=35, ha="right")
+        ax.set_yticks(range(len(names)), names)
+        ax.set_xlabel("evaluated on")
+        ax.set_ylabel("fitted on")
+        ax.set_title(method)
+    fig.colorbar(im, ax=axes, shrink=0.8, label="share of indicators found")
+    fig.suptitle("FIR indicator detector: fitted on one condition, evaluated on "
+                 "every condition\n(cell: indicators found / indicators, "
+                 "false-alarm trajectories (FA))", fontsize=11)
+    fig.supxlabel(note, fontsize=7, color="0.4")
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=600, help="frames per tour")
+    parser.add_argument("--out", default=None, help="PNG to write "
+                        "(default: docs/_static/cross_condition_tunnel.png)")
+    args = parser.parse_args(argv)
+    path = output_path("cross_condition_tunnel.png", args.out)
+    result = matrix(args.frames, log=lambda s: print(s, file=sys.stderr, flush=True))
+    note = (f"python docs/figures/make_cross_condition_tunnel.py --frames {args.frames}"
+            f" | {machine()}")
+    draw(result, path, note)
+    print("cell: indicators found / indicators, false-alarm trajectories "
+          "(paper's method | default)\n")
+    print("| fitted on \\ evaluated on | " + " | ".join(CONDITIONS) + " |")
+    print("|---" * (len(CONDITIONS) + 1) + "|")
+    for i, a in enumerate(CONDITIONS):
+        cells = [" \\| ".join("{}/{}, {}".format(*result[m][i, j]) for m in METHODS)
+                 for j in range(len(CONDITIONS))]
+        print(f"| {a} | " + " | ".join(cells) + " |")
+    print(f"\nwrote {path} ({time.perf_counter() - START:.0f} s; {note})")
+
+
+START = time.perf_counter()
+
+if __name__ == "__main__":
+    main()
