@@ -118,11 +118,18 @@ def test_ctrl_c_during_work_is_one_line(tmp_path):
     import threading
 
     err = []
-    with subprocess.Popen(
-        [sys.executable, "-m", "tunnelsense.cli", "simulate", "tunnel",
-         str(tmp_path / "t"), "--frames", "1500"],
-        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
-    ) as proc:
+    # a child inherits an ignored SIGINT (a background job of a script, or a test run
+    # that ignores it); a Python handler in this process becomes the default in it
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "tunnelsense.cli", "simulate", "tunnel",
+             str(tmp_path / "t"), "--frames", "1500"],
+            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+        )
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    with proc:
         reader = threading.Thread(target=lambda: err.extend(iter(
             lambda: proc.stderr.read(1), "")), daemon=True)
         reader.start()

@@ -104,8 +104,11 @@ def bomb():
     return _bomb()
 
 
+# The child's own peak: VmHWM belongs to its address space, while ru_maxrss keeps
+# the parent's resident size across fork and exec (a large pytest process would
+# then be counted as the child's peak).
 _PEAK = """
-import resource, sys
+import sys
 from tunnelsense.cli import main
 try:
     if sys.argv[1] == "load_model":
@@ -117,7 +120,13 @@ try:
 except Exception as exc:
     print(type(exc).__name__, exc, file=sys.stderr)
     rc = 2
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, rc)
+try:
+    with open("/proc/self/status") as status:
+        peak = next(int(line.split()[1]) for line in status if line.startswith("VmHWM:"))
+except OSError:  # not Linux
+    import resource
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(peak, rc)
 """
 
 

@@ -86,10 +86,10 @@ def fit_kmeans(
     --------
     >>> import numpy as np
     >>> from tunnelsense.tunnel import fit_kmeans
-    >>> X = np.r_[np.zeros((50, 2)), np.ones((50, 2))]
-    >>> fit_kmeans(X + 0.01 * np.arange(100)[:, None] % 0.05, 2, random_state=0).round(2)
-    array([[0.02, 0.02],
-           [1.02, 1.02]])
+    >>> X = np.array([[0, 0], [0, 0.2], [1, 1], [1, 1.2]] * 25)
+    >>> C = fit_kmeans(X, 2, random_state=0)
+    >>> C[np.argsort(C[:, 0])].round(3).tolist()
+    [[0.0, 0.1], [1.0, 1.1]]
     """
     if sample_indices is not None:
         sample_indices = np.asarray(sample_indices, dtype=np.intp)
