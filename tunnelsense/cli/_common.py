@@ -136,4 +136,4 @@ def check_detect_outputs(args, source, outputs) -> None:
         check_output(path, overwrite=args.force or args.resume, inputs=inputs,
                      what="--out")
     if args.draw is not None:
-        check_draw_dir(args.draw, force=args.force, inputs=inputs)
+        check_draw_dir(args.draw, force=args.force, inputs=inputs, outputs=outputs)
