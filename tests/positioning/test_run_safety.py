@@ -37,6 +37,7 @@ def test_odometry_must_cover_every_frame(tour, tmp_path, capsys, cut):
 @pytest.mark.parametrize("column,value,message", [
     ("speed", "1e300", "beyond 100 m/s"),
     ("frame", "99999999999999999999", "frame"),
+    ("stamp", "1e300", "stamp"),
 ])
 def test_absurd_speeds_and_frames_are_refused(tour, tmp_path, column, value, message):
     text = (tour / "odometry.csv").read_text().splitlines()
