@@ -279,3 +279,41 @@ def test_resume_refuses_trailing_text_that_is_not_a_cut_off_line(tunnel, tmp_pat
                  str(tunnel["tours"][1]), "--out", str(out), "--resume",
                  "--quiet"]) == 0
     assert out.read_bytes() == tunnel["results"].read_bytes()
+
+
+@pytest.fixture(scope="module")
+def colour_tours(tunnel, tmp_path_factory):
+    """The test tour with its frames stored in false colour, and as grey in RGB."""
+    import cv2
+
+    root = tmp_path_factory.mktemp("colour")
+    tours = {}
+    for kind in ("palette", "grey-rgb"):
+        folder = root / kind
+        shutil.copytree(tunnel["tours"][1], folder)
+        for png in sorted((folder / "img1").glob("*.png")):
+            grey = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
+            image = (cv2.applyColorMap(grey, cv2.COLORMAP_JET) if kind == "palette"
+                     else cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
+            cv2.imwrite(str(png), image)
+        tours[kind] = folder
+    return tours
+
+
+def test_colour_frames_are_refused_unless_a_conversion_is_named(tunnel, colour_tours,
+                                                                tmp_path, capsys):
+    out = tmp_path / "r.txt"
+    argv = ["detect", "tunnel", "--model", str(tunnel["model"]), "--out", str(out),
+            "--quiet"]
+    assert main([*argv, str(colour_tours["palette"])]) == 1
+    err = capsys.readouterr().err
+    assert "a colour frame" in err and "--channel" in err and "internal" not in err
+    assert not out.exists()
+    assert main(["train", "tunnel", str(colour_tours["palette"]), "--model",
+                 str(tmp_path / "m.skops"), "--quiet"]) == 1
+    assert "a colour frame" in capsys.readouterr().err
+    for option in (["--channel", "2"], ["--palette-to-grey"]):
+        assert main([*argv, str(colour_tours["palette"]), "--force", *option]) == 0
+    # grey stored as RGB is grey: the same results as the grey frames
+    assert main([*argv, str(colour_tours["grey-rgb"]), "--force"]) == 0
+    assert out.read_bytes() == tunnel["results"].read_bytes()

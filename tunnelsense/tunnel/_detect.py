@@ -21,7 +21,7 @@ from threadpoolctl import threadpool_limits
 from tunnelsense._fitting import fit_pipeline
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._streaming import StreamingPipeline
-from tunnelsense.io._images import iter_video, open_video
+from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
     CLUSTERS_HEADER,
     RESULT_LINE,
@@ -200,11 +200,13 @@ def detect_tour(model, frames, *, progress=None, chunk=256):
     return tail.predict(FrameSequence.concat(parts))
 
 
-def open_frames(source):
+def open_frames(source, *, colour=None):
     """The frames of a source, read lazily, and their number.
 
     A MOTChallenge or image folder gives records that decode their PNG on access; a
-    video file is decoded sequentially, records built on the fly.
+    video file is decoded sequentially, records built on the fly.  The first frame is
+    decoded here, so that frames that cannot be read as ``colour`` says are refused
+    before any output is written.
 
     Returns
     -------
@@ -226,13 +228,17 @@ def open_frames(source):
     """
     source = Path(source)
     if not source.is_file():
-        tour = open_tour(source)
+        tour = open_tour(source, colour=colour)
+        if len(tour):
+            _ = tour.frames[0].image
         return iter(tour.frames), len(tour)
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
     capture.release()
+    if total > 0:
+        read_video_frame(source, 0, colour=colour)
     frames = (FrameRecord(source.stem, i, image)
-              for i, image in enumerate(iter_video(source), 1))
+              for i, image in enumerate(iter_video(source, colour=colour), 1))
     return frames, total
 
 
@@ -282,7 +288,7 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
 
 
 def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
-                    progress=None, draw=None, draw_every=1):
+                    progress=None, draw=None, draw_every=1, colour=None):
     """Detect indicators in a tour or video, writing results as frames are final.
 
     ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
@@ -307,6 +313,9 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
         A folder to draw every ``draw_every``-th frame into
         (:func:`tunnelsense.plotting.draw_detections`), as ``000001.png``...
     draw_every : int, default=1
+    colour : int, "luminance" or None, default=None
+        How colour frames become grey: refused (None), one channel, or luminance
+        (see :func:`~tunnelsense.io.read_image`).
 
     Returns
     -------
@@ -332,7 +341,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     """
     if draw_every < 1:
         raise ValueError(f"draw_every must be at least 1; got {draw_every}")
-    frames, total = open_frames(source)
+    frames, total = open_frames(source, colour=colour)
     if progress is not None:
         progress.set_total(total)
     results = ResultsWriter(out, resume=resume, overwrite=overwrite,
