@@ -409,3 +409,29 @@ def test_mutated_schemas_are_refused_or_detect_the_same(genuine, tmp_path_factor
             mutation)
 
     check()
+
+
+def test_the_declared_skops_floor_refuses_the_crafted_files():
+    """skops 0.11-0.14 call a crafted random generator's name on load (checked by
+    installing them): the lowest skops allowed must be 0.15."""
+    import pathlib
+    import re
+    import tomllib
+
+    pyproject = pathlib.Path(__file__).parents[2] / "pyproject.toml"
+    deps = tomllib.loads(pyproject.read_text())["project"]["dependencies"]
+    (floor,) = [re.fullmatch(r"skops>=([\d.]+)", d).group(1) for d in deps
+                if d.startswith("skops")]
+    assert tuple(int(p) for p in floor.split(".")) >= (0, 15)
+
+
+def test_a_detector_is_read_without_importing_skops(genuine):
+    """The strict reader needs neither skops' loader nor its discovery of every
+    scikit-learn estimator."""
+    code = ("import sys, warnings; warnings.simplefilter('ignore');"
+            "from tunnelsense.io._trust import load_trusted_model;"
+            f"load_trusted_model({str(genuine['tunnel'])!r}, last_step='motion', "
+            "command='x'); print('skops' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+    assert done.stdout.strip() == "False", done.stderr
