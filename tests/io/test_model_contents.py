@@ -113,7 +113,12 @@ try:
 except Exception as exc:
     print(type(exc).__name__, exc, file=sys.stderr)
     rc = 2
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, rc)
+try:  # the peak of this program (getrusage may count the forked parent before exec)
+    with open("/proc/self/status") as f:
+        peak = next(int(l.split()[1]) for l in f if l.startswith("VmHWM:"))
+except OSError:
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(peak, rc)
 """
 
 
