@@ -238,7 +238,7 @@ def test_forged_fitted_arrays_are_refused(genuine, tmp_path):
     attrs = _attrs(schema, 1)  # the verifier
     for name, array in (("centers_", np.zeros((3, 5))),
                         ("center_scores_", np.zeros(7, dtype=np.int64)),
-                        ("_negative_sq", np.full(3, np.inf))):
+                        ("negative_centers_", np.full((3, 1), np.inf))):
         forged = dict(members)
         _array_member(schema, forged, attrs[name]["file"], array)
         path = tmp_path / f"{name}.skops"
@@ -440,3 +440,18 @@ def test_a_detector_is_read_without_importing_skops(genuine):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120)
     assert done.stdout.strip() == "False", done.stderr
+
+
+def test_verifier_centres_off_their_grid_are_refused(genuine, tmp_path):
+    """Centres that do not lie on quantum_ would not give exact distances."""
+    members = _members(genuine["tunnel"])
+    schema = json.loads(members["schema.json"])
+    attrs = _attrs(schema, 1)  # the verifier
+    model = load_trusted_model(genuine["tunnel"], last_step="motion", command="x")
+    centers = model.named_steps["verifier"].centers_ + 1e-9
+    forged = dict(members)
+    _array_member(schema, forged, attrs["centers_"]["file"], centers)
+    path = tmp_path / "off-grid.skops"
+    path.write_bytes(_zip(forged))
+    with pytest.raises(UntrustedModelError, match="grid"):
+        load_trusted_model(path, last_step="motion", command="x")

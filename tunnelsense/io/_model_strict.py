@@ -259,14 +259,19 @@ def _check_verifier(est):
     if not _int(est.n_centers_, 1):
         return "n_centers_ must be a positive integer"
     k = est.n_centers_
-    negatives = getattr(est.negative_centers_, "shape", (None,))[0]
     for name, kinds, shape in (
         ("positive_centers_", "f", (None, n)), ("negative_centers_", "f", (None, n)),
         ("centers_", "f", (k, n)), ("center_scores_", "f", (k,)),
-        ("_centers_sq", "f", (k,)), ("_negative_sq", "f", (negatives,)),
     ):
         if problem := _array(est, name, kinds, shape):
             return problem
+    q = est.quantum_
+    if not (_finite(q) and q > 0 and math.frexp(q)[0] == 0.5):
+        return "quantum_ must be a positive power of two"
+    for name in ("positive_centers_", "negative_centers_", "centers_"):
+        grid = getattr(est, name) / q
+        if not np.array_equal(grid, np.rint(grid)):
+            return f"{name} must lie on the grid of quantum_"
     if not (_int(est.n_positive_) and _int(est.n_negative_)):
         return "n_positive_ and n_negative_ must be counts"
     return None
@@ -334,7 +339,7 @@ _FITTED = {
                                  lambda e: _check_frames_fit(e) or _check_keypoints(e)),
     "KMeansHistogramVerifier": (
         ("positive_centers_", "negative_centers_", "center_scores_", "centers_",
-         "n_centers_", "_centers_sq", "_negative_sq", "n_positive_", "n_negative_",
+         "n_centers_", "quantum_", "n_positive_", "n_negative_",
          "n_features_in_", "n_frames_fit_"),
         lambda e: _check_frames_fit(e) or _check_verifier(e)),
     "MSTClusterer": (("n_frames_fit_",), _check_frames_fit),

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import BaseEstimator, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.positioning._fixes import detection_table
 from tunnelsense.positioning._stream import PositionStream
 from tunnelsense.positioning._tables import check_indicator_map, check_odometry
+from tunnelsense.utils._sklearn_compat import Interval, _fit_context
 
 __all__ = ["TunnelPositioner"]
 

@@ -15,11 +15,12 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from sklearn.model_selection import GridSearchCV, GroupKFold
+from sklearn.model_selection import GroupKFold
 from threadpoolctl import threadpool_limits
 
 from tunnelsense._fitting import fit_pipeline
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
+from tunnelsense._search import PrefixGridSearch
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
@@ -53,7 +54,8 @@ SEARCH_GRID = {
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
-                           dask_scheduler=None, progress=None, verbose=0):
+                           dask_scheduler=None, progress=None, search_progress=None,
+                           verbose=0):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
@@ -66,18 +68,23 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         Labelled tours.
     search : bool, default=False
         Grid-search :data:`SEARCH_GRID` with ``GroupKFold`` over the tours (at least
-        2), then refit the best setting on all of them.
+        2), then refit the best setting on all of them.  The steps the grid does not
+        vary (keypoints, verifier, clusters) are fitted once per fold
+        (:class:`~tunnelsense._search.PrefixGridSearch`; the same result as
+        :class:`~sklearn.model_selection.GridSearchCV`).
     random_state : int, default=0
         Seed of the pipeline.
     n_jobs : int, default=1
-        Reader threads, the verifier's threads and the search's parallel fits.
+        Reader threads and the search's parallel fits (k-means runs on one thread).
     dask_scheduler : str or None, default=None
         Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
         needs the ``distributed`` extra); the workers must see the tours' files.
     progress : callable or None, default=None
         ``progress(step_name, k, n_steps)`` before each step of a plain fit.
+    search_progress : callable or None, default=None
+        ``search_progress(done, total)`` after each fit of a search.
     verbose : int, default=0
-        Verbosity of the search.
+        Unused (kept for callers of earlier releases).
 
     Returns
     -------
@@ -104,14 +111,16 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     # thread) overlaps the reader threads, which run without the interpreter lock
     import skops.io  # noqa: F401
     X = FrameSequence(decoded + list(frames))
-    model = make_indicator_pipeline(random_state=random_state,
-                                    verifier__n_jobs=n_jobs)
+    # k-means keeps its one BLAS thread: spinning BLAS or OpenMP threads make a fit
+    # several times slower on a loaded machine, and the centres do not depend on it
+    model = make_indicator_pipeline(random_state=random_state)
     found = None
     if search:
-        found = GridSearchCV(
+        # keypoints, verifier and clusters (the k-means) are fitted once per fold
+        found = PrefixGridSearch(
             model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
-            scoring=make_tunnel_scorer("youden"), error_score="raise", n_jobs=n_jobs,
-            verbose=verbose,
+            scoring=make_tunnel_scorer("youden"), n_jobs=n_jobs,
+            progress=search_progress,
         )
         with _dask(dask_scheduler) if dask_scheduler else contextlib.nullcontext():
             found.fit(X, y, groups=groups)
