@@ -455,3 +455,21 @@ def test_verifier_centres_off_their_grid_are_refused(genuine, tmp_path):
     path.write_bytes(_zip(forged))
     with pytest.raises(UntrustedModelError, match="grid"):
         load_trusted_model(path, last_step="motion", command="x")
+
+
+def test_a_scikit_learn_step_that_skops_trusts_is_refused(genuine, tmp_path, capsys):
+    """A genuine, well-formed pipeline whose 'cluster' step is a scikit-learn
+    estimator (trusted by skops): not the street detector."""
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    path = save_model(Pipeline([("cluster", FunctionTransformer())]).fit([[0.0]]),
+                      tmp_path / "foreign.skops")
+    with pytest.raises(UntrustedModelError, match="FunctionTransformer"):
+        load_trusted_model(path, last_step="cluster", command="x")
+    out = tmp_path / "o.csv"
+    assert main(["detect", "street", "--model", str(path), str(genuine["run"]),
+                 "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "FunctionTransformer" in err and "internal error" not in err
+    assert not out.exists()
