@@ -28,7 +28,7 @@ from tunnelsense.tunnel._reports import (
 def _cmd_train(args) -> int:
     start = time.perf_counter()
     key = common.check_model_output(args, args.seqdirs)
-    tours = [read_tour(d, colour=_colour(args)) for d in args.seqdirs]
+    tours = [read_tour(d, colour=common.colour(args)) for d in args.seqdirs]
     print(format_tours(tours))
     n_steps = len(make_indicator_pipeline().steps)
     bar = common.progress(args, n_steps, "fitting", unit="step")
@@ -49,28 +49,13 @@ def _cmd_detect(args) -> int:
         common.cli_model(args, "tunnel"), args.source, out, resume=args.resume,
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
         draw_every=args.draw_every, progress=common.progress(args, 1, "detecting"),
-        colour=_colour(args))
+        colour=common.colour(args))
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
     print(f"{format_detection(facts, out, draw=args.draw)} "
           f"({time.perf_counter() - start:.1f} s)")
     return 0
-
-
-def _colour(args):
-    """The colour conversion of ``--channel`` / ``--palette-to-grey`` (None: refuse)."""
-    return "luminance" if args.palette_to_grey else args.channel
-
-
-def _add_colour(parser) -> None:
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--channel", type=int, choices=(0, 1, 2), metavar="N",
-                       help="read colour frames as their channel N (0 blue, 1 green, 2 "
-                       "red); without it or --palette-to-grey colour frames are refused, "
-                       "since a far-infrared false-colour palette is not luminance")
-    group.add_argument("--palette-to-grey", action="store_true",
-                       help="read colour frames as their luminance")
 
 
 def _cmd_evaluate(args) -> int:
@@ -105,7 +90,7 @@ def register(verbs) -> None:
                    "'distributed' extra); the workers must see the tour folders at the "
                    "same paths")
     common.add_output_arguments(p, writes_model=True, quiet=True)
-    _add_colour(p)
+    common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser(
@@ -127,7 +112,7 @@ def register(verbs) -> None:
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; default: the number of CPUs)")
-    _add_colour(p)
+    common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(

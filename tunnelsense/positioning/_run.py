@@ -55,7 +55,7 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, overwrite=False, progress=None,
-                  inputs=()):
+                  inputs=(), colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
     Parameters
@@ -74,6 +74,9 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         Smooth with every fix (offline); default: what was known at each frame.
     overwrite : bool, default=False
         Replace an existing ``out``.
+    colour : int, "luminance" or None, default=None
+        With ``model``: how colour frames become grey (refused by default; see
+        :func:`~tunnelsense.io.read_image`).
     progress : callable, default=None
         ``progress(total, desc)`` returns a progress bar (or None) for the frames
         detected with ``model``.
@@ -114,7 +117,7 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         positions, fixes = positioner.predict(detections, odo, return_fixes=True)
     else:
         positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
-        frames = open_tour(tour).frames
+        frames = open_tour(tour, colour=colour).frames
         bar = progress and progress(len(frames), "detecting and positioning")
         positions, fixes = locate_online(model, frames, odo, positioner, progress=bar)
     with atomic_write(out, "w") as f:
