@@ -137,7 +137,12 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     if kind is not None and not pickle:
         data, _ = verified_bytes(path, _as_key(key), verify_key, max_bytes=max_bytes)
         _warn_versions(path, read_metadata(path, data, max_bytes))
-        return check_detector(read_strict(path, data, max_bytes=max_bytes), kind, path)
+        try:
+            return check_detector(read_strict(path, data, max_bytes=max_bytes), kind,
+                                  path)
+        except UntrustedModelError as exc:
+            raise UntrustedModelError(
+                f"{exc} (not a model written by 'tunnelsense {command}')") from None
     model = load_model(path, allow_pickle=pickle, key=key, verify_key=verify_key,
                        max_bytes=max_bytes)
     steps = getattr(model, "steps", None)
