@@ -115,8 +115,11 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     >>> import tempfile, pathlib
     >>> from tunnelsense.io import save_model
     >>> from tunnelsense.street import make_parking_pipeline
+    >>> from tunnelsense import to_xy
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> X, y, _ = to_xy([make_street_scans(100, random_state=0)])
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "street.skops"
-    >>> _ = save_model(make_parking_pipeline(), path)
+    >>> _ = save_model(make_parking_pipeline().fit(X, y), path)
     >>> load_trusted_model(path, last_step="cluster", command="train street").steps[-1][0]
     'cluster'
     """
