@@ -20,7 +20,11 @@ from hypothesis import strategies as st
 from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
 from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans, make_tunnel_tour
-from tunnelsense.exceptions import InputFormatError, ModelVersionWarning, UntrustedModelError
+from tunnelsense.exceptions import (
+    InputFormatError,
+    ModelVersionWarning,
+    UntrustedModelError,
+)
 from tunnelsense.io import load_model, save_model, write_run, write_tour
 from tunnelsense.io._trust import load_trusted_model
 
@@ -248,10 +252,6 @@ def test_forged_fitted_arrays_are_refused(genuine, tmp_path):
 
 
 # --- crafted files that call code under skops 0.11-0.14 (the floor is 0.15) ---
-
-def _generator_node(schema_of_rng):
-    return schema_of_rng
-
 
 @pytest.fixture
 def probe(monkeypatch):

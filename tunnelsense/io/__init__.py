@@ -12,6 +12,12 @@
 
 from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
+from tunnelsense.io._keys import (
+    generate_key_pair,
+    read_private_key,
+    read_public_key,
+    read_secret,
+)
 from tunnelsense.io._laser import (
     RunStream,
     ego_speed,
@@ -21,12 +27,6 @@ from tunnelsense.io._laser import (
     read_run_gt,
     write_run,
     write_run_gt,
-)
-from tunnelsense.io._keys import (
-    generate_key_pair,
-    read_private_key,
-    read_public_key,
-    read_secret,
 )
 from tunnelsense.io._model import (
     MAX_MODEL_BYTES,
