@@ -4,7 +4,6 @@ import copy
 import hashlib
 import io
 import json
-import os
 import struct
 import subprocess
 import sys
@@ -388,8 +387,8 @@ def _mutate(members, mutation):
     return members
 
 
-MUTATIONS = settings(max_examples=int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 40)),
-                     deadline=None, suppress_health_check=list(HealthCheck))
+# examples from the Hypothesis profile (tests/conftest.py: few by default, many in CI)
+MUTATIONS = settings(deadline=None, suppress_health_check=list(HealthCheck))
 
 
 @pytest.mark.parametrize("kind", ["street", "tunnel"])
