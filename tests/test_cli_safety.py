@@ -220,3 +220,100 @@ def test_the_key_file_is_an_input(street, tmp_path, capsys):
     assert "input of this command" in capsys.readouterr().err
     assert named.read_text() == "fleet-secret-0123456789"
     assert key.read_text() == "fleet-secret-0123456789"
+
+
+# --- outputs of one run never clash, and nothing is lost on --resume ---
+
+
+def test_draw_refuses_a_folder_that_holds_an_input(tunnel, tmp_path, capsys):
+    """A single frame D/000001.png as the source, --draw D --force: refused."""
+    folder = tmp_path / "D"
+    folder.mkdir()
+    frame = folder / "000001.png"
+    frame.write_bytes((tunnel["tours"][1] / "img1" / "000001.png").read_bytes())
+    before = frame.read_bytes()
+    out = tmp_path / "r.txt"
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]), str(frame),
+                 "--out", str(out), "--draw", str(folder), "--force", "--quiet"]) == 1
+    assert "holds an input of this command" in capsys.readouterr().err
+    assert frame.read_bytes() == before
+    assert sorted(p.name for p in folder.iterdir()) == ["000001.png"]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kind,name", [("tunnel", "000001.png"),
+                                       ("street", "range_image_000000.png")])
+def test_out_is_never_a_name_draw_writes(kind, name, tunnel, street, tmp_path, capsys):
+    setup = tunnel if kind == "tunnel" else street
+    source = setup["tours"][1] if kind == "tunnel" else setup["run"]
+    folder = tmp_path / "D"
+    out = folder / name
+    assert main(["detect", kind, "--model", str(setup["model"]), str(source), "--out",
+                 str(out), "--draw", str(folder), "--quiet"]) == 1
+    assert "inside the picture folder" in capsys.readouterr().err
+    assert not folder.exists()  # refused before any work
+
+
+@pytest.mark.parametrize("tail", [b"garbage text", b"1,1,0"])
+def test_resume_refuses_trailing_text_that_is_not_a_cut_off_line(tunnel, tmp_path,
+                                                                 capsys, tail):
+    """Trailing text without a newline is kept and refused, unless it is the start
+    of the line the run writes there (a line cut off by the interruption)."""
+    out = tmp_path / "r.txt"
+    shutil.copy(tunnel["results"], out)
+    from tunnelsense.io import clusters_path
+
+    shutil.copy(clusters_path(tunnel["results"]), clusters_path(out))
+    lines = out.read_bytes().splitlines(keepends=True)
+    head = b"".join(lines[:5])
+    data = head + tail
+    out.write_bytes(data)
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]),
+                 str(tunnel["tours"][1]), "--out", str(out), "--resume",
+                 "--quiet"]) == 1
+    assert "refusing to delete it" in capsys.readouterr().err
+    assert out.read_bytes() == data
+    # a real cut-off line resumes to the uninterrupted result
+    out.write_bytes(head + lines[5][:7])
+    assert main(["detect", "tunnel", "--model", str(tunnel["model"]),
+                 str(tunnel["tours"][1]), "--out", str(out), "--resume",
+                 "--quiet"]) == 0
+    assert out.read_bytes() == tunnel["results"].read_bytes()
+
+
+@pytest.fixture(scope="module")
+def colour_tours(tunnel, tmp_path_factory):
+    """The test tour with its frames stored in false colour, and as grey in RGB."""
+    import cv2
+
+    root = tmp_path_factory.mktemp("colour")
+    tours = {}
+    for kind in ("palette", "grey-rgb"):
+        folder = root / kind
+        shutil.copytree(tunnel["tours"][1], folder)
+        for png in sorted((folder / "img1").glob("*.png")):
+            grey = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
+            image = (cv2.applyColorMap(grey, cv2.COLORMAP_JET) if kind == "palette"
+                     else cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR))
+            cv2.imwrite(str(png), image)
+        tours[kind] = folder
+    return tours
+
+
+def test_colour_frames_are_refused_unless_a_conversion_is_named(tunnel, colour_tours,
+                                                                tmp_path, capsys):
+    out = tmp_path / "r.txt"
+    argv = ["detect", "tunnel", "--model", str(tunnel["model"]), "--out", str(out),
+            "--quiet"]
+    assert main([*argv, str(colour_tours["palette"])]) == 1
+    err = capsys.readouterr().err
+    assert "a colour frame" in err and "--channel" in err and "internal" not in err
+    assert not out.exists()
+    assert main(["train", "tunnel", str(colour_tours["palette"]), "--model",
+                 str(tmp_path / "m.skops"), "--quiet"]) == 1
+    assert "a colour frame" in capsys.readouterr().err
+    for option in (["--channel", "2"], ["--palette-to-grey"]):
+        assert main([*argv, str(colour_tours["palette"]), "--force", *option]) == 0
+    # grey stored as RGB is grey: the same results as the grey frames
+    assert main([*argv, str(colour_tours["grey-rgb"]), "--force"]) == 0
+    assert out.read_bytes() == tunnel["results"].read_bytes()

@@ -48,19 +48,22 @@ class ImageFile:
     shape : tuple of int or None, default=None
         The ``(height, width)`` the tour declares; a decoded frame of another size
         raises ``ValueError`` naming the file.
+    colour : int, "luminance" or None, default=None
+        How a colour frame becomes grey (:func:`tunnelsense.io.read_image`).
     """
 
-    __slots__ = ("path", "shape")
+    __slots__ = ("colour", "path", "shape")
 
-    def __init__(self, path, shape=None):
+    def __init__(self, path, shape=None, colour=None):
         self.path = str(path)
         self.shape = None if shape is None else tuple(int(s) for s in shape)
+        self.colour = colour
 
     def __getstate__(self):
-        return (self.path, self.shape)
+        return (self.path, self.shape, self.colour)
 
     def __setstate__(self, state):
-        self.path, self.shape = state
+        self.path, self.shape, self.colour = (*state, None)[:3]
 
     def __repr__(self):
         return f"ImageFile({self.path!r})"
@@ -68,7 +71,7 @@ class ImageFile:
     def load(self) -> np.ndarray:
         from tunnelsense.io._images import read_image  # io imports this module
 
-        image = read_image(self.path)
+        image = read_image(self.path, colour=self.colour)
         if self.shape is not None and image.shape != self.shape:
             raise ValueError(
                 f"{self.path}: frame is {image.shape[1]}x{image.shape[0]} px, "
@@ -80,17 +83,18 @@ class ImageFile:
 class VideoFrame:
     """A frame of a video file, decoded with OpenCV on access (seek, then read)."""
 
-    __slots__ = ("path", "index")
+    __slots__ = ("colour", "index", "path")
 
-    def __init__(self, path, index):
+    def __init__(self, path, index, colour=None):
         self.path = str(path)
         self.index = int(index)
+        self.colour = colour
 
     def __getstate__(self):
-        return (self.path, self.index)
+        return (self.path, self.index, self.colour)
 
     def __setstate__(self, state):
-        self.path, self.index = state
+        self.path, self.index, self.colour = (*state, None)[:3]
 
     def __repr__(self):
         return f"VideoFrame({self.path!r}, {self.index})"
@@ -98,7 +102,7 @@ class VideoFrame:
     def load(self) -> np.ndarray:
         from tunnelsense.io._images import read_video_frame  # io imports this module
 
-        return read_video_frame(self.path, self.index)
+        return read_video_frame(self.path, self.index, colour=self.colour)
 
 
 def _origin(source):

@@ -21,11 +21,13 @@ from tunnelsense.io._trust import PICKLE_SUFFIXES, check_model_path, load_truste
 __all__ = [
     "CPUS",
     "PICKLE_SUFFIXES",
+    "add_colour_arguments",
     "add_model_arguments",
     "add_output_arguments",
     "add_verify_arguments",
     "check_detect_outputs",
     "check_model_output",
+    "colour",
     "key_files",
     "cli_model",
     "progress",
@@ -90,6 +92,22 @@ def add_output_arguments(parser, *, writes_model=False, quiet=False) -> None:
                           "in FILE (the weaker choice: prefer --sign-key)")
     if quiet:
         parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_colour_arguments(parser) -> None:
+    """``--channel N`` / ``--palette-to-grey``: how colour frames become grey."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--channel", type=int, choices=(0, 1, 2), metavar="N",
+                       help="read colour frames as their channel N (0 blue, 1 green, 2 "
+                       "red); without it or --palette-to-grey colour frames are refused, "
+                       "since a far-infrared false-colour palette is not luminance")
+    group.add_argument("--palette-to-grey", action="store_true",
+                       help="read colour frames as their luminance")
+
+
+def colour(args):
+    """The conversion of ``--channel`` / ``--palette-to-grey`` (None: refuse colour)."""
+    return "luminance" if args.palette_to_grey else args.channel
 
 
 def progress(args, total, desc, **kwargs):
@@ -165,4 +183,4 @@ def check_detect_outputs(args, source, outputs) -> None:
         check_output(path, overwrite=args.force or args.resume, inputs=inputs,
                      what="--out")
     if args.draw is not None:
-        check_draw_dir(args.draw, force=args.force, inputs=inputs)
+        check_draw_dir(args.draw, force=args.force, inputs=inputs, outputs=outputs)

@@ -21,6 +21,7 @@ def _cmd_position(args) -> int:
         args.tour, args.out, model=model, results=args.results,
         odometry=args.odometry, indicator_map=args.map, smooth=args.smooth,
         overwrite=args.force, inputs=[args.model, *common.key_files(args)],
+        colour=common.colour(args),
         progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
     print(f"wrote {args.out}: {len(positions)} frames, {kept} of {len(fixes)} "
@@ -77,4 +78,5 @@ def register_top(sub) -> None:
     p.add_argument("--smooth", action="store_true", help="offline: smooth with every "
                    "fix (default: what was known at each frame)")
     common.add_output_arguments(p, quiet=True)
+    common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_position)

@@ -30,7 +30,7 @@ def _cmd_train(args) -> int:
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
     key = common.check_model_output(args, args.seqdirs)
-    tours = [read_tour(d) for d in args.seqdirs]
+    tours = [read_tour(d, colour=common.colour(args)) for d in args.seqdirs]
     print(format_tours(tours))
     bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
@@ -52,7 +52,7 @@ def _cmd_detect(args) -> int:
         common.cli_model(args, "tunnel"), args.source, out, resume=args.resume,
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
         draw_every=args.draw_every, draw_video=args.draw_video,
-        progress=common.progress(args, 1, "detecting"))
+        progress=common.progress(args, 1, "detecting"), colour=common.colour(args))
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
@@ -115,6 +115,7 @@ def register(verbs) -> None:
                    "'distributed' extra); the workers must see the tour folders at the "
                    "same paths")
     common.add_output_arguments(p, writes_model=True, quiet=True)
+    common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser(
@@ -140,6 +141,7 @@ def register(verbs) -> None:
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; default: the number of CPUs)")
+    common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(

@@ -13,6 +13,7 @@ from tunnelsense.exceptions import InputFormatError
 
 __all__ = [
     "IMAGE_EXTENSIONS",
+    "check_colour",
     "iter_video",
     "open_video",
     "read_image",
@@ -28,19 +29,62 @@ IMAGE_EXTENSIONS = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp", ".pgm", ".
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def _to_gray(image: np.ndarray, where: str) -> np.ndarray:
-    """Single-channel frame: colour images (FIR false colour, grey saved as RGB) -> grey."""
+#: How far the channels of a grey frame stored in colour may differ (video codecs
+#: round their colour conversion).
+_GREY_TOLERANCE = 2
+
+
+def check_colour(colour):
+    """A colour conversion: None (refuse colour frames), ``"luminance"`` or a channel.
+
+    Examples
+    --------
+    >>> check_colour(2), check_colour("luminance"), check_colour(None)
+    (2, 'luminance', None)
+    """
+    if colour is None or colour == "luminance":
+        return colour
+    if isinstance(colour, int | np.integer) and not isinstance(colour, bool) and colour >= 0:
+        return int(colour)
+    raise ValueError(f"colour must be None, 'luminance' or a channel index >= 0; got "
+                     f"{colour!r}")
+
+
+def _channel_spread(image: np.ndarray) -> int:
+    """The largest difference between the colour channels of any pixel."""
+    b, g, r = (np.ascontiguousarray(image[:, :, k]) for k in range(3))
+    return max(int(cv2.absdiff(b, g).max()), int(cv2.absdiff(g, r).max()))
+
+
+def _to_gray(image: np.ndarray, where: str, colour=None) -> np.ndarray:
+    """Single-channel frame.
+
+    A frame stored in colour whose channels agree (grey saved as RGB) is grey.  A
+    frame whose channels differ is refused unless ``colour`` names the conversion:
+    a far-infrared camera's false-colour palette is not luminance, so converting it
+    silently would give the detector intensities it was not trained on.
+    """
     if image.ndim == 3:
-        if image.shape[2] == 1:
+        n = image.shape[2]
+        if n not in (1, 3, 4):
+            raise InputFormatError(f"{where}: expected 1, 3 or 4 channels, got {n}")
+        if n == 1:
             image = image[:, :, 0]
-        elif image.shape[2] == 3:
-            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        elif image.shape[2] == 4:
-            image = cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
+        elif isinstance(colour, int):
+            if colour >= min(n, 3):
+                raise InputFormatError(f"{where}: --channel {colour}, but the frame has "
+                                       f"channels 0..{min(n, 3) - 1}")
+            image = image[:, :, colour]
         else:
-            raise InputFormatError(
-                f"{where}: expected 1, 3 or 4 channels, got {image.shape[2]}"
-            )
+            if colour is None and _channel_spread(image) > _GREY_TOLERANCE:
+                raise InputFormatError(
+                    f"{where}: a colour frame (its channels differ): a far-infrared "
+                    "false-colour palette is not luminance; name the conversion: "
+                    "--channel N (0 blue, 1 green, 2 red, as OpenCV orders them) or "
+                    "--palette-to-grey (luminance), or colour=N / 'luminance'"
+                )
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY if n == 3
+                                 else cv2.COLOR_BGRA2GRAY)
     if image.dtype not in (np.uint8, np.uint16):
         raise InputFormatError(f"{where}: expected 8-bit or 16-bit pixels, got {image.dtype}")
     return np.ascontiguousarray(image)
@@ -60,10 +104,11 @@ def read_png_size(path) -> tuple[int, int]:
     return int(height), int(width)
 
 
-def read_image(path) -> np.ndarray:
+def read_image(path, *, colour=None) -> np.ndarray:
     """Decode one frame: a 2-D ``uint8`` or ``uint16`` array.
 
-    Colour images are converted to grey.  A missing file raises
+    A colour image whose channels agree is grey; one whose channels differ is refused
+    unless ``colour`` names the conversion (a channel index, or ``"luminance"``).  A missing file raises
     ``FileNotFoundError``; an empty, truncated or corrupt file, an image larger than
     OpenCV decodes, or pixels other than 8- or 16-bit raise
     :class:`~tunnelsense.exceptions.InputFormatError` naming the file.
@@ -97,7 +142,7 @@ def read_image(path) -> np.ndarray:
         ) from None
     if image is None:
         raise InputFormatError(f"{path}: corrupt image, OpenCV could not decode it")
-    return _to_gray(image, str(path))
+    return _to_gray(image, str(path), check_colour(colour))
 
 
 def _cv_reason(exc: cv2.error) -> str:
@@ -122,7 +167,7 @@ def open_video(path) -> cv2.VideoCapture:
     return capture
 
 
-def read_video_frame(path, index: int) -> np.ndarray:
+def read_video_frame(path, index: int, *, colour=None) -> np.ndarray:
     """Decode frame ``index`` (0-based) of a video file as a 2-D array."""
     capture = open_video(path)
     try:
@@ -135,7 +180,7 @@ def read_video_frame(path, index: int) -> np.ndarray:
         raise InputFormatError(
             f"{path}: cannot decode frame {index} (the video ends earlier)"
         )
-    return _to_gray(image, f"{path} frame {index}")
+    return _to_gray(image, f"{path} frame {index}", check_colour(colour))
 
 
 def stated_frame_count(capture: cv2.VideoCapture) -> int:
@@ -175,7 +220,7 @@ def video_length_error(path, n_decoded: int, n_stated: int, hint: str = ""):
     )
 
 
-def iter_video(path, *, check_length=True):
+def iter_video(path, *, check_length=True, colour=None):
     """Yield the frames of a video file one by one, decoding sequentially.
 
     Parameters
@@ -187,6 +232,8 @@ def iter_video(path, *, check_length=True):
         the number of frames its header states (see :func:`video_length_error` for
         the tolerance).  Pass ``False`` for a container whose count is a poor
         estimate.
+    colour : int, "luminance" or None, default=None
+        How a colour frame becomes grey (see :func:`read_image`).
 
     Yields
     ------
@@ -199,6 +246,7 @@ def iter_video(path, *, check_length=True):
         The video ends before the number of frames its header states; raised after
         the frames before were yielded.
     """
+    colour = check_colour(colour)
     capture = open_video(path)
     try:
         stated = stated_frame_count(capture)
@@ -208,7 +256,7 @@ def iter_video(path, *, check_length=True):
             if not ok or image is None:
                 break
             n += 1
-            yield _to_gray(image, f"{path} frame {n - 1}")
+            yield _to_gray(image, f"{path} frame {n - 1}", colour)
     finally:
         capture.release()
     error = video_length_error(path, n, stated, "; the frames before were processed")

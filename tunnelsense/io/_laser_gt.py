@@ -161,20 +161,40 @@ def read_objects(path) -> pd.DataFrame:
     ------
     FileNotFoundError
         The file is missing.
-    ValueError
-        It is not a CSV table or lacks a column; the message names the file.
+    InputFormatError
+        It is not a CSV table, lacks a column, or a row's scans are not integers
+        ``0 <= first_scan <= last_scan`` (of at most 18 digits) or its label is
+        empty; the message names the file and the line.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: objects file not found")
     try:
-        objects = pd.read_csv(path)
-    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError) as exc:
-        raise ValueError(f"{path}: not a CSV object table ({exc})") from None
+        objects = pd.read_csv(path, dtype={c: str for c in ("first_scan", "last_scan",
+                                                           "label")})
+    except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError,
+            ValueError, OSError) as exc:
+        raise InputFormatError(f"{path}: not a CSV object table ({exc})") from None
     missing = [c for c in ("first_scan", "last_scan", "label") if c not in objects]
     if missing:
-        raise ValueError(f"{path}: lacks column(s) {', '.join(missing)}: expected "
-                         "id,first_scan,last_scan,label,mean_depth")
+        raise InputFormatError(f"{path}: lacks column(s) {', '.join(missing)}: expected "
+                               "id,first_scan,last_scan,label,mean_depth")
+    for column in ("first_scan", "last_scan"):
+        text = objects[column].fillna("").str.strip()
+        bad = ~text.str.fullmatch(r"\d{1,18}")
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputFormatError(
+                f"{path}, line {row + 2}: {column} is {objects[column].iloc[row]!r}, "
+                "expected a non-negative integer of at most 18 digits")
+        objects[column] = text.astype(np.int64)
+    after = objects["first_scan"] > objects["last_scan"]
+    objects["label"] = objects["label"].fillna("")
+    empty = objects["label"].str.strip() == ""
+    for bad, what in ((after, "first_scan after last_scan"), (empty, "an empty label")):
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputFormatError(f"{path}, line {row + 2}: {what}")
     return objects
 
 

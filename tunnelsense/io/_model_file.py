@@ -256,6 +256,8 @@ def read_metadata(path: Path, data: bytes, max_bytes=None) -> dict:
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
             check_sizes(path, zf, max_bytes)
             metadata = json.loads(zf.read(_METADATA))
+    except UntrustedModelError:
+        raise
     except (zipfile.BadZipFile, zlib.error, KeyError, ValueError, OSError, EOFError,
             NotImplementedError, RuntimeError) as exc:  # what a broken zip raises
         raise UntrustedModelError(f"{path}: malformed model file ({exc})") from None

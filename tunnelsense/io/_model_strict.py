@@ -358,6 +358,9 @@ def _check_step(path, where, est):
     params = set(type(est)._get_param_names())
     fitted, check = _FITTED[name]
     found = set(vars(est))
+    if not found & set(fitted) and params <= found:
+        raise UntrustedModelError(f"{path}: {where} ({name}) is not fitted; refusing "
+                                  "to load it")
     if found != params | set(fitted):
         extra = sorted(found - params - set(fitted))
         missing = sorted((params | set(fitted)) - found)

@@ -191,7 +191,7 @@ def _sequence_files(path, image_dir, seq) -> list:
     return files
 
 
-def read_tour(path) -> Tour:
+def read_tour(path, *, colour=None) -> Tour:
     """Read a MOTChallenge sequence folder as a :class:`~tunnelsense.Tour`.
 
     Frames are not decoded here: each :class:`~tunnelsense.FrameRecord` decodes its
@@ -204,6 +204,9 @@ def read_tour(path) -> Tour:
     ----------
     path : str or Path
         The sequence folder (holding ``seqinfo.ini``).
+    colour : int, "luminance" or None, default=None
+        How colour frames become grey: refused (None), one channel, or luminance
+        (see :func:`~tunnelsense.io.read_image`).
 
     Returns
     -------
@@ -229,7 +232,8 @@ def read_tour(path) -> Tour:
     files = _sequence_files(path, _image_dir(path, seq["imDir"]), seq)
     _check_sizes(files, shape)
     frames = FrameSequence(
-        FrameRecord(seq["name"], i, ImageFile(f, shape)) for i, f in enumerate(files, 1)
+        FrameRecord(seq["name"], i, ImageFile(f, shape, colour))
+        for i, f in enumerate(files, 1)
     )
     gt_path = path / "gt" / "gt.txt"
     gt = read_mot_gt(gt_path) if gt_path.exists() else empty_mot_gt()

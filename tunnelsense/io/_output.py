@@ -41,15 +41,21 @@ def _is_device_path(path: Path) -> bool:
 def _refuse_inputs(path, inputs, what, *, folder=False) -> None:
     """Raise when ``path`` is one of ``inputs`` or inside an input folder.
 
-    A picture folder (``folder=True``) may not even hold an input file.
+    A picture folder (``folder=True``) may not be inside an input folder, nor hold an
+    input file anywhere below it.
     """
     target = path.resolve()
-    for item in map(Path, inputs):
+    for item in map(Path, filter(None, inputs)):
         item = item.resolve()
         if target == item or ((folder or item.is_dir()) and target.is_relative_to(item)):
             raise OutputExistsError(
                 f"{what} {path}: is (or is inside) an input of this command ({item}); "
                 "refusing to write over it"
+            )
+        if folder and item.is_relative_to(target):
+            raise OutputExistsError(
+                f"{what} {path}: the folder holds an input of this command ({item}); "
+                "refusing to draw into it"
             )
 
 
@@ -197,11 +203,12 @@ def _image_dir(seqinfo) -> str | None:
         return None
 
 
-def check_draw_dir(path, *, force, inputs=()) -> Path:
+def check_draw_dir(path, *, force, inputs=(), outputs=()) -> Path:
     """A folder for pictures: new or empty, or ``force`` to draw over its files.
 
-    Never a device folder, and never one of the command's inputs (or inside one),
-    even with ``force``.
+    Never a device folder, never one of the command's inputs, inside one or holding
+    one, even with ``force``; and none of the command's other ``outputs`` (its
+    results files) may be inside it, where a picture could take its name.
 
     Raises
     ------
@@ -216,6 +223,12 @@ def check_draw_dir(path, *, force, inputs=()) -> Path:
     if path.exists() and not path.is_dir():
         raise ValueError(f"--draw {path}: exists and is not a folder")
     _refuse_inputs(path, inputs, "--draw", folder=True)
+    for output in map(Path, outputs):
+        if output.resolve().is_relative_to(path.resolve()):
+            raise OutputExistsError(
+                f"--draw {path}: the output {output} would be inside the picture "
+                "folder, where a picture may take its name; write it elsewhere"
+            )
     if path.is_dir() and any(path.iterdir()) and not force:
         raise OutputExistsError(
             f"--draw {path}: the folder is not empty; refusing to draw over its files "

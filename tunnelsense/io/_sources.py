@@ -45,7 +45,7 @@ def _natural_key(path):
     return [int(t) if i % 2 else t for i, t in enumerate(parts)]
 
 
-def read_image_folder(path, *, frame_rate=30.0) -> Tour:
+def read_image_folder(path, *, frame_rate=30.0, colour=None) -> Tour:
     """Read a plain folder of image files as a tour without ground truth.
 
     Files are ordered by name with runs of digits compared as numbers (``f_2.png``
@@ -97,13 +97,13 @@ def read_image_folder(path, *, frame_rate=30.0) -> Tour:
     shape = (
         read_png_size(first)
         if first.suffix.lower() == ".png"
-        else read_image(first).shape
+        else read_image(first, colour=colour if colour is not None else "luminance").shape
     )
     _check_sizes(files, shape)
     name = path.resolve().name
     numbers = _frame_numbers(path, files)
     frames = FrameSequence(
-        FrameRecord(name, k, ImageFile(f, shape))
+        FrameRecord(name, k, ImageFile(f, shape, colour))
         for k, f in sorted(zip(numbers, files, strict=True), key=lambda kf: kf[0])
     )
     return Tour(name, frames, empty_mot_gt(), float(frame_rate), {"source": str(path)})
@@ -135,7 +135,7 @@ def _frame_numbers(folder, files) -> list[int]:
     return [k + shift for k in numbers]
 
 
-def read_video(path, *, check_length=True) -> Tour:
+def read_video(path, *, check_length=True, colour=None) -> Tour:
     """Read a video file (through OpenCV) as a tour without ground truth.
 
     The frames are counted here (without decoding them) and decoded on access, a
@@ -181,13 +181,13 @@ def read_video(path, *, check_length=True) -> Tour:
         raise error
     name = path.stem
     frames = FrameSequence(
-        FrameRecord(name, i + 1, VideoFrame(path, i)) for i in range(n)
+        FrameRecord(name, i + 1, VideoFrame(path, i, colour)) for i in range(n)
     )
     rate = float(fps) if math.isfinite(fps) and fps > 0 else 30.0
     return Tour(name, frames, empty_mot_gt(), rate, {"source": str(path)})
 
 
-def open_tour(source) -> Tour:
+def open_tour(source, *, colour=None) -> Tour:
     """Read a tour from a MOTChallenge folder, an image folder or a video file.
 
     Parameters
@@ -195,6 +195,9 @@ def open_tour(source) -> Tour:
     source : str or Path
         A folder with ``seqinfo.ini`` (:func:`read_tour`), another folder
         (:func:`read_image_folder`) or a file (:func:`read_video`).
+    colour : int, "luminance" or None, default=None
+        How colour frames become grey: refused (None), one channel, or luminance
+        (see :func:`~tunnelsense.io.read_image`).
 
     Returns
     -------
@@ -211,15 +214,15 @@ def open_tour(source) -> Tour:
     source = Path(source)
     if source.is_dir():
         if (source / "seqinfo.ini").exists():
-            return read_tour(source)
-        return read_image_folder(source)
+            return read_tour(source, colour=colour)
+        return read_image_folder(source, colour=colour)
     if source.is_file():
         if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):
             raise InputFormatError(
                 f"{source}: a single file of this kind is not a tour (expected a "
                 "MOTChallenge folder, an image folder or a video file)"
             )
-        return read_video(source)
+        return read_video(source, colour=colour)
     raise FileNotFoundError(
         f"{source}: not found (expected a MOTChallenge folder, an image folder or a "
         "video file)"

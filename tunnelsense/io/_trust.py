@@ -115,8 +115,11 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     >>> import tempfile, pathlib
     >>> from tunnelsense.io import save_model
     >>> from tunnelsense.street import make_parking_pipeline
+    >>> from tunnelsense import to_xy
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> X, y, _ = to_xy([make_street_scans(100, random_state=0)])
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "street.skops"
-    >>> _ = save_model(make_parking_pipeline(), path)
+    >>> _ = save_model(make_parking_pipeline().fit(X, y), path)
     >>> load_trusted_model(path, last_step="cluster", command="train street").steps[-1][0]
     'cluster'
     """
@@ -137,7 +140,12 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     if kind is not None and not pickle:
         data, _ = verified_bytes(path, _as_key(key), verify_key, max_bytes=max_bytes)
         _warn_versions(path, read_metadata(path, data, max_bytes))
-        return check_detector(read_strict(path, data, max_bytes=max_bytes), kind, path)
+        try:
+            return check_detector(read_strict(path, data, max_bytes=max_bytes), kind,
+                                  path)
+        except UntrustedModelError as exc:
+            raise UntrustedModelError(
+                f"{exc} (not a model written by 'tunnelsense {command}')") from None
     model = load_model(path, allow_pickle=pickle, key=key, verify_key=verify_key,
                        max_bytes=max_bytes)
     steps = getattr(model, "steps", None)

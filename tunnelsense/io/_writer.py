@@ -28,7 +28,9 @@ class ResultsWriter:
     whole.  The first lines written again -- the detector replays the source from its
     start, which rebuilds its trackers' state exactly -- are checked against the
     complete lines of the file instead of being written twice; a partly written last
-    line is dropped only when the replay has matched every line before it.  The result
+    line is replaced only when the replay has matched every line before it and it is
+    the start of the line the replay writes there (a line cut off by the
+    interruption); other trailing text refuses the file, untouched.  The result
     equals an uninterrupted run.
 
     Parameters
@@ -52,7 +54,7 @@ class ResultsWriter:
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "res.txt"
     >>> with ResultsWriter(path) as w:
     ...     w.write("1,1,0,0,4,8,0.9,-1,-1,-1")
-    >>> _ = path.write_text(path.read_text() + "2,1,0")  # killed while writing line 2
+    >>> _ = path.write_text(path.read_text() + "2,1,1,0")  # killed while writing line 2
     >>> with ResultsWriter(path, resume=True) as w:
     ...     w.write("1,1,0,0,4,8,0.9,-1,-1,-1")  # replayed: checked, not written
     ...     w.write("2,1,1,0,4,8,0.8,-1,-1,-1")
@@ -71,6 +73,7 @@ class ResultsWriter:
         self._tmp = None
         self._pending_header = False
         self._replayed = 0
+        self._partial = ""  # a cut-off last line of the existing file
         self.written = 0
         if resume and self.path.exists():
             check_output(self.path, overwrite=True)
@@ -128,6 +131,7 @@ class ResultsWriter:
                     )
         self._existing = lines
         self._keep = len(complete)
+        self._partial = partial
 
     def _open(self, path, mode) -> None:
         try:
@@ -180,8 +184,22 @@ class ResultsWriter:
                 )
             self._replayed += 1
             return
+        if self._partial:
+            self._check_partial(line)
         self._emit(line)
         self.written += 1
+
+    def _check_partial(self, line) -> None:
+        """The file's unfinished last line must be the start of ``line``."""
+        partial, self._partial = self._partial, ""
+        if line is None or not line.startswith(partial):
+            raise ValueError(
+                f"{self.path}: cannot resume, the file ends with {partial[:60]!r}, "
+                "which is not the start of "
+                + ("any line of this run" if line is None else f"this run's next line "
+                   f"({line[:60]!r})")
+                + "; refusing to delete it (remove it by hand if it is not needed)"
+            )
 
     def flush(self) -> None:
         """Push what was written to the operating system (call after each frame)."""
@@ -203,6 +221,8 @@ class ResultsWriter:
                 "produced; was it written with another model or source?"
             )
         if self._file is None:  # resumed, nothing new: drop a partial last line
+            if self._partial:
+                self._check_partial(None)
             self._emit_nothing()
             return
         self.flush()

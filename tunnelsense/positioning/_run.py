@@ -5,6 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
+from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io._output import atomic_write, check_output, input_files
 from tunnelsense.positioning._evaluate import position_errors
 from tunnelsense.positioning._online import locate_online
@@ -52,7 +55,7 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, overwrite=False, progress=None,
-                  inputs=()):
+                  inputs=(), colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
     Parameters
@@ -71,6 +74,9 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         Smooth with every fix (offline); default: what was known at each frame.
     overwrite : bool, default=False
         Replace an existing ``out``.
+    colour : int, "luminance" or None, default=None
+        With ``model``: how colour frames become grey (refused by default; see
+        :func:`~tunnelsense.io.read_image`).
     progress : callable, default=None
         ``progress(total, desc)`` returns a progress bar (or None) for the frames
         detected with ``model``.
@@ -106,16 +112,35 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     odo, positioner = read_odometry(odometry), TunnelPositioner(smooth=smooth)
     positioner.fit(read_indicator_map(indicator_map))
     if results is not None:
-        positions, fixes = positioner.predict(read_mot_results(results), odo,
-                                              return_fixes=True)
+        detections = read_mot_results(results)
+        _check_coverage(odo, detections, tour, odometry)
+        positions, fixes = positioner.predict(detections, odo, return_fixes=True)
     else:
         positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
-        frames = open_tour(tour).frames
+        frames = open_tour(tour, colour=colour).frames
         bar = progress and progress(len(frames), "detecting and positioning")
         positions, fixes = locate_online(model, frames, odo, positioner, progress=bar)
     with atomic_write(out, "w") as f:
         positions.to_csv(f, index=False, lineterminator="\n")
     return positions, fixes
+
+
+def _check_coverage(odo, detections, tour, odometry) -> None:
+    """The odometry must have a row for every frame of the tour (as ``--model`` mode
+    requires): a gap or a shorter odometry would leave frames without a position."""
+    from tunnelsense.io import open_tour
+
+    try:
+        last = len(open_tour(tour).frames)
+    except (OSError, ValueError):  # a folder of tables only: the detections say
+        last = 0
+    if len(detections):
+        last = max(last, int(detections["frame"].max()))
+    missing = np.setdiff1d(np.arange(1, last + 1), odo["frame"].to_numpy())
+    if missing.size:
+        raise InputFormatError(
+            f"{odometry}: no odometry for frame {missing[0]} ({missing.size} of the "
+            f"{last} frames of the tour have none); the odometry must cover every frame")
 
 
 def evaluate_positions(tour, positions, *, odometry=None, indicator_map=None, draw=None,

@@ -3,7 +3,9 @@
 Each table is a CSV file with a header line:
 
 * odometry -- ``frame,stamp,speed,yaw_rate`` (s, m/s, rad/s), frames and stamps
-  increasing; the speed of a frame holds until the next frame;
+  increasing, frames at most :data:`MAX_FRAME`, stamps at most :data:`MAX_STAMP` s, speeds
+  at most :data:`MAX_SPEED`;
+  the speed of a frame holds until the next frame;
 * indicator map -- ``id,chainage,side`` (m along the tunnel);
 * positions -- ``frame,stamp,chainage`` (the truth of a simulated tour), or
   ``frame,stamp,chainage,sigma`` (an estimate).
@@ -56,9 +58,23 @@ def _columns(table, columns, what):
     return out
 
 
+#: Largest frame number read (a year of video at 30 frames a second is 1e9).
+MAX_FRAME = 10**12
+
+#: Largest stamp read, s (UNIX time in seconds is below 2e9 until 2033).
+MAX_STAMP = 1e11
+
+#: Largest speed read, m/s (360 km/h: beyond any road vehicle).
+MAX_SPEED = 100.0
+
+
 def _frames(values, what):
     if np.any(values != np.round(values)) or np.any(values < 1):
         raise InputFormatError(f"{what}: frame must be integers >= 1")
+    if np.any(values > MAX_FRAME):
+        bad = int(np.flatnonzero(values > MAX_FRAME)[0])
+        raise InputFormatError(f"{what}: row {bad + 1}: frame {values[bad]:.0f} is "
+                               f"beyond {MAX_FRAME}")
     if np.any(np.diff(values) <= 0):
         raise InputFormatError(f"{what}: frames must increase")
     return values.astype(np.int64)
@@ -72,8 +88,16 @@ def check_odometry(odometry, what="odometry") -> pd.DataFrame:
         raise InputFormatError(f"{what}: no rows")
     if np.any(np.diff(v["stamp"]) <= 0):
         raise InputFormatError(f"{what}: stamps must increase")
+    if np.any(np.abs(v["stamp"]) > MAX_STAMP):
+        bad = int(np.flatnonzero(np.abs(v["stamp"]) > MAX_STAMP)[0])
+        raise InputFormatError(f"{what}: row {bad + 1}: stamp {v['stamp'][bad]:g} s is "
+                               f"beyond {MAX_STAMP:g} s (is it in seconds?)")
     if np.any(v["speed"] < -1.0):
         raise InputFormatError(f"{what}: a negative speed (driving backwards)")
+    if np.any(v["speed"] > MAX_SPEED):
+        bad = int(np.flatnonzero(v["speed"] > MAX_SPEED)[0])
+        raise InputFormatError(f"{what}: row {bad + 1}: speed {v['speed'][bad]:g} m/s "
+                               f"is beyond {MAX_SPEED:g} m/s (is it in m/s?)")
     return pd.DataFrame({"frame": frame, "stamp": v["stamp"], "speed": v["speed"],
                          "yaw_rate": v["yaw_rate"]})
 

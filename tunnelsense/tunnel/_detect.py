@@ -22,7 +22,7 @@ from tunnelsense._fitting import counted, fit_pipeline, search_ticks
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._search import PrefixGridSearch
 from tunnelsense._streaming import StreamingPipeline
-from tunnelsense.io._images import iter_video, open_video
+from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
     CLUSTERS_HEADER,
     RESULT_LINE,
@@ -215,11 +215,13 @@ def detect_tour(model, frames, *, progress=None, chunk=256):
     return tail.predict(FrameSequence.concat(parts))
 
 
-def open_frames(source):
+def open_frames(source, *, colour=None):
     """The frames of a source, read lazily, and their number.
 
     A MOTChallenge or image folder gives records that decode their PNG on access; a
-    video file is decoded sequentially, records built on the fly.
+    video file is decoded sequentially, records built on the fly.  The first frame is
+    decoded here, so that frames that cannot be read as ``colour`` says are refused
+    before any output is written.
 
     Returns
     -------
@@ -241,13 +243,17 @@ def open_frames(source):
     """
     source = Path(source)
     if not source.is_file():
-        tour = open_tour(source)
+        tour = open_tour(source, colour=colour)
+        if len(tour):
+            _ = tour.frames[0].image
         return iter(tour.frames), len(tour)
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
     capture.release()
+    if total > 0:
+        read_video_frame(source, 0, colour=colour)
     frames = (FrameRecord(source.stem, i, image)
-              for i, image in enumerate(iter_video(source), 1))
+              for i, image in enumerate(iter_video(source, colour=colour), 1))
     return frames, total
 
 
@@ -297,7 +303,8 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
 
 
 def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
-                    progress=None, draw=None, draw_every=1, draw_video=None):
+                    progress=None, draw=None, draw_every=1, draw_video=None,
+                    colour=None):
     """Detect indicators in a tour or video, writing results as frames are final.
 
     ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
@@ -326,6 +333,9 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
         A ``.mp4`` or ``.avi`` file to draw every frame into, at the source's frame
         rate (``cv2.VideoWriter``); it is not checked for overwriting here.  Written
         beside under a temporary name and renamed when the run ends, early or not.
+    colour : int, "luminance" or None, default=None
+        How colour frames become grey: refused (None), one channel, or luminance
+        (see :func:`~tunnelsense.io.read_image`).
 
     Returns
     -------
@@ -352,7 +362,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     """
     if draw_every < 1:
         raise ValueError(f"draw_every must be at least 1; got {draw_every}")
-    frames, total = open_frames(source)
+    frames, total = open_frames(source, colour=colour)
     if progress is not None:
         progress.set_total(total)
     results = ResultsWriter(out, resume=resume, overwrite=overwrite,
