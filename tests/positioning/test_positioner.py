@@ -129,12 +129,21 @@ def test_late_detections_are_delayed_measurements(global_random_seed):
 def test_without_scale_estimation_the_drift_stays():
     _, positions, odometry, indicators, det = _tour(0)
     s = positions["chainage"].to_numpy()
-    fixed = TunnelPositioner(estimate_scale=False).fit(indicators).predict(det, odometry)
+    fixed = TunnelPositioner(estimate_scale=False, relock_after=0).fit(
+        indicators).predict(det, odometry)
     scaled = TunnelPositioner().fit(indicators).predict(det, odometry)
     tail = s > 1000
     e_fixed = np.abs(fixed["chainage"].to_numpy() - s)[tail].max()
     e_scaled = np.abs(scaled["chainage"].to_numpy() - s)[tail].max()
     assert e_fixed > 3.0 > 1.0 > e_scaled  # 3 % of 200 m between signs
+    # the gate rejects the fixes of the drifting filter; after three in a row it
+    # drops its position rather than write a drifting one (the map is periodic:
+    # there is nothing to lock on to again)
+    relock = TunnelPositioner(estimate_scale=False).fit(indicators)
+    got, fixes = relock.predict(det, odometry, return_fixes=True)
+    assert fixes["reason"].str.startswith("outside the gate").sum() >= 3
+    assert got["locked"].iloc[0] and not got["locked"].iloc[-1]
+    assert got.loc[~got["locked"], "chainage"].isna().all()
 
 
 def test_estimate_pass_is_exact_on_the_pinhole_model():
