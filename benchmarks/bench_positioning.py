@@ -10,6 +10,14 @@ Two parts:
   noise); the timing error of its passes is printed beside the real detector's.
 * ``--rendered``: a 2-km tour rendered, the real detector trained on another tour
   and run on it, then the positioner (end to end, about 2 minutes).
+* ``--memory``: the online stream's time per frame and memory on tours of 3k, 30k
+  and 300k frames (``tracemalloc``: what the stream holds at the end and at its
+  peak, the final rows drained every 1,024 frames as ``position --model`` does).
+* ``--lock``: tours that start mid-tunnel on maps with irregular gaps (150-250 m),
+  with no start: the passes until the lock, wrong locks, the error after the lock;
+  and with a start 10 m off (sigma 20 m).
+* ``--speed``: ``position --model`` beside ``detect tunnel`` on one rendered tour,
+  alternating in one run (``--frames``, default 3,000), medians and their ratio.
 
 For each setting, the worst over ``--seeds`` tours: the maximum error of dead
 reckoning (DR), of the online filter (what is known at each frame), of the online
@@ -155,13 +163,125 @@ def rendered(seed):
           f"{timing.std():.2f} m ({len(timing)} passes)")
 
 
+def memory(sizes=(3_000, 30_000, 300_000)):
+    """Time per frame and memory of the online stream, flat in the tour's length."""
+    import tracemalloc
+
+    print("stream time (median of 3) and memory held at the end and at the peak")
+    print(f"{'frames':>8} {'us/frame':>9} {'held KB':>8} {'peak KB':>8} "
+          f"{'fixes':>6}")
+    for n in sizes:
+        distance = n / 30.0 * 22.0  # 80 km/h
+        truth = make_tunnel_kinematics(distance, speed_kmh=80.0, random_state=0)
+        _, odometry, indicators = make_tunnel_odometry(truth, random_state=0)
+        det = simulate_indicator_detections(truth, random_state=0)
+        odometry = odometry.iloc[:n]
+        det = det[det["frame"] <= n]
+        pos = TunnelPositioner().fit(indicators)
+        frames = det["frame"].to_numpy()
+        starts = np.searchsorted(frames, odometry["frame"].to_numpy()).tolist()
+        ends = np.searchsorted(frames, odometry["frame"].to_numpy(), "right").tolist()
+        tracks, heights = det["id"].tolist(), det["bb_height"].tolist()
+        frames = frames.tolist()
+        rows = list(zip(odometry["frame"].tolist(), odometry["stamp"].tolist(),
+                        odometry["speed"].tolist(), starts, ends, strict=True))
+
+        def run():
+            stream, n_fixes = pos.start_stream(), 0
+            for k, (f, t, v, a, b) in enumerate(rows, 1):
+                stream._advance(f, t, v)
+                if b > a:
+                    stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])
+                stream._finish(f)
+                if k % 1024 == 0:
+                    stream.drain()
+                    n_fixes += int(stream.drain_fixes()["accepted"].sum())
+            return stream, n_fixes
+
+        times = []
+        for _ in range(3):  # time without tracemalloc (it slows allocation)
+            t0 = time.perf_counter()
+            run()
+            times.append(time.perf_counter() - t0)
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        stream, n_fixes = run()
+        held, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        stream.close()
+        print(f"{n:>8} {1e6 * np.median(times) / n:>9.1f} {(held - base) / 1024:>8.0f} "
+              f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
+
+
+def lock(seeds):
+    """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
+    print(f"lock-on, irregular map (gaps 150-250 m), {len(seeds)} tours (seeds "
+          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error 1-4 %")
+    passes, wrong, err, never = [], 0, [], 0
+    start_rows = []
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
+                                       indicator_spacing_m=(150.0, 250.0),
+                                       random_state=seed)
+        scale = rng.choice([-1, 1]) * rng.uniform(0.01, 0.04)
+        positions, odometry, indicators = make_tunnel_odometry(
+            truth, scale_error=scale, random_state=seed)
+        det = simulate_indicator_detections(truth, random_state=seed)
+        est = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
+            det, odometry)
+        e = position_errors(positions, est, odometry, indicators)
+        if e["lock"] is None:
+            never += 1
+            continue
+        passes.append(e["lock"]["passes"])
+        wrong += e["max"] > 50.0
+        err.append(e["max"])
+        s0 = positions["chainage"].iloc[0]
+        for smooth in (False, True):
+            est, fixes = TunnelPositioner(
+                initial_chainage=s0 + 10.0, initial_sigma=20.0, smooth=smooth).fit(
+                indicators).predict(det, odometry, return_fixes=True)
+            e = position_errors(positions, est, odometry, indicators)
+            first = fixes.loc[fixes["accepted"], "pass_frame"].min()
+            after = est["frame"].to_numpy() > first
+            err_after = np.abs(est["chainage"] - positions["chainage"]).to_numpy()[after]
+            start_rows.append((smooth, max(abs(p["error"]) for p in e["passes"]
+                                           if p["frame"] > first),
+                               err_after.max(), e["dead_reckoning"]["max"]))
+    passes = np.asarray(passes)
+    print(f"  locked: {len(passes)} of {len(seeds)}; wrong locks {wrong}; passes until "
+          f"the lock: " + ", ".join(f"{k}: {np.sum(passes == k)}"
+                                   for k in range(1, passes.max() + 1)))
+    print(f"  largest error after the lock: {max(err):.2f} m")
+    print("start 10 m off (sigma 20 m), the same tours:")
+    for smooth in (False, True):
+        rows = [r for r in start_rows if r[0] == smooth]
+        worst_pass = max(r[1] for r in rows)
+        ratio = min(r[3] / r[2] for r in rows)
+        print(f"  {'smoothed' if smooth else 'online  '}: worst error at a pass after "
+              f"the first {worst_pass:.2f} m; largest error after the first pass "
+              f"{max(r[2] for r in rows):.2f} m, at least {ratio:.1f}x below dead "
+              f"reckoning")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--rendered", action="store_true",
                         help="also a rendered 2-km tour with the real detector")
     parser.add_argument("--only-rendered", action="store_true")
+    parser.add_argument("--memory", action="store_true", help="only the stream's "
+                        "time and memory from 3k to 300k frames")
+    parser.add_argument("--lock", action="store_true", help="only lock-on and a start "
+                        "10 m off, on --seeds tours from seed 1000")
     args = parser.parse_args()
+    if args.memory:
+        memory()
+        return
+    if args.lock:
+        lock(list(range(1000, 1000 + args.seeds)))
+        return
     if not args.only_rendered:
         statistical(list(range(args.seeds)))
     if args.rendered or args.only_rendered:

@@ -103,7 +103,10 @@ def test_streaming_equals_batch_and_is_immediate(global_random_seed):
             assert out[0] == f  # this frame's position, at once
             online.append(out)
         got = stream.close()
-        pd.testing.assert_frame_equal(got, batch)
+        # with smooth: the stream's fixed-lag smoother (its window holds this tour)
+        # against the whole-tour smoother, the same estimate to rounding
+        pd.testing.assert_frame_equal(got, batch, rtol=0, atol=0 if not smooth
+                                      else 1e-4)
         if not smooth:
             pd.testing.assert_frame_equal(pd.DataFrame(online, columns=got.columns),
                                           batch)
@@ -121,7 +124,10 @@ def test_late_detections_are_delayed_measurements(global_random_seed):
         late = det[det["frame"] == f - lag] if i >= lag else None
         stream.push(f, t, v, w, late, until=f - lag)
     stream.add_detections(det[det["frame"] > frames[-1] - lag])
-    pd.testing.assert_frame_equal(stream.close(), batch)
+    # a fix known after its pass (here) or before it (in the batch: the sign left
+    # the image a few metres ahead) is applied at another frame: the process noise
+    # over those metres is left out, a fraction of a millimetre
+    pd.testing.assert_frame_equal(stream.close(), batch, rtol=0, atol=1e-3)
     fixed = stream.fixes["accepted"].sum()
     assert fixed >= 3
 

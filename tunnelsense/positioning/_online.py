@@ -67,7 +67,7 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
     stamps, speeds = odo["stamp"].tolist(), odo["speed"].tolist()
     detector = StreamingPipeline(model)
     stream = positioner.start_stream()
-    parts = []
+    parts, fixes = [], []
     take = on_rows if on_rows is not None else parts.append
     if n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
@@ -94,11 +94,13 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
                 rows = stream.drain()
                 if len(rows):
                     take(rows)
+                fixes.append(stream.drain_fixes())
         stream.add_detections(detector.close())
     rows = stream.close()
     if len(rows) or not parts:
         take(rows)
-    fixes = stream.fixes
+    fixes = pd.concat([f for f in [*fixes, stream.drain_fixes()] if len(f)] or [
+        stream.fixes], ignore_index=True)
     fixes.attrs["lock_status"] = stream.lock_status()
     if on_rows is not None:
         return pd.DataFrame(columns=list(ESTIMATE_COLUMNS)), fixes

@@ -115,8 +115,9 @@ class TunnelPositioner(BaseEstimator):
         Fewest passes the lock's hypothesis explains (two gaps between them).
     miss_rate : float, default=0.05
         Probability that the detector misses an indicator (lock-on scoring).
-    false_pass_rate : float, default=0.5
-        False passes per km (lock-on scoring).
+    false_pass_rate : float, default=0.05
+        False passes per km (lock-on scoring): trajectories of something else
+        that pass the positioner's own checks (boxes, approach, extrapolation).
     relock_after : int, default=3
         Passes rejected by the gate in a row after which the position is dropped
         and found again by locking on (0: never).
@@ -193,7 +194,7 @@ class TunnelPositioner(BaseEstimator):
         lock_margin=9.0,
         lock_passes=3,
         miss_rate=0.05,
-        false_pass_rate=0.5,
+        false_pass_rate=0.05,
         relock_after=3,
     ):
         self.estimate_scale = estimate_scale
@@ -298,7 +299,7 @@ class TunnelPositioner(BaseEstimator):
         ends = np.searchsorted(frames, odometry["frame"].to_numpy(), side="right")
         tracks, heights = table["track_id"].tolist(), table["bb_height"].tolist()
         frames = frames.tolist()
-        stream = PositionStream(self, lagged=False)
+        stream = PositionStream(self, lagged=False, keep_fixes=True)
         f_all = odometry["frame"].tolist()
         t_all, v_all = odometry["stamp"].tolist(), odometry["speed"].tolist()
         for f, t, v, a, b in zip(f_all, t_all, v_all, starts.tolist(), ends.tolist(),

@@ -1,11 +1,12 @@
 """The positioner's online state: one odometry sample in, one position out.
 
 A fix is known only when its trajectory has ended, a few frames after the sign has
-left the image; by then the camera is past the sign.  The fix is applied as a
+left the image.  When the camera is already past the sign, the fix is applied as a
 delayed measurement: the state at the frame of the pass is corrected and the
 odometry since is propagated again (cheap in 1-D).  A pass still ahead (the sign
-left the image but the camera has not reached it yet) waits until the odometry
-reaches it.
+left the image some metres before the camera reaches it) is a measurement of the
+state now, ``z = s + c u`` with ``u`` the odometry distance still to go, applied at
+once: the position is corrected before the camera passes the sign.
 
 Memory does not grow with the tour: the state of the last ``window`` frames is held
 in fixed-size arrays (a ring), enough for any delayed pass; with ``smooth`` the
@@ -107,7 +108,7 @@ class PositionStream:
     tour and returns the rows not yet drained.
     """
 
-    def __init__(self, positioner, *, lagged=None):
+    def __init__(self, positioner, *, lagged=None, keep_fixes=False):
         p = positioner
         self._p = p
         self._map = np.asarray(p.indicator_chainage_, np.float64)
@@ -124,10 +125,10 @@ class PositionStream:
         self._c0 = float(p.initial_scale)
         self._sc2 = float(p.scale_sigma) ** 2 if p.estimate_scale else 0.0
         self._fixes = {}  # frame index -> [(u, z, r)], applied online
-        self.fix_list = []  # (frame index, u, z, r) of every fix, for the smoother
+        # (frame index, u, z, r) of every fix, for the whole-tour smoother (offline)
+        self.fix_list = [] if keep_fixes else None
         self.relocked = False
         self._tracks = {}  # track id -> [distances, heights, last frame, last index]
-        self._pending = []  # passes ahead of the odometry: (distance, log row)
         self._log = []
         self._rows = _Rows()
         self._closed = False
@@ -232,12 +233,6 @@ class PositionStream:
         self._fixes.pop(n - W, None)
         self._n = n + 1
         self._speed = speed
-        if self._pending:
-            # passes the odometry has now reached
-            due = [item for item in self._pending if item[0] <= d]
-            self._pending = [item for item in self._pending if item[0] > d]
-            for dist, row in due:
-                self._apply(dist, row)
 
     def _finish(self, until):
         """End the trajectories complete by ``until``; the last frame's position."""
@@ -269,11 +264,6 @@ class PositionStream:
         if not self._closed:
             for track in list(self._tracks):
                 self._end_track(track)
-            for _, row in self._pending:
-                row.pop("_var", None)
-                row.update(accepted=False, reason="pass after the end of the tour")
-                self._log.append(row)
-            self._pending = []
             self._closed = True
             if self._lagged:
                 self._release(self._n)
@@ -323,9 +313,19 @@ class PositionStream:
 
     @property
     def fixes(self) -> pd.DataFrame:
-        """Every trajectory's fix: where it passed, its indicator, kept or why not."""
+        """Every trajectory's fix not yet drained: where it passed, its indicator,
+        kept or why not."""
         rows = sorted(self._log, key=lambda r: (r["last_frame"], r["track_id"]))
         return pd.DataFrame(rows, columns=list(FIX_COLUMNS))
+
+    def drain_fixes(self) -> pd.DataFrame:
+        """:attr:`fixes` so far, then forgotten (memory stays flat); held while
+        locking on, since the lock names the indicators of the passes before it."""
+        if self._lockon is not None and self._lockon.n_passes:
+            return pd.DataFrame(columns=list(FIX_COLUMNS))
+        out = self.fixes
+        self._log = []
+        return out
 
     def lock_status(self) -> str:
         """A sentence on the lock: where it was taken, or why there is none."""
@@ -439,10 +439,7 @@ class PositionStream:
             self._log.append(row)
             return
         row["_var"] = var
-        if dist > self._d[(self._n - 1) % self._W]:
-            self._pending.append((dist, row))
-        else:
-            self._apply(dist, row)
+        self._apply(dist, row)
 
     def _apply(self, dist, row):
         """Gate and apply the fix of a pass at odometry distance ``dist``."""
@@ -483,7 +480,8 @@ class PositionStream:
         row.update(accepted=True, reason="")
         z = float(self._map[j])
         self._fixes.setdefault(k, []).append((u, z, r))
-        self.fix_list.append((k, u, z, r))
+        if self.fix_list is not None:
+            self.fix_list.append((k, u, z, r))
         # delayed measurement: correct at the pass, propagate the odometry since
         self._post[k % W] = _update(x, u, z, r)
         self._propagate(k)
@@ -527,7 +525,8 @@ class PositionStream:
             if j < 0:
                 continue
             z = float(self._map[j])
-            self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
+            if self.fix_list is not None:
+                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
                       indicator_chainage=z)
         self._lock_k = k
@@ -543,7 +542,7 @@ class PositionStream:
         self._start_lockon()
         self.lock_frame = None
         self.relocked = True
-        self.fix_list = []
+        self.fix_list = [] if self.fix_list is not None else None
         self._fixes = {}
         n, W = self._n, self._W
         first = rejected[0][2]
