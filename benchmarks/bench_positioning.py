@@ -163,6 +163,20 @@ def rendered(seed):
           f"{timing.std():.2f} m ({len(timing)} passes)")
 
 
+def _stream_run(pos, rows, frames, tracks, heights):
+    """Push a tour through a fresh stream; drain it every 1,024 frames."""
+    stream, n_fixes = pos.start_stream(), 0
+    for k, (f, t, v, a, b) in enumerate(rows, 1):
+        stream._advance(f, t, v)
+        if b > a:
+            stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])
+        stream._finish(f)
+        if k % 1024 == 0:
+            stream.drain()
+            n_fixes += int(stream.drain_fixes()["accepted"].sum())
+    return stream, n_fixes
+
+
 def memory(sizes=(3_000, 30_000, 300_000)):
     """Time per frame and memory of the online stream, flat in the tour's length."""
     import tracemalloc
@@ -186,26 +200,15 @@ def memory(sizes=(3_000, 30_000, 300_000)):
         rows = list(zip(odometry["frame"].tolist(), odometry["stamp"].tolist(),
                         odometry["speed"].tolist(), starts, ends, strict=True))
 
-        def run():
-            stream, n_fixes = pos.start_stream(), 0
-            for k, (f, t, v, a, b) in enumerate(rows, 1):
-                stream._advance(f, t, v)
-                if b > a:
-                    stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])
-                stream._finish(f)
-                if k % 1024 == 0:
-                    stream.drain()
-                    n_fixes += int(stream.drain_fixes()["accepted"].sum())
-            return stream, n_fixes
-
+        args = (pos, rows, frames, tracks, heights)
         times = []
         for _ in range(3):  # time without tracemalloc (it slows allocation)
             t0 = time.perf_counter()
-            run()
+            _stream_run(*args)
             times.append(time.perf_counter() - t0)
         tracemalloc.start()
         base = tracemalloc.get_traced_memory()[0]
-        stream, n_fixes = run()
+        stream, n_fixes = _stream_run(*args)
         held, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         stream.close()
@@ -265,6 +268,41 @@ def lock(seeds):
               f"reckoning")
 
 
+def speed(n_frames, repeats=3, seed=0):
+    """``position --model`` beside ``detect tunnel`` on one tour, in one run."""
+    from tunnelsense._cli import main as cli
+    from tunnelsense.datasets import make_tunnel_tour
+    from tunnelsense.io import write_tour
+
+    root = Path(tempfile.mkdtemp(prefix="bench-position-speed-"))
+    write_tour(make_tunnel_tour(600, random_state=seed + 100), root / "train")
+    write_tour(make_tunnel_tour(n_frames, random_state=seed, first_indicator_m=60.0,
+                                speed_kmh=(80.0, 100.0)), root / "tour")
+    model = str(root / "m.skops")
+    cli(["train", "tunnel", str(root / "train"), "--model", model, "--quiet",
+         "--jobs", "1"])
+    tour = str(root / "tour")
+    commands = {
+        "detect tunnel": ["detect", "tunnel", "--model", model, tour, "--out",
+                          str(root / "r.txt"), "--quiet", "--force"],
+        "position --model": ["position", tour, "--model", model, "--out",
+                             str(root / "p.csv"), "--quiet", "--force"],
+    }
+    times = {k: [] for k in commands}
+    for _ in range(repeats):  # alternating, so both see the same machine load
+        for name, args in commands.items():
+            t0 = time.perf_counter()
+            assert cli(args) == 0
+            times[name].append(time.perf_counter() - t0)
+    med = {k: float(np.median(v)) for k, v in times.items()}
+    pairs = np.divide(times["position --model"], times["detect tunnel"])
+    print(f"{n_frames} frames, {repeats} runs each, alternating:")
+    for name, v in times.items():
+        print(f"  {name:17} median {med[name]:6.2f} s  ({', '.join(f'{t:.2f}' for t in v)})")
+    print(f"  ratio position --model / detect tunnel: {med['position --model'] / med['detect tunnel']:.3f}"
+          f" (of medians); per pair {', '.join(f'{r:.3f}' for r in pairs)}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
@@ -275,7 +313,14 @@ def main():
                         "time and memory from 3k to 300k frames")
     parser.add_argument("--lock", action="store_true", help="only lock-on and a start "
                         "10 m off, on --seeds tours from seed 1000")
+    parser.add_argument("--speed", action="store_true", help="only position --model "
+                        "beside detect tunnel on one rendered tour")
+    parser.add_argument("--frames", type=int, default=3000)
+    parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    if args.speed:
+        speed(args.frames, args.repeats)
+        return
     if args.memory:
         memory()
         return

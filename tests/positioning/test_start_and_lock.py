@@ -37,10 +37,10 @@ def _tour(seed, *, start=1000.0, spacing=200.0, distance=2400.0, scale_error=0.0
 def _tours(seed, n):
     """``n`` tours drawn from ``seed``: start 300-3000 m in, scale error 1-4 %."""
     rng = np.random.default_rng(seed)
-    for k in range(n):
+    for _ in range(n):
         yield _tour(int(rng.integers(2**31)), start=rng.uniform(300.0, 3000.0),
                     spacing=(150.0, 250.0),
-                    scale_error=rng.choice([-1, 1]) * rng.uniform(0.01, 0.04)), k
+                    scale_error=rng.choice([-1, 1]) * rng.uniform(0.01, 0.04))
 
 
 def test_a_start_ten_metres_off(global_random_seed):
@@ -93,7 +93,7 @@ def test_the_scale_is_written_and_calibrates_the_next_tunnel(global_random_seed)
 
 def test_lock_on_without_a_start(global_random_seed):
     """An irregular map (gaps of 150-250 m): locked within 4 passes, never wrong."""
-    for (truth, positions, odometry, indicators, det), _ in _tours(global_random_seed, 4):
+    for _, positions, odometry, indicators, det in _tours(global_random_seed, 4):
         s = positions["chainage"].to_numpy()
         est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
             det, odometry, return_fixes=True)
@@ -222,3 +222,45 @@ def test_unlocked_rows_are_checked(tmp_path):
 
     with pytest.raises(InputFormatError, match="row 1: chainage"):
         read_positions(tmp_path / "q.csv", sigma=True)
+
+
+def test_a_short_window_changes_nothing_online_and_smooths_with_a_lag():
+    """The stream holds ``window`` frames: the filter's positions are the same with
+    any window that holds a trajectory; the fixed-lag smoother stays close to the
+    whole-tour smoother; the memory held does not grow."""
+    _, positions, odometry, indicators, det = _tour(5, start=500.0, distance=2000.0)
+    s = positions["chainage"].to_numpy()
+    start = {"initial_chainage": s[0] + 10.0, "initial_sigma": 20.0}
+    full = TunnelPositioner(**start).fit(indicators).predict(det, odometry)
+    offline = TunnelPositioner(smooth=True, **start).fit(indicators).predict(
+        det, odometry)
+    by_frame = {f: g for f, g in det.groupby("frame")}
+    for smooth in (False, True):
+        pos = TunnelPositioner(window=1200, smooth=smooth, **start).fit(indicators)
+        stream = pos.start_stream()
+        held = stream._post.nbytes  # noqa: SLF001
+        parts = []
+        for k, (f, t, v, w) in enumerate(odometry.itertuples(index=False), 1):
+            stream.push(f, t, v, w, by_frame.get(f))
+            if k % 100 == 0:
+                parts.append(stream.drain())
+        parts.append(stream.close())
+        got = pd.concat(parts, ignore_index=True)
+        assert stream._post.nbytes == held  # noqa: SLF001
+        assert got["frame"].tolist() == odometry["frame"].tolist()
+        if not smooth:
+            pd.testing.assert_frame_equal(got, full)
+        else:
+            # every frame smoothed with at least 600 frames (~20 s, 500 m) after it
+            err = np.abs(got["chainage"].to_numpy() - s)
+            assert err.max() < 1.0
+            assert np.abs(got["chainage"] - offline["chainage"]).max() < 0.5
+    # a detection of a frame that has left the window is refused, by name
+    stream = TunnelPositioner(window=50).fit(indicators).start_stream()
+    for f, t, v, w in odometry.iloc[:100].itertuples(index=False):
+        stream.push(f, t, v, w)
+    from tunnelsense.exceptions import InputFormatError
+
+    with pytest.raises(InputFormatError, match="window=50"):
+        stream.add_detections(pd.DataFrame({"frame": [3], "id": [1],
+                                            "bb_height": [20.0]}))
