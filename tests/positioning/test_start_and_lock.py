@@ -99,8 +99,10 @@ def test_lock_on_without_a_start(global_random_seed):
             det, odometry, return_fixes=True)
         errors = position_errors(positions, est, odometry, indicators)
         lock = errors["lock"]
-        # the benchmark has the distribution (--lock): most lock at the 4th pass
-        assert lock is not None and lock["passes"] <= 6
+        # the passes the lock-on saw; the benchmark has their distribution (--lock):
+        # most tours lock at the 4th
+        seen = fixes["reason"].str.contains("lock").sum()
+        assert lock is not None and 3 <= seen <= 6 and lock["passes"] < seen
         assert "locked on" in fixes.attrs["lock_status"]
         # before the lock: no chainage; after it: right (a wrong lock is >= 150 m off)
         assert est.loc[~est["locked"], "chainage"].isna().all()
