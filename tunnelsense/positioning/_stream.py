@@ -443,7 +443,6 @@ class PositionStream:
 
     def _apply(self, dist, row):
         """Gate and apply the fix of a pass at odometry distance ``dist``."""
-        p = self._p
         var = row.pop("_var")
         n, W = self._n, self._W
         lo = max(0, n - W)
@@ -461,6 +460,11 @@ class PositionStream:
         if k < self._lock_k:
             row.update(accepted=False, reason="pass before the lock")
             return
+        self._gate(dist, var, k, u, row)
+
+    def _gate(self, dist, var, k, u, row):
+        """Associate a pass with the nearest indicator; use it if within the gate."""
+        p, W = self._p, self._W
         x = self._post[k % W].tolist()
         s, c, a, b, e = x
         pred = s + u * c
@@ -549,8 +553,12 @@ class PositionStream:
         for i in range(max(first, n - W), n):  # unknown from the first rejected pass
             self._post[i % W] = _NAN5
         for dist, var, k, u, row in rejected:
-            if self._lock_k is None and k >= n - W:
+            if k < n - W:
+                continue
+            if self._lock_k is None:
                 self._to_lockon(dist, var, k, u, row)
+            elif k >= self._lock_k:
+                self._gate(dist, var, k, u, row)
 
 
 def _from_records(records):
