@@ -118,7 +118,7 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     >>> len(positions), len(fixes)
     (20, 0)
     """
-    from tunnelsense.io import open_tour, read_mot_results
+    from tunnelsense.io import read_mot_results
 
     if (model is None) == (results is None):
         raise ValueError("give exactly one of model and results")
@@ -134,9 +134,11 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         positions, fixes = positioner.predict(read_mot_results(results), odo,
                                               return_fixes=True)
     else:
+        from tunnelsense.tunnel._detect import open_frames
+
         positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
-        frames = open_tour(tour).frames
-        bar = progress and progress(len(frames), "detecting and positioning")
+        frames, total = open_frames(tour)  # as detect tunnel: a video decoded lazily
+        bar = progress and progress(total, "detecting and positioning")
         positions, fixes = locate_online(model, frames, odo, positioner, progress=bar,
                                          n_threads=n_threads)
     with atomic_write(out, "w") as f:
