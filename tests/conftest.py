@@ -2,6 +2,11 @@
 
 Set ``TUNNELSENSE_TESTS_GLOBAL_RANDOM_SEED`` to an integer (or ``"all"`` for 0-99) to
 run the seeded tests under other seeds.
+
+Hypothesis has two profiles: ``default`` (a few examples per property, for the fast
+suite) and ``ci`` (many; ``pytest --hypothesis-profile=ci``, as ``.ci/run`` does).
+Tests that take more than a few seconds are marked ``slow`` and left out of a plain
+``pytest``; ``pytest -m slow`` runs them.
 """
 
 import os
@@ -13,6 +18,14 @@ import os
 os.environ.setdefault("SCIPY_ARRAY_API", "1")
 
 import pytest  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+_QUIET = [HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+settings.register_profile("default", max_examples=15, deadline=None,
+                          suppress_health_check=_QUIET)
+settings.register_profile("ci", max_examples=150, deadline=None,
+                          suppress_health_check=_QUIET)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
 def _seeds():

@@ -110,6 +110,31 @@ def test_simulate_then_info(tmp_path, capsys):
     assert f"{parked} parked" in summary
 
 
+def test_info_is_concise_unless_verbose(tmp_path, capsys):
+    import re
+
+    from tunnelsense.datasets import make_street_scans
+
+    run = make_street_scans(3000, random_state=0, name="s")
+    n_vehicles = len(run.info["vehicles"])
+    assert n_vehicles >= 20
+    write_run(run, tmp_path / "s")
+    assert main(["info", str(tmp_path / "s")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    # a screenful: the headline, the objects, the geometry and the run's scalars
+    assert len(lines) <= 40
+    assert f"    vehicles: {n_vehicles} entries (--verbose lists them)" in lines
+    assert lines[0].startswith("s: laser run, 3000 scans of 241 beams, 75 scans/s")
+    text = "\n".join(lines[1:])
+    for fact in ("scans", "beams", "scan_rate", "mount_height"):  # in the headline
+        assert not re.search(rf"^  {fact}:", text, re.M), fact
+    assert not re.search(r"\d\.\d{5,}", text)  # no float printed to 12 decimals
+    assert "speed_kmh_mean: 40.04" in text
+    assert main(["info", str(tmp_path / "s"), "--verbose"]) == 0
+    verbose = capsys.readouterr().out.splitlines()
+    assert sum(line.lstrip().startswith("- ") for line in verbose) == n_vehicles
+
+
 def test_simulate_rejects_unknown_scenario(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["simulate", "street", str(tmp_path / "x"), "--scenario", "moon"])

@@ -30,6 +30,9 @@ def test_train_detect_evaluate(rundirs, tmp_path, capsys):
     model = tmp_path / "m.joblib"
     assert run_cli(["train", "street", *rundirs, "--model", str(model), "--search"]) == 0
     assert model.is_file()
+    # the progress counts the search's fits (9 settings, a fold per run, the refit)
+    err = capsys.readouterr().err.replace("\r", "\n")
+    assert "grid search (9 settings x 2 folds), fits: 100%" in err and "19/19" in err
     out = tmp_path / "objects.csv"
     draw = tmp_path / "draw"
     assert run_cli(["detect", "street", "--model", str(model), rundirs[1],

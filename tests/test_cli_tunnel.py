@@ -129,6 +129,7 @@ def test_streamed_outputs_equal_batch_predict(tour_dirs, models, batch_records, 
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "r.clusters.csv"), hyp)
 
 
+@pytest.mark.slow
 def test_video_source(tour_dirs, models, batch_records, tmp_path):
     import cv2
 
@@ -147,6 +148,58 @@ def test_video_source(tour_dirs, models, batch_records, tmp_path):
     assert len(list(draw.glob("*.png"))) == 120
 
 
+@pytest.mark.slow
+def test_draw_video(tour_dirs, models, batch_records, tmp_path, capsys):
+    """--draw-video: one video file holding every frame drawn, never over a file."""
+    import cv2
+
+    from tunnelsense.plotting import draw_detections
+
+    out, video = tmp_path / "v.txt", tmp_path / "drawn.mp4"
+    argv = ["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]),
+            "--out", str(out), "--draw-video", str(video), "--quiet"]
+    assert main(argv) == 0
+    assert "drew 120 frames into" in capsys.readouterr().out
+    assert out.read_text().splitlines() == lines_of(batch_records)
+    capture = cv2.VideoCapture(str(video))
+    assert capture.isOpened()
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 120
+    assert capture.get(cv2.CAP_PROP_FPS) == pytest.approx(30.0)
+    decoded = []
+    while True:
+        ok, picture = capture.read()
+        if not ok:
+            break
+        decoded.append(picture)
+    capture.release()
+    assert len(decoded) == 120 and decoded[0].shape == (480, 640, 3)
+    # the frames are the drawn pictures (lossy codec: close, not equal)
+    drawn = [pic for _, pic in draw_detections(batch_records)]
+    for k in (0, 60, 119):
+        assert np.mean(np.abs(decoded[k].astype(float) - drawn[k])) < 4.0
+    assert not list(tmp_path.glob(".*partial*"))  # no temporary file left
+    # an existing video is not replaced without --force; with it, it is
+    before = video.read_bytes()
+    out.unlink()
+    out.with_suffix(".clusters.csv").unlink()
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "--draw-video" in err and "--force" in err
+    assert video.read_bytes() == before and not out.exists()
+    assert main([*argv, "--force"]) == 0
+    assert int(cv2.VideoCapture(str(video)).get(cv2.CAP_PROP_FRAME_COUNT)) == 120
+    # a name OpenCV is not asked to encode, or the results file itself: refused first
+    same = tmp_path / "same.mp4"
+    for extra, message in ((["--out", str(out), "--draw-video", str(tmp_path / "v.gif")],
+                            "expected a .mp4 or .avi file"),
+                           (["--out", str(same), "--draw-video", str(same)],
+                            "is also the results file")):
+        assert main([*argv[:4], str(tour_dirs[1]), *extra, "--force"]) == 1
+        assert message in capsys.readouterr().err
+    assert not same.exists()
+
+
+@pytest.mark.slow
 def test_skops_and_joblib_in_a_fresh_process(tour_dirs, models, batch_records, tmp_path):
     outs = {}
     for ext, path in models.items():
@@ -210,6 +263,7 @@ def test_resume_completes_a_truncated_file(
              str(other), "--resume"])
 
 
+@pytest.mark.slow
 def test_kill_then_resume(models, long_folder, full_long, tmp_path):
     data, full_companion = full_long
     out = tmp_path / "killed.txt"
@@ -269,6 +323,7 @@ def _learned(estimator):
             and not k.startswith("_")}
 
 
+@pytest.mark.slow
 def test_train_gives_the_model_fit_gives(models, tour_dirs):
     """'train tunnel' with its defaults equals make_indicator_pipeline().fit(X, y).
 
@@ -322,3 +377,16 @@ def test_evaluate_spells_a_missing_rate_n_a(tmp_path, capsys):
     scores = json.loads(capsys.readouterr().out)
     assert scores["cluster"]["detection_rate"] is None
     assert scores["trajectory"]["detection_rate"] is None
+
+
+def test_train_progress_names_each_stage(tmp_path, capsys):
+    from tunnelsense.tunnel import make_indicator_pipeline
+
+    tour = write_tour(make_tunnel_tour(60, random_state=5, first_indicator_m=20.0),
+                      tmp_path / "t")
+    assert main(["train", "tunnel", str(tour), "--model", str(tmp_path / "m.skops")]) == 0
+    err = capsys.readouterr().err.replace("\r", "\n")
+    assert "decoding frames: 100%" in err and "60/60" in err
+    for name, _ in make_indicator_pipeline().steps:
+        assert f"fitting {name}:" in err, name
+    assert "fitted: 100%" in err and "6/6" in err

@@ -12,6 +12,9 @@ from tunnelsense.metrics import make_tunnel_scorer
 
 distributed = pytest.importorskip("distributed")  # the optional 'distributed' extra
 
+pytestmark = pytest.mark.slow
+
+
 GRID = {"motion__min_r": [0.5, 0.97]}
 #: few k-means steps: the test is where the fits run, not how good they are
 FAST = {"verifier__n_steps": 10, "verifier__max_full_samples": 1}
@@ -53,18 +56,29 @@ def test_grid_search_on_a_local_dask_cluster_equals_the_local_run(tours, cluster
     )
 
 
-def test_train_search_on_a_dask_scheduler(cluster, tmp_path):
+def test_train_search_on_a_dask_scheduler(cluster, tmp_path, capsys):
     tours = [  # short tours: k-means of few rows is exact and quick
         str(write_tour(make_tunnel_tour(60, random_state=seed, first_indicator_m=20.0,
                                         name=f"short-{seed}"), tmp_path / f"s{seed}"))
         for seed in (5, 6)
     ]
     model = tmp_path / "m.skops"
-    argv = ["train", "tunnel", *tours, "--model", str(model), "--search", "--quiet"]
+    argv = ["train", "tunnel", *tours, "--model", str(model), "--search"]
     assert main([*argv, "--dask-scheduler", cluster.scheduler_address]) == 0
+    # the progress names each stage and counts the search's fits as they end
+    # (its bars stay in this process: they never travel to the workers)
+    err = capsys.readouterr().err.replace("\r", "\n")
+    assert "decoding frames: 100%" in err
+    # 8 settings x 2 folds, a prefix fit per fold and the refit: 19 fits
+    fits = "grid search (8 settings x 2 folds), fits"
+    assert f"{fits}: 100%" in err and "19/19" in err
+    done = [int(line.split("|")[2].split("/")[0]) for line in err.splitlines()
+            if line.startswith(fits) and "|" in line]
+    assert done == sorted(done) and done[-1] == 19 and len(set(done)) > 2
     local = tmp_path / "local.skops"
     assert main([*argv[:4], "--model", str(local), "--search", "--quiet",
                  "--jobs", "1"]) == 0
+    assert capsys.readouterr().err == ""
     card, local_card = (describe_model(p)["summary"]["search"] for p in (model, local))
     assert card["best_parameters"] == local_card["best_parameters"]
     assert card["best_score"] == local_card["best_score"]

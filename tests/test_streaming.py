@@ -223,6 +223,7 @@ def test_writer_errors_name_the_file(tmp_path):
         ResultsWriter(tmp_path / "file" / "r.txt")
 
 
+@pytest.mark.slow
 def test_writer_error_when_the_disk_is_full_names_the_file(tmp_path):
     """A file-size limit stands in for a full disk: the same error (EFBIG/ENOSPC)."""
     import subprocess

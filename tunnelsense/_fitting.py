@@ -4,12 +4,41 @@
 step but the last ``fit_transform`` on the output of the one before, the last step
 ``fit`` -- and also returns the last step's output on the training records, which a
 training command needs for its scores (``Pipeline.fit`` followed by ``predict`` would
-run every step a second time).
+run every step a second time).  :func:`counted` and :func:`search_ticks` report
+progress by named stage.
 """
 
 from __future__ import annotations
 
-__all__ = ["fit_pipeline"]
+from sklearn.model_selection import ParameterGrid
+
+__all__ = ["counted", "fit_pipeline", "search_ticks"]
+
+
+def counted(items, stage, total, progress, *, every=16):
+    """``items``, reporting ``progress(stage, done, total)`` every ``every`` items."""
+    for k, item in enumerate(items, 1):
+        if progress is not None and (k == total or k % every == 0):
+            progress(stage, k, total)
+        yield item
+
+
+def search_ticks(progress, grid, n_folds, *also):
+    """The ``progress(done, total)`` of a search, as ``progress(stage, done, total)``
+    with the stage naming the grid (fits done: every fit, the refit included); each
+    callable of ``also`` is called with ``(done, total)`` too.  None without any."""
+    stage = f"grid search ({len(ParameterGrid(grid))} settings x {n_folds} folds), fits"
+    calls = [c for c in also if c is not None]
+    if progress is None and not calls:
+        return None
+
+    def ticks(done, total):
+        if progress is not None:
+            progress(stage, done, total)
+        for call in calls:
+            call(done, total)
+
+    return ticks
 
 
 def fit_pipeline(pipeline, X, y, *, progress=None):

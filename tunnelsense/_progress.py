@@ -8,10 +8,21 @@ work done so far rather than steps.
 from __future__ import annotations
 
 import sys
+import weakref
 
 from tqdm import tqdm
 
-__all__ = ["Progress"]
+__all__ = ["Progress", "close_all"]
+
+#: The bars not yet closed (closed first when a command ends early).
+_OPEN = weakref.WeakSet()
+
+
+def close_all():
+    """Close every open bar, so that a message printed next starts on its own line
+    (and no bar is drawn again after it when the interpreter exits)."""
+    for bar in list(_OPEN):
+        bar.close()
 
 
 class Progress:
@@ -42,6 +53,7 @@ class Progress:
             leave=True,
         )
         self._done = 0
+        _OPEN.add(self)
 
     def __call__(self, done, total=None):
         self.update(done)
@@ -61,7 +73,12 @@ class Progress:
         if done >= self.total:
             self.close()
 
+    def describe(self, desc):
+        """Say what is being done now."""
+        self._bar.set_description_str(desc)  # drawn at once: every stage is seen
+
     def close(self):
+        _OPEN.discard(self)
         self._bar.close()
 
     def __enter__(self):

@@ -25,6 +25,7 @@ def tour():
     return make_tunnel_tour(300, random_state=7, first_indicator_m=60.0, speed_kmh=90.0)
 
 
+@pytest.mark.slow
 def test_true_speed_integrates_to_the_chainage(tour):
     positions, odometry, _ = make_tunnel_odometry(tour, scale_error=0.0, speed_bias=0.0,
                                                   speed_noise=0.0)
@@ -95,6 +96,7 @@ def test_indicators_pass_the_camera_where_the_map_says(tour):
     assert checked == 2
 
 
+@pytest.mark.slow
 def test_odometry_does_not_touch_the_renderer(tour):
     """The same seed gives the same frames, gt and odometry; odometry is separate."""
     again = make_tunnel_tour(300, random_state=7, first_indicator_m=60.0, speed_kmh=90.0)

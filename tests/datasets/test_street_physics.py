@@ -88,6 +88,7 @@ def test_hard_street_has_groups_walkers_and_bin_rows():
     assert labels == {"parked"}
 
 
+@pytest.mark.slow
 def test_randomized_is_reproducible_by_seed_and_draws_its_factors():
     a = make_street_scans(400, scenario="randomized", random_state=9)
     b = make_street_scans(400, scenario="randomized", random_state=9)

@@ -44,6 +44,7 @@ def _centres(track):
     return cx, cy
 
 
+@pytest.mark.slow
 def test_tour_structure(straight_tour):
     tour = straight_tour
     assert isinstance(tour, Tour)
@@ -148,6 +149,7 @@ def test_vehicles_move_less_than_indicators(straight_tour):
     assert np.median(vehicles) < np.min(indicators)
 
 
+@pytest.mark.slow
 def test_indicator_count_matches_distance():
     # a small image keeps this fast; the count is geometry, not resolution
     small = {"image_shape": (96, 128), "focal_length_px": 160.0, "traffic_per_km": 0.0}

@@ -96,6 +96,7 @@ def test_gt_txt_with_huge_integers(tour_dir, tmp_path):
         read_tour(folder)
 
 
+@pytest.mark.slow
 def test_detect_refuses_frames_of_another_depth(tour_dir, tmp_path, capsys):
     tour = make_tunnel_tour(150, random_state=1, first_indicator_m=40.0)
     train = write_tour(tour, tmp_path / "train")

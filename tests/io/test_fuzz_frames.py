@@ -3,11 +3,10 @@
 A read either succeeds with data that keeps the format's invariants, or raises
 :class:`~tunnelsense.exceptions.InputFormatError` (or ``FileNotFoundError``) whose
 message names the file.  Warnings are errors in this suite, so a reader must not let
-a NumPy or pandas warning out either.  Set ``TUNNELSENSE_FUZZ_EXAMPLES`` to run more
+a NumPy or pandas warning out either.  Run ``pytest --hypothesis-profile=ci`` for more
 examples.
 """
 
-import os
 import shutil
 import struct
 import zlib
@@ -15,7 +14,7 @@ import zlib
 import cv2
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tunnelsense._records import MOT_GT_COLUMNS
@@ -30,9 +29,7 @@ from tunnelsense.io import (
     read_tour,
 )
 
-FUZZ = settings(max_examples=int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 100)),
-                deadline=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings()  # examples from the Hypothesis profile (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

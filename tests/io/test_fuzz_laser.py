@@ -1,17 +1,16 @@
 """Fuzz the laser-run readers: only the project's errors, naming the file, escape.
 
 ``read_run``, ``open_run_stream`` (iterated to the end) and ``describe`` must agree:
-all three read a run alike, or all three refuse it with an InputFormatError.  Set
-TUNNELSENSE_FUZZ_EXAMPLES higher for a longer search.
+all three read a run alike, or all three refuse it with an InputFormatError.  Run
+``pytest --hypothesis-profile=ci`` for a longer search.
 """
 
 import io
-import os
 import zipfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -19,9 +18,7 @@ from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import describe, open_run_stream, read_run, read_run_gt, write_run
 from tunnelsense.io._npz import write_npz
 
-EXAMPLES = int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 250))
-FUZZ = settings(max_examples=EXAMPLES, deadline=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings()  # examples from the Hypothesis profile (tests/conftest.py)
 
 VALID = {
     "ranges": np.full((3, 4), 3.0), "stamps": np.arange(3) / 75.0,

@@ -3,13 +3,12 @@
 import hashlib
 import io
 import json
-import os
 import warnings
 import zipfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LogisticRegression
 from sklearn.pipeline import Pipeline
@@ -28,10 +27,7 @@ from tunnelsense.io import (
     save_model,
 )
 
-#: Examples per fuzz test; set TUNNELSENSE_FUZZ_EXAMPLES higher for a long search.
-FUZZ = settings(max_examples=int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 60)),
-                deadline=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings()  # examples from the Hypothesis profile (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

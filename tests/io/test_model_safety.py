@@ -155,8 +155,9 @@ def test_signed_model_needs_the_key(tmp_path):
     plain = save_model(model, tmp_path / "plain.skops")
     assert load_model(signed, key=KEY).predict([[1]]).tolist() == [1]
     assert load_model(signed).predict([[1]]).tolist() == [1]  # checksum still checked
-    assert describe_model(signed)["signed"] is True
-    assert describe_model(plain)["signed"] is False
+    assert describe_model(signed)["signature"] == "hmac-sha256, not verified"
+    assert describe_model(signed, key=KEY)["signature"] == "hmac-sha256, verified"
+    assert describe_model(plain)["signature"] == "none"
     with pytest.raises(UntrustedModelError, match="signature mismatch"):
         load_model(signed, key="another-secret-0123456789")
     with pytest.raises(UntrustedModelError, match="not signed"):

@@ -12,7 +12,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from tunnelsense import to_xy  # noqa: E402
 from tunnelsense.datasets import make_street_scans  # noqa: E402
-from tunnelsense.plotting import draw_run, plot_range_image  # noqa: E402
+from tunnelsense.plotting import (  # noqa: E402
+    draw_run,
+    plot_dendrogram,
+    plot_range_image,
+)
 from tunnelsense.street import make_parking_pipeline  # noqa: E402
 
 GT_COLOURS = [(44, 160, 44), (148, 103, 189)]  # tab:green, tab:purple
@@ -70,3 +74,21 @@ def test_draw_run_writes_pictures_of_a_bounded_size(run, tmp_path):
                                         "range_image_003000.png"]
     for path in ranges:
         assert plt.imread(path).shape[:2] == (440, 1540)
+
+
+@pytest.mark.parametrize("spacing", [0.05, 0.3, 1.5])
+def test_dendrogram_axes_include_the_cut(run, spacing):
+    """The cut line lies inside the axes, whether the merges are shorter or longer."""
+    from tunnelsense.street import ScanClusterer
+
+    rec = ScanClusterer().fit(run.scans[:200]).transform(run.scans[100:101])[0]
+    pts = np.column_stack([4.0 + spacing * np.arange(12), np.full(12, 1.0)])
+    rec = rec.evolve(points=pts, clusters=np.zeros(12, int))
+    fig, ax = plt.subplots()
+    plot_dendrogram(rec, cut=0.6, ax=ax)
+    bottom, top = ax.get_ylim()
+    assert bottom <= 0 and top > 0.6
+    assert top >= spacing  # every merge is drawn too
+    (line,) = [ln for ln in ax.get_lines() if ln.get_label() == "cut 0.6 m"]
+    assert bottom < line.get_ydata()[0] < top
+    plt.close(fig)

@@ -23,6 +23,8 @@ from tunnelsense.positioning import (
     read_positions,
 )
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):

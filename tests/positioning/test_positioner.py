@@ -89,6 +89,7 @@ def test_missed_sign_and_false_alarm(global_random_seed):
     assert np.abs(online["chainage"].to_numpy() - s)[gap].max() < 2.0
 
 
+@pytest.mark.slow
 def test_streaming_equals_batch_and_is_immediate(global_random_seed):
     _, _, odometry, indicators, det = _tour(global_random_seed, distance=800.0,
                                             false_alarms=[500.0])
@@ -112,6 +113,7 @@ def test_streaming_equals_batch_and_is_immediate(global_random_seed):
                                           batch)
 
 
+@pytest.mark.slow
 def test_late_detections_are_delayed_measurements(global_random_seed):
     """Detections released late correct the past; the final smoothed answer is equal."""
     _, positions, odometry, indicators, det = _tour(global_random_seed, distance=800.0)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.cluster.hierarchy import fcluster, single
@@ -80,7 +80,6 @@ points_strategy = arrays(
 )
 
 
-@settings(max_examples=150, deadline=None)
 @given(points_strategy)
 def test_single_linkage_equals_scipy(points):
     labels = single_linkage(points, 0.6)
@@ -127,7 +126,6 @@ def test_link_scans_breaks_on_gap_and_depth():
     assert link_scans(pos, depth, follows, 0.3).tolist() == [0, 1, 2, 3, 4]
 
 
-@settings(max_examples=60, deadline=None)
 @given(st.integers(1, 40).flatmap(lambda n: st.tuples(
     st.just(n), st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)),
                          max_size=60))))
@@ -147,7 +145,6 @@ def test_components_equal_scipy(graph):
     assert all(labels[i] == np.flatnonzero(labels == labels[i]).min() for i in range(n))
 
 
-@settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 6), st.floats(0.0, 8.0)), max_size=40),
        st.lists(st.booleans(), min_size=7, max_size=7))
 def test_link_scans_equals_the_rule_pair_by_pair(clusters, follows):

@@ -2,7 +2,7 @@ import pickle
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from scipy.cluster.hierarchy import fcluster, single
 from scipy.spatial.distance import pdist
@@ -45,7 +45,6 @@ def test_sklearn_compatible(estimator, check):
 coords = st.floats(-200, 200, allow_nan=False, allow_infinity=False)
 
 
-@settings(max_examples=60, deadline=None)
 @given(
     points=st.lists(st.tuples(coords, coords), min_size=1, max_size=60),
     cut=st.floats(0.5, 80),
@@ -55,7 +54,6 @@ def test_random_points_match_scipy(points, cut):
     assert np.array_equal(mst_partition(P, cut), scipy_partition(P, cut))
 
 
-@settings(max_examples=40, deadline=None)
 @given(
     centres=st.lists(st.tuples(coords, coords), min_size=1, max_size=6),
     n_per=st.integers(1, 25),
@@ -70,7 +68,6 @@ def test_clustered_points_match_scipy(centres, n_per, spread, seed, cut):
     assert np.array_equal(mst_partition(P, cut), scipy_partition(P, cut))
 
 
-@settings(max_examples=40, deadline=None)
 @given(
     points=st.lists(
         st.tuples(st.integers(0, 100), st.integers(0, 100)), min_size=1, max_size=40
@@ -89,7 +86,6 @@ def test_duplicated_points_match_scipy(points, repeats, cut):
         assert len(set(labels[inverse.reshape(-1) == g])) == 1
 
 
-@settings(max_examples=25, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
     kind=st.sampled_from(["uniform", "grid", "collinear", "duplicated", "clustered"]),

@@ -30,6 +30,7 @@ def _n_detections(records):
     return sum(len(r.payload["detections"]) for r in records)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", TUNNEL_SCENARIOS)
 def test_stream_equals_batch(model, tours, scenario):
     X = to_xy([tours[scenario]])[0]
@@ -39,6 +40,7 @@ def test_stream_equals_batch(model, tours, scenario):
     assert sum(len(r.payload["cluster_boxes"]) for r in batch) > 0
 
 
+@pytest.mark.slow
 def test_stream_equals_batch_with_some_detections(model, tours):
     X = FrameSequence.concat(to_xy([t])[0] for t in tours.values())
     batch = model.predict(X)
@@ -46,6 +48,7 @@ def test_stream_equals_batch_with_some_detections(model, tours):
     assert_records_equal(list(StreamingPipeline(model).run(X)), batch)
 
 
+@pytest.mark.slow
 def test_tour_changes_and_frame_gaps_inside_a_stream(model, tours):
     a = to_xy([tours["light"]])[0]
     b = to_xy([tours["heavy"]])[0]

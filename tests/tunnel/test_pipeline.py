@@ -21,8 +21,9 @@ from tunnelsense.tunnel._pipeline import (
 )
 
 SMALL = dict(
-    verifier__n_positive_clusters=20,
-    verifier__n_negative_clusters=100,
+    # the verifier's default k (40 / 400): with k = 20 / 100 the verified share of
+    # the indicator's clusters on these short tours depends on the k-means seed
+    # (0.77 or 1.0, whichever local optimum k-means finds)
     appearance__n_estimators=20,
     random_state=0,
 )
@@ -53,6 +54,7 @@ def test_steps_and_parameters():
         make_indicator_pipeline(bins=16)  # verifier and appearance both have bins
 
 
+@pytest.mark.slow
 def test_fit_predict_score_and_persist(tours, tmp_path):
     X, y, _ = to_xy(tours[:2])
     pipe = make_indicator_pipeline(**SMALL).fit(X, y)

@@ -17,7 +17,7 @@ from tunnelsense._version import __version__
 __all__ = ["build_parser", "main"]
 
 #: The command modules, in the order of the help text.
-_MODULES = ("info", "simulate", "tunnel", "street", "position")
+_MODULES = ("info", "simulate", "tunnel", "street", "position", "keys")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -47,7 +47,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Run the command; return its exit status (0 done, 1 bad input, 3 a defect)."""
+    """Run the command; return its exit status (0 done, 1 bad input or a missing
+    optional extra, 3 a defect, 130 interrupted)."""
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:  # Ctrl-C at any moment, start-up imports included
+        _close_bars()
+        print("tunnelsense: interrupted", file=sys.stderr)
+        return 130
+
+
+def _close_bars() -> None:
+    """End the progress bars left open by a command that stopped early."""
+    if "tunnelsense._progress" in sys.modules:  # else none was drawn
+        sys.modules["tunnelsense._progress"].close_all()
+
+
+def _run(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -60,15 +76,38 @@ def main(argv=None) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes
         return 0
     except (FileNotFoundError, ValueError, OSError) as exc:
+        _close_bars()
         print(f"tunnelsense: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("tunnelsense: interrupted", file=sys.stderr)
-        return 130
+    except ImportError as exc:
+        hint = _extra_hint(exc)
+        if hint is None:
+            return _internal_error(exc)
+        _close_bars()
+        print(f"tunnelsense: error: {hint}", file=sys.stderr)
+        return 1
     except Exception as exc:  # a defect, not bad input: one line, traceback on request
-        if os.environ.get("TUNNELSENSE_DEBUG"):
-            raise
-        print(f"tunnelsense: internal error: {type(exc).__name__}: {exc} "
-              "(set TUNNELSENSE_DEBUG=1 to see the traceback, and please report it)",
-              file=sys.stderr)
-        return 3
+        return _internal_error(exc)
+
+
+def _extra_hint(exc) -> str | None:
+    """The install hint for an optional extra that is missing, or None."""
+    from tunnelsense.cli._extras import EXTRAS
+
+    if "pip install" in str(exc):  # the library's own message names the extra
+        return str(exc)
+    top = (exc.name or "").partition(".")[0]
+    for extra, module in EXTRAS.items():
+        if top == module:
+            return f"this needs {module}: pip install 'tunnelsense[{extra}]'"
+    return None
+
+
+def _internal_error(exc) -> int:
+    if os.environ.get("TUNNELSENSE_DEBUG"):
+        raise exc
+    _close_bars()
+    print(f"tunnelsense: internal error: {type(exc).__name__}: {exc} "
+          "(set TUNNELSENSE_DEBUG=1 to see the traceback, and please report it)",
+          file=sys.stderr)
+    return 3

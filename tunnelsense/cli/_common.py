@@ -8,19 +8,30 @@ from pathlib import Path
 
 from tunnelsense._progress import Progress
 from tunnelsense.io import save_model
-from tunnelsense.io._model import KEY_ENV
+from tunnelsense.io._keys import (
+    KEY_ENV,
+    VERIFY_KEY_ENV,
+    read_private_key,
+    read_public_key,
+    read_secret,
+)
 from tunnelsense.io._output import check_draw_dir, check_output, input_files
-from tunnelsense.io._trust import check_model_path, load_trusted_model, read_signing_key
+from tunnelsense.io._trust import PICKLE_SUFFIXES, check_model_path, load_trusted_model
 
 __all__ = [
     "CPUS",
+    "PICKLE_SUFFIXES",
     "add_model_arguments",
     "add_output_arguments",
+    "add_verify_arguments",
     "check_detect_outputs",
     "check_model_output",
+    "key_files",
     "cli_model",
     "progress",
     "save_cli_model",
+    "stage_progress",
+    "verify_keys",
 ]
 
 CPUS = os.cpu_count() or 1
@@ -30,15 +41,31 @@ _MODELS = {"tunnel": ("motion", "train tunnel"), "street": ("cluster", "train st
 
 
 def add_model_arguments(parser, *, help_model, group=None) -> None:
-    """``--model`` (in ``group`` if given, else required), ``--trust-pickle`` and
-    ``--key-file`` of a command that loads a model."""
+    """``--model`` (in ``group`` if given, else required), ``--trust-pickle``,
+    ``--verify-key`` and ``--key-file`` of a command that loads a model."""
     (group or parser).add_argument("--model", required=group is None, help=help_model)
     parser.add_argument(
         "--trust-pickle", action="store_true",
         help="allow a .joblib/.pkl model: pickles run code when loaded, so only for "
         "a file from a source you trust",
     )
-    _add_key_argument(parser, "refuse a .skops model not signed with the key in FILE")
+    add_verify_arguments(parser)
+
+
+def add_verify_arguments(parser) -> None:
+    """``--verify-key`` (Ed25519 public key) and ``--key-file`` (HMAC secret)."""
+    parser.add_argument(
+        "--verify-key", metavar="PUBLIC", help="refuse a .skops model not signed with "
+        "the private key of this Ed25519 public key file (tunnelsense keygen; default: "
+        f"the file the environment variable {VERIFY_KEY_ENV} names, if set)")
+    _add_key_argument(parser, "refuse a .skops model not signed with the shared HMAC "
+                      "secret in FILE (the weaker choice: prefer --verify-key)")
+
+
+def verify_keys(args) -> dict:
+    """The keys of ``--verify-key`` / ``--key-file`` (or their environment variables)."""
+    return {"key": read_secret(args.key_file),
+            "verify_key": read_public_key(args.verify_key)}
 
 
 def _add_key_argument(parser, text) -> None:
@@ -56,7 +83,11 @@ def add_output_arguments(parser, *, writes_model=False, quiet=False) -> None:
         help="replace an existing output file (never one of the command's inputs)",
     )
     if writes_model:
-        _add_key_argument(parser, "sign the .skops model with the key in FILE")
+        parser.add_argument("--sign-key", metavar="PRIVATE", help="sign the .skops "
+                            "model with this Ed25519 private key file (tunnelsense "
+                            "keygen); vehicles verify it with the public key")
+        _add_key_argument(parser, "sign the .skops model with the shared HMAC secret "
+                          "in FILE (the weaker choice: prefer --sign-key)")
     if quiet:
         parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -66,33 +97,70 @@ def progress(args, total, desc, **kwargs):
     return None if getattr(args, "quiet", False) else Progress(total, desc, **kwargs)
 
 
+class _StageBars:
+    """``progress(stage, done, total)``: a bar per stage, named by it; the fitting
+    steps of a pipeline ("fitting <step>") share one bar, named by the step."""
+
+    def __init__(self):
+        self._stage, self._bar = None, None
+
+    def __call__(self, stage, done, total):
+        group = "fitting" if stage.startswith("fitting") or stage == "fitted" else stage
+        if group != self._stage:
+            self.close()
+            self._stage = group
+            self._bar = Progress(total, stage, unit="fit" if "fits" in stage else "it")
+        self._bar.describe(stage)
+        self._bar.update(done)
+
+    def close(self):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def stage_progress(args):
+    """A ``progress(stage, done, total)`` for library calls with named stages (a
+    progress bar per stage on stderr), or None with ``--quiet``."""
+    return None if getattr(args, "quiet", False) else _StageBars()
+
+
 def cli_model(args, kind):
     """The model of ``--model`` for the ``kind`` detector ("tunnel" or "street")."""
     last_step, command = _MODELS[kind]
     return load_trusted_model(args.model, last_step=last_step, command=command,
-                              trust_pickle=args.trust_pickle,
-                              key=read_signing_key(args.key_file))
+                              trust_pickle=args.trust_pickle, **verify_keys(args))
+
+
+def key_files(args):
+    return [f for f in (getattr(args, "key_file", None), getattr(args, "sign_key", None),
+                        getattr(args, "verify_key", None)) if f]
 
 
 def check_model_output(args, sources):
-    """Refuse a ``--model`` to write before any work; return the signing key."""
+    """Refuse a ``--model`` to write before any work; return the signing keys."""
     inputs = [f for d in sources for f in input_files(d)]
-    check_model_path(args.model, overwrite=args.force,
-                     inputs=[*inputs, *filter(None, [args.key_file])])
-    return read_signing_key(args.key_file)
+    check_model_path(args.model, overwrite=args.force, inputs=[*inputs, *key_files(args)])
+    if args.sign_key is not None:
+        if args.key_file is not None:
+            raise ValueError("--sign-key and --key-file: give one signature, not both")
+        return {"sign_key": read_private_key(args.sign_key)}
+    return {"key": read_secret(args.key_file)}
 
 
 def save_cli_model(model, args, *, summary, key, start):
-    """Write the trained model of ``--model`` and say so."""
-    save_model(model, args.model, summary=summary, key=key, overwrite=args.force)
+    """Write the trained model of ``--model`` and say so (``key``: the dict of
+    :func:`check_model_output`)."""
+    save_model(model, args.model, summary=summary, overwrite=args.force, **key)
     kind = "safe skops" if Path(args.model).suffix.lower() == ".skops" else "pickle"
-    print(f"wrote {args.model} ({kind}{', signed' if key is not None else ''}; "
-          f"{time.perf_counter() - start:.1f} s)")
+    how = (", signed (Ed25519)" if key.get("sign_key") is not None
+           else ", signed (HMAC)" if key.get("key") is not None else "")
+    print(f"wrote {args.model} ({kind}{how}; {time.perf_counter() - start:.1f} s)")
 
 
 def check_detect_outputs(args, source, outputs) -> None:
     """Refuse ``--out`` files (and a ``--draw`` folder) before any work."""
-    inputs = [args.model, *input_files(source), *filter(None, [args.key_file])]
+    inputs = [args.model, *input_files(source), *key_files(args)]
     for path in outputs:
         check_output(path, overwrite=args.force or args.resume, inputs=inputs,
                      what="--out")

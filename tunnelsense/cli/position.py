@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extra
 
 __all__ = ["register", "register_top"]
 
@@ -24,7 +25,7 @@ def _cmd_position(args) -> int:
         start_chainage=args.start_chainage, start_sigma=args.start_sigma,
         odometry_scale=args.odometry_scale,
         odometry_scale_sigma=args.odometry_scale_sigma,
-        overwrite=args.force, inputs=[args.model, args.key_file],
+        overwrite=args.force, inputs=[args.model, *common.key_files(args)],
         n_threads=args.jobs,
         progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
@@ -80,6 +81,8 @@ def _scale(text):
 
 
 def _cmd_evaluate_position(args) -> int:
+    if args.draw:
+        require_extra("plot", "--draw")
     from tunnelsense.positioning import evaluate_positions, format_errors
 
     errors = evaluate_positions(

@@ -7,7 +7,10 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extras_for_runs
+from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
+from tunnelsense.io._rosbag import is_bag
 from tunnelsense.metrics import street_report, street_scores
 from tunnelsense.plotting import draw_run
 from tunnelsense.street import (
@@ -22,26 +25,52 @@ __all__ = ["register"]
 
 
 def _read_runs(paths, args):
-    return [read_run(p, range_unit=args.range_unit, topic=args.topic,
-                     mount_height=args.mount_height) for p in paths]
+    runs = []
+    for p in paths:
+        runs.append(read_run(p, range_unit=args.range_unit, topic=args.topic,
+                             mount_height=args.mount_height, speed=args.speed,
+                             speed_topic=args.speed_topic))
+        _check_bag_speed(p, runs[-1].info)
+    return runs
+
+
+def _check_bag_speed(path, info, model=None) -> None:
+    """Refuse a bag that gives no ego speed when the model fixes none: its lengths
+    would come from an assumed 40 km/h."""
+    if not is_bag(path) or "speed" in info or "speed_topic" in info:
+        return
+    if model is not None and getattr(model[-1], "speed", None) is not None:
+        return
+    raise InputFormatError(
+        f"{path}: the bag gives no ego speed (no nav_msgs/Odometry or "
+        "geometry_msgs/TwistStamped topic), which turns scan counts into lengths; "
+        "pass --speed M/S (e.g. --speed 11.1 at 40 km/h)")
 
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
+    require_extras_for_runs(args.rundirs)
     key = common.check_model_output(args, args.rundirs)
     runs = _read_runs(args.rundirs, args)
     print(format_runs(runs, search=args.search, n_jobs=args.jobs))
-    model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs)
+    bars = common.stage_progress(args)
+    model, summary = train_detector(runs, search=args.search, n_jobs=args.jobs,
+                                    progress=bars)
+    if bars is not None:
+        bars.close()
     print(format_training(summary))
     common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
 
 
 def _cmd_detect(args) -> int:
+    require_extras_for_runs([args.rundir], draw=args.draw)
     common.check_detect_outputs(args, args.rundir, [args.out])
     model = common.cli_model(args, "street")
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
-                             mount_height=args.mount_height)
+                             mount_height=args.mount_height, speed=args.speed,
+                             speed_topic=args.speed_topic)
+    _check_bag_speed(args.rundir, source.info, model)
     counts, resumed = write_objects(
         model, source, args.out, all_objects=args.all_objects, resume=args.resume,
         overwrite=args.force, progress=common.progress(
@@ -75,6 +104,15 @@ def _add_range_unit(parser) -> None:
     parser.add_argument(
         "--mount-height", type=float, metavar="METRES",
         help="a ROS bag's laser height above the road, when the bag does not say")
+    speed = parser.add_mutually_exclusive_group()
+    speed.add_argument(
+        "--speed", type=float, metavar="M/S",
+        help="the ego speed (m/s) of every scan, which turns scan counts into lengths "
+        "(default: the run's own; a ROS bag's from its odometry topic)")
+    speed.add_argument(
+        "--speed-topic", metavar="TOPIC",
+        help="a ROS bag's nav_msgs/Odometry or geometry_msgs/TwistStamped topic "
+        "giving the ego speed (default: the only one)")
 
 
 def register(verbs) -> None:
@@ -86,7 +124,7 @@ def register(verbs) -> None:
                    help="grid-search cut and link distance, GroupKFold by run")
     p.add_argument("--jobs", type=int, default=common.CPUS,
                    help="parallel fits of --search (default: the number of CPUs)")
-    common.add_output_arguments(p, writes_model=True)
+    common.add_output_arguments(p, writes_model=True, quiet=True)
     _add_range_unit(p)
     p.set_defaults(func=_cmd_train)
 

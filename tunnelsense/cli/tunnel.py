@@ -9,12 +9,12 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli._extras import require_extra
 from tunnelsense.io import clusters_path, read_tour
 from tunnelsense.metrics import results_scores, tunnel_report
 from tunnelsense.tunnel import (
     detect_to_files,
     fit_indicator_detector,
-    make_indicator_pipeline,
 )
 from tunnelsense.tunnel._detect import SEARCH_GRID
 from tunnelsense.tunnel._reports import (
@@ -27,16 +27,17 @@ from tunnelsense.tunnel._reports import (
 
 def _cmd_train(args) -> int:
     start = time.perf_counter()
+    if args.dask_scheduler:
+        require_extra("distributed", "--dask-scheduler")
     key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d) for d in args.seqdirs]
     print(format_tours(tours))
-    n_steps = len(make_indicator_pipeline().steps)
-    bar = common.progress(args, n_steps, "fitting", unit="step")
+    bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
-        dask_scheduler=args.dask_scheduler,
-        progress=bar and (lambda name, k, n: bar.update(k)),
-        verbose=0 if args.quiet else 2)
+        dask_scheduler=args.dask_scheduler, progress=bars)
+    if bars is not None:
+        bars.close()
     print(format_training(model, summary))
     common.save_cli_model(model, args, summary=summary, key=key, start=start)
     return 0
@@ -45,16 +46,41 @@ def _cmd_train(args) -> int:
 def _cmd_detect(args) -> int:
     start, out = time.perf_counter(), Path(args.out)
     common.check_detect_outputs(args, args.source, [out, clusters_path(out)])
+    if args.draw_video:
+        _check_video_output(args, out)
     facts = detect_to_files(
         common.cli_model(args, "tunnel"), args.source, out, resume=args.resume,
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
-        draw_every=args.draw_every, progress=common.progress(args, 1, "detecting"))
+        draw_every=args.draw_every, draw_video=args.draw_video,
+        progress=common.progress(args, 1, "detecting"))
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
     print(f"{format_detection(facts, out, draw=args.draw)} "
           f"({time.perf_counter() - start:.1f} s)")
+    if args.draw_video:
+        size = Path(args.draw_video).stat().st_size / 1e6
+        print(f"drew {facts['video_frames']} frames into {args.draw_video} "
+              f"({size:.1f} MB)")
     return 0
+
+
+def _check_video_output(args, out) -> None:
+    """Refuse a --draw-video file before any work: a .mp4/.avi name, not an input,
+    not another output of the run, and an existing file only with --force."""
+    from tunnelsense.io._output import check_output, input_files
+    from tunnelsense.io._video_out import check_video_path
+
+    video = check_video_path(args.draw_video)
+    others = [out, clusters_path(out)]
+    if any(video.resolve() == p.resolve() for p in others):
+        raise ValueError(f"--draw-video {video}: is also the results file or its "
+                         ".clusters.csv")
+    if args.draw and video.resolve().is_relative_to(Path(args.draw).resolve()):
+        raise ValueError(f"--draw-video {video}: inside the --draw folder")
+    check_output(video, overwrite=args.force, what="--draw-video",
+                 inputs=[args.model, *input_files(args.source),
+                         *filter(None, [args.key_file])])
 
 
 def _cmd_evaluate(args) -> int:
@@ -104,6 +130,10 @@ def register(verbs) -> None:
     p.add_argument("--draw-every", type=int, default=1, metavar="N", help="with --draw, "
                    "draw every N-th frame (default 1: every frame, about 0.4 MB each at "
                    "640x480)")
+    p.add_argument("--draw-video", metavar="FILE.mp4", help="also draw every frame "
+                   "into one video file (.mp4, or .avi for Motion JPEG) at the source's "
+                   "frame rate: a few MB where --draw writes hundreds; an existing file "
+                   "is replaced only with --force")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run: "
                    "keep the lines of --out (and its .clusters.csv) and append the rest")
     common.add_output_arguments(p, quiet=True)

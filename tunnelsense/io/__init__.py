@@ -5,13 +5,21 @@
   detections as MOTChallenge results files with their ``.clusters.csv`` companion,
   written line by line (:class:`ResultsWriter`).
 * Laser runs: ``scans.npz`` with ROS ``sensor_msgs/LaserScan`` field names, and
-  ``gt.csv`` (``id,first_scan,last_scan,label``).
+  ``gt.csv`` (``id,first_scan,last_scan,label``); ROS bags of ``LaserScan`` (the
+  ``rosbag`` extra), read by the same functions and written by :func:`write_run_bag`.
 * Fitted models: a safe ``.skops`` format (no code runs on load; versions, training
   summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
+from tunnelsense.io._bag_writer import write_run_bag
 from tunnelsense.io._describe import describe, format_description, open_source
 from tunnelsense.io._images import iter_video, read_image
+from tunnelsense.io._keys import (
+    generate_key_pair,
+    read_private_key,
+    read_public_key,
+    read_secret,
+)
 from tunnelsense.io._laser import (
     RunStream,
     ego_speed,
@@ -23,6 +31,7 @@ from tunnelsense.io._laser import (
     write_run_gt,
 )
 from tunnelsense.io._model import (
+    MAX_MODEL_BYTES,
     TRUSTED_TYPES,
     ModelVersionWarning,
     UntrustedModelError,
@@ -48,6 +57,11 @@ from tunnelsense.io._trust import check_model_path, load_trusted_model, read_sig
 from tunnelsense.io._writer import ResultsWriter
 
 __all__ = [
+    "MAX_MODEL_BYTES",
+    "generate_key_pair",
+    "read_private_key",
+    "read_public_key",
+    "read_secret",
     "check_model_path",
     "load_trusted_model",
     "read_signing_key",
@@ -85,6 +99,7 @@ __all__ = [
     "write_mot_gt",
     "write_mot_results",
     "write_run",
+    "write_run_bag",
     "write_run_gt",
     "write_tour",
 ]

@@ -19,7 +19,7 @@ __all__ = ["describe", "format_description", "open_source"]
 _MODEL_SUFFIXES = (".skops", ".joblib", ".pkl", ".pickle")
 
 
-def open_source(source, *, range_unit="m") -> Tour | Run:
+def open_source(source, *, range_unit="m", mount_height=None) -> Tour | Run:
     """Read a tour (MOTChallenge folder, image folder, video) or a laser run.
 
     Parameters
@@ -31,6 +31,8 @@ def open_source(source, *, range_unit="m") -> Tour | Run:
     range_unit : {"m", "mm"}, default="m"
         For a laser run: the unit of ``ranges`` in ``scans.npz`` (see
         :func:`~tunnelsense.io.read_run`).
+    mount_height : float, default=None
+        For a ROS bag that does not store it: the laser's height above the road (m).
 
     Returns
     -------
@@ -40,11 +42,11 @@ def open_source(source, *, range_unit="m") -> Tour | Run:
     if (
         source.is_dir() and (source / "scans.npz").exists()
     ) or source.suffix.lower() == ".npz" or is_bag(source):
-        return read_run(source, range_unit=range_unit)
+        return read_run(source, range_unit=range_unit, mount_height=mount_height)
     return open_tour(source)
 
 
-def describe(source, *, range_unit="m") -> dict:
+def describe(source, *, range_unit="m", mount_height=None) -> dict:
     """Describe a tour or a laser run as a JSON-able dict.
 
     A model file (``.skops``, ``.joblib``) is described by its model card instead
@@ -58,6 +60,8 @@ def describe(source, *, range_unit="m") -> dict:
     range_unit : {"m", "mm"}, default="m"
         For a laser run file: the unit of ``ranges`` in ``scans.npz`` (see
         :func:`~tunnelsense.io.read_run`).
+    mount_height : float, default=None
+        For a ROS bag that does not store it: the laser's height above the road (m).
 
     Returns
     -------
@@ -74,7 +78,7 @@ def describe(source, *, range_unit="m") -> dict:
     data = (
         source
         if isinstance(source, Tour | Run)
-        else open_source(source, range_unit=range_unit)
+        else open_source(source, range_unit=range_unit, mount_height=mount_height)
     )
     if isinstance(data, Tour):
         height, width = data.image_shape
@@ -150,15 +154,30 @@ def _plain(value):
     return float(text) if _DECIMAL.fullmatch(text) else text
 
 
-def format_description(facts) -> str:
+#: The facts each kind's headline already gives (not repeated below it).
+_IN_HEADLINE = {"tunnel": ("frames", "width", "height", "dtype", "frame_rate"),
+                "street": ("scans", "beams", "scan_rate", "mount_height"),
+                "model": ("kind", "path", "format", "bytes", "versions")}
+#: Without ``verbose``, a dict of the run information with more entries than this is
+#: given as its number of entries.
+_CONCISE_ITEMS = 8
+
+
+def format_description(facts, *, verbose=False) -> str:
     """A description (:func:`describe`) as text: a headline, then one fact per line.
 
     Nested facts are indented below their key; a list of them is a bulleted list.
+    Numbers are given to four significant digits (a tenth above 1000); the facts
+    :func:`describe` returns keep every digit.
 
     Parameters
     ----------
     facts : dict
         From :func:`describe`.
+    verbose : bool, default=False
+        Give every fact of the run information.  By default a list of records (such
+        as the simulated vehicles of a run) and a table of more than eight values
+        (such as the simulator's parameters) are given as their numbers of entries.
 
     Returns
     -------
@@ -169,18 +188,17 @@ def format_description(facts) -> str:
     >>> import numpy as np
     >>> from tunnelsense import Tour
     >>> from tunnelsense.io import describe, format_description
-    >>> tour = Tour.from_array("t", np.zeros((2, 8, 10), np.uint8), info={"seed": 7})
+    >>> info = {"seed": 7, "speed_kmh": 84.83302599014033,
+    ...         "vehicles": [{"id": 1, "kind": "car"}, {"id": 2, "kind": "truck"}]}
+    >>> tour = Tour.from_array("t", np.zeros((2, 8, 10), np.uint8), info=info)
     >>> print(format_description(describe(tour)))
     t: far-infrared tour, 2 frames of 10x8 px (uint8), 30 fps
       objects: none in the ground truth
-      frames: 2
-      width: 10
-      height: 8
-      dtype: uint8
-      frame_rate: 30.0
       duration_s: 0.067
       info:
         seed: 7
+        speed_kmh: 84.83
+        vehicles: 2 entries (--verbose lists them)
     """
     facts = dict(facts)
     lines = [_headline(facts)]
@@ -190,9 +208,28 @@ def format_description(facts) -> str:
             f"{n} {k}" for k, n in sorted(objects.items())) or "none in the ground truth"))
     for name, version in sorted(facts.get("versions", {}).items()):
         lines.append(f"  trained under {name} {version}")
-    shown = {"kind", "path", "format", "bytes", "name", "versions"}
-    lines += _tree({k: v for k, v in facts.items() if k not in shown})
+    shown = {"kind", "name", *_IN_HEADLINE[facts["kind"]]}
+    rest = {k: v for k, v in facts.items() if k not in shown}
+    if not verbose and isinstance(rest.get("info"), dict):
+        rest["info"] = {k: _concise(v) for k, v in rest["info"].items()}
+    lines += _tree(rest)
     return "\n".join(lines)
+
+
+def _concise(value):
+    """A record list or a long table as the number of its entries."""
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        return f"{len(value)} entries (--verbose lists them)"
+    if isinstance(value, dict) and len(value) > _CONCISE_ITEMS:
+        return f"{len(value)} values (--verbose lists them)"
+    return value
+
+
+def _number(value) -> str:
+    """A fact as text, a float to four significant digits (a tenth above 1000)."""
+    if isinstance(value, float) and math.isfinite(value):
+        return f"{value:.1f}" if abs(value) >= 1000 else f"{value:.4g}"
+    return str(value)
 
 
 def _tree(facts, indent="  ") -> list[str]:
@@ -207,9 +244,9 @@ def _tree(facts, indent="  ") -> list[str]:
                 sub = _tree(item, indent + "    ")
                 lines += [indent + "  - " + sub[0].lstrip(), *sub[1:]]
         elif isinstance(value, list):
-            lines.append(f"{indent}{key}: {', '.join(map(str, value))}")
+            lines.append(f"{indent}{key}: {', '.join(map(_number, value))}")
         else:
-            lines.append(f"{indent}{key}: {value}")
+            lines.append(f"{indent}{key}: {_number(value)}")
     return lines
 
 
@@ -222,5 +259,5 @@ def _headline(facts) -> str:
                 f"{facts['frame_rate']:g} fps")
     rate = facts["scan_rate"]
     return (f"{facts['name']}: laser run, {facts['scans']} scans of {facts['beams']} "
-            f"beams" + (f", {rate:g} scans/s" if rate else "")
+            f"beams" + (f", {rate:.4g} scans/s" if rate else "")
             + f", mount height {facts['mount_height']:g} m")

@@ -75,7 +75,8 @@ def _refuse_unit_for_bag(path, range_unit) -> None:
         )
 
 
-def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
+def read_run(path, *, range_unit="m", topic=None, mount_height=None, speed=None,
+             speed_topic=None) -> Run:
     """Read a laser run folder (``scans.npz`` + optional ``gt.csv``) as a :class:`~tunnelsense.Run`.
 
     Parameters
@@ -93,12 +94,20 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
         A bag's ``LaserScan`` topic (``None``: the only one).
     mount_height : float, default=None
         For a bag: the sensor's height above the road (m), when the bag does not say.
+    speed : float, default=None
+        The ego speed (m/s) of every scan, in place of the run's own: the speed of
+        ``info_json`` (see :func:`ego_speed`), or a bag's odometry topic.
+    speed_topic : str, default=None
+        A bag's ``nav_msgs/Odometry`` or ``geometry_msgs/TwistStamped`` topic
+        (``None``: the only one, if any), whose messages give the speed at each
+        scan (interpolated in time).
 
     Returns
     -------
     run : Run
         Scans numbered from 0, ground truth (empty when there is no ``gt.csv``), and
-        the run information stored in ``info_json``.
+        the run information stored in ``info_json``.  Each scan carries the ego
+        speed in its payload (``"speed"``) when the run gives one.
 
     Raises
     ------
@@ -123,9 +132,10 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None) -> Run:
         from tunnelsense.io._rosbag import read_bag_run
 
         _refuse_unit_for_bag(path, range_unit)
-        return read_bag_run(path, topic=topic, mount_height=mount_height)
-    name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=False,
-                                                         range_unit=range_unit)
+        return read_bag_run(path, topic=topic, mount_height=mount_height, speed=speed,
+                            speed_topic=speed_topic)
+    name, ranges, stamps, geometry, gt, info = _open_run(
+        path, lazy=False, range_unit=range_unit, speed=speed, speed_topic=speed_topic)
     ranges = to_metres(ranges, geometry.range_max, scale)
     run = Run.from_arrays(name, ranges, stamps, geometry, gt, info=info)
     speed = ego_speed(info)
@@ -176,8 +186,15 @@ def ego_speed(info):
     return None
 
 
-def _open_run(path, *, lazy, range_unit="m"):
+def _open_run(path, *, lazy, range_unit="m", speed=None, speed_topic=None):
     _check_range_unit(range_unit)
+    if speed_topic is not None:
+        raise InputFormatError(f"{path}: speed_topic applies to a ROS bag; a run "
+                               "folder gives its speed in info_json (or pass speed)")
+    if speed is not None:
+        from tunnelsense.io._rosbag import _check_speed
+
+        speed = _check_speed(speed)
     path = Path(path)
     if path.is_dir():
         folder, npz_path = path, path / "scans.npz"
@@ -192,6 +209,8 @@ def _open_run(path, *, lazy, range_unit="m"):
     stamps = check_stamps(npz_path, data["stamps"], ranges.shape[0])
     geometry = check_geometry(npz_path, data, ranges.shape[1])
     info = read_info(npz_path, data)
+    if speed is not None:
+        info["speed"] = speed  # ego_speed reads "speed" first
     name = str(info.pop("name", folder.resolve().name))
     gt = _read_gt_of(folder, n_scans=ranges.shape[0])
     return name, ranges, stamps, geometry, gt, info
@@ -250,7 +269,7 @@ class RunStream:
 
 
 def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
-                    mount_height=None) -> RunStream:
+                    mount_height=None, speed=None, speed_topic=None) -> RunStream:
     """Open a laser run for reading scan by scan (bounded memory).
 
     The same checks as :func:`read_run` are made up front, from the file's headers;
@@ -267,8 +286,10 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
     range_unit : {"m", "mm"}, default="m"
         Unit of ``ranges`` in ``scans.npz``: with ``"mm"`` every range is divided
         by 1000 (see :func:`read_run`).
-    topic, mount_height : see :func:`read_run`
+    topic, mount_height, speed_topic : see :func:`read_run`
         For a ROS bag (then the scans are read message by message).
+    speed : float, default=None
+        The ego speed (m/s) of every scan (see :func:`read_run`).
 
     Returns
     -------
@@ -312,9 +333,10 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
         from tunnelsense.io._rosbag import open_bag_run
 
         _refuse_unit_for_bag(path, range_unit)
-        return open_bag_run(path, topic=topic, mount_height=mount_height)
-    name, ranges, stamps, geometry, gt, info = _open_run(path, lazy=True,
-                                                         range_unit=range_unit)
+        return open_bag_run(path, topic=topic, mount_height=mount_height, speed=speed,
+                            speed_topic=speed_topic)
+    name, ranges, stamps, geometry, gt, info = _open_run(
+        path, lazy=True, range_unit=range_unit, speed=speed, speed_topic=speed_topic)
     return RunStream(name, ranges, stamps, geometry, gt, info, int(chunk_scans),
                      scale)
 

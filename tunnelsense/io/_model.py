@@ -15,9 +15,15 @@ before anything in it is built.  tunnelsense adds to the skops file:
   summary (tours, parameters, scores);
 * a SHA-256 checksum of every byte of the file, kept in the zip comment, so that a
   corrupted or truncated file is refused before anything in it is read;
-* optionally an HMAC-SHA256 signature with a fleet's secret key (``key=``), so that
-  a vehicle can refuse a model it did not sign: the checksum alone is no proof of
-  origin, since anyone who edits a file can compute it again.
+* optionally a signature, so that a vehicle can refuse a model its fleet did not
+  sign (the checksum alone is no proof of origin, since anyone who edits a file can
+  compute it again): an Ed25519 signature with the fleet's private key
+  (``sign_key=``), verified with the public key (``verify_key=``); or, the weaker
+  choice, an HMAC-SHA256 with a secret shared by signer and verifiers (``key=``).
+
+Reading is bounded: the file, each zip member's declared size and their total must
+stay under ``max_bytes`` before anything is decompressed, so a "zip bomb" is refused
+without inflating it.
 
 The file stays a valid skops file: ``skops.io.load`` reads it too.
 
@@ -28,7 +34,6 @@ code and less trust.
 
 from __future__ import annotations
 
-import hashlib
 import warnings
 from pathlib import Path
 
@@ -40,13 +45,13 @@ from tunnelsense.exceptions import (
     ModelVersionWarning,
     UntrustedModelError,
 )
+from tunnelsense.io._keys import KEY_ENV
 from tunnelsense.io._model_file import (
-    _COMMENT_PREFIX,
-    _DIGEST_LEN,
+    MAX_MODEL_BYTES,
     _as_key,
-    _hmac,
     _versions,
     read_metadata,
+    sign,
     skops_bytes,
     verified_bytes,
 )
@@ -54,6 +59,7 @@ from tunnelsense.io._output import atomic_write, check_output
 
 __all__ = [
     "KEY_ENV",
+    "MAX_MODEL_BYTES",
     "TRUSTED_TYPES",
     "ModelVersionWarning",
     "UntrustedModelError",
@@ -63,9 +69,6 @@ __all__ = [
 ]
 
 _PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
-
-#: Environment variable holding the fleet's signing key (the command line reads it).
-KEY_ENV = "TUNNELSENSE_MODEL_KEY"
 
 #: The exact type names, beyond skops' own trusted defaults, that a model file may
 #: hold: tunnelsense's estimators, nothing else.  (scikit-learn's ``Tree`` is left out
@@ -96,7 +99,15 @@ def _model_format(path: Path) -> str:
     return suffix
 
 
-def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
+def _check_key_type(value, name, cls_name):
+    if value is not None and type(value).__name__ != cls_name:
+        raise TypeError(f"{name} must be an {cls_name} (tunnelsense.io.read_"
+                        f"{'private' if 'Private' in cls_name else 'public'}_key), "
+                        f"got {type(value).__name__}")
+
+
+def save_model(model, path, *, summary=None, key=None, sign_key=None,
+               overwrite=False) -> Path:
     """Save a fitted model for shipping.
 
     The format follows the file's extension: ``.skops`` writes the safe format (no code
@@ -116,7 +127,12 @@ def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
     key : str or bytes, default=None
         A secret of at least 16 bytes: sign the ``.skops`` file with HMAC-SHA256, so
         that :func:`load_model` with the same key can tell it was written by a holder
-        of the key.
+        of the key.  The weaker choice: every verifier can sign too; prefer
+        ``sign_key``.
+    sign_key : Ed25519PrivateKey, default=None
+        Sign the ``.skops`` file with this private key
+        (:func:`~tunnelsense.io.read_private_key`); :func:`load_model` verifies it
+        with the public key alone.
     overwrite : bool, default=False
         Whether to replace an existing file.
 
@@ -143,26 +159,26 @@ def save_model(model, path, *, summary=None, key=None, overwrite=False) -> Path:
     path = Path(path)
     suffix = _model_format(path)
     key = _as_key(key)
+    _check_key_type(sign_key, "sign_key", "Ed25519PrivateKey")
+    if key is not None and sign_key is not None:
+        raise ValueError("pass one of key (HMAC) and sign_key (Ed25519), not both")
     check_output(path, overwrite=overwrite, what="model file")
     if suffix in _PICKLE_SUFFIXES:
-        if key is not None:
+        if key is not None or sign_key is not None:
             raise ValueError(f"{path}: only .skops files can be signed")
         with atomic_write(path) as f:
             joblib.dump(model, f)
         return path
-    data = skops_bytes(model, summary, signed=key is not None)
-    if key is not None:
-        start = len(data) - 2 * _DIGEST_LEN - len(_COMMENT_PREFIX)
-        data[start:start + _DIGEST_LEN] = _hmac(key, data[: start]).encode()
-    body = len(data) - _DIGEST_LEN
-    data[body:] = hashlib.sha256(data[:body]).hexdigest().encode()
+    kind = "ed25519" if sign_key is not None else "hmac-sha256" if key else None
+    data = sign(skops_bytes(model, summary, signed=kind), key=key, sign_key=sign_key)
     with atomic_write(path) as f:
         f.write(bytes(data))
     return path
 
 
 
-def load_model(path, *, allow_pickle=False, key=None):
+def load_model(path, *, allow_pickle=False, key=None, verify_key=None,
+               max_bytes=MAX_MODEL_BYTES):
     """Load a model written by :func:`save_model`.
 
     A ``.skops`` file is verified before anything in it is built: its checksum must
@@ -180,7 +196,13 @@ def load_model(path, *, allow_pickle=False, key=None):
         Pickles run code when loaded; load one only with ``allow_pickle=True``, and
         only from a source you trust.
     key : str or bytes, default=None
-        The signing key: refuse a ``.skops`` file not signed with it.
+        The shared HMAC secret: refuse a ``.skops`` file not signed with it.
+    verify_key : Ed25519PublicKey, default=None
+        The fleet's public key (:func:`~tunnelsense.io.read_public_key`): refuse a
+        ``.skops`` file not signed with the matching private key.
+    max_bytes : int, default=MAX_MODEL_BYTES
+        Limit of the file's size, of each zip member's inflated size and of their
+        total: a file past it is refused before anything is decompressed.
 
     Returns
     -------
@@ -195,13 +217,14 @@ def load_model(path, *, allow_pickle=False, key=None):
     path = Path(path)
     suffix = _model_format(path)
     key = _as_key(key)
+    _check_key_type(verify_key, "verify_key", "Ed25519PublicKey")
     if suffix in _PICKLE_SUFFIXES:
         if not allow_pickle:
             raise UntrustedModelError(
                 f"{path}: a pickle runs code when loaded; pass allow_pickle=True only if "
                 "you trust its source, or ship models in the safe .skops format"
             )
-        if key is not None:
+        if key is not None or verify_key is not None:
             raise UntrustedModelError(
                 f"{path}: a pickle cannot be signed; a signing key was given, so only "
                 "signed .skops models are accepted"
@@ -211,8 +234,8 @@ def load_model(path, *, allow_pickle=False, key=None):
         return model
     import skops.io  # slow to import: only when a model is read
 
-    data, _ = verified_bytes(path, key)
-    metadata = read_metadata(path, data)
+    data, _ = verified_bytes(path, key, verify_key, max_bytes=max_bytes)
+    metadata = read_metadata(path, data, max_bytes)
     untrusted = _trusted_types_of(path, data)
     _warn_versions(path, metadata)
     try:
@@ -290,19 +313,27 @@ def _check_parameters(model, path: Path) -> None:
                 stack.extend(step for _, step in value)
 
 
-def describe_model(path) -> dict:
+def describe_model(path, *, key=None, verify_key=None,
+                   max_bytes=MAX_MODEL_BYTES) -> dict:
     """What a model file holds (versions, training summary, pipeline steps).
 
-    For a ``.skops`` file this reads the metadata only (after the checksum check and
-    the check of the types it names), never builds the model; a pickle is not opened
-    at all.  ``signed`` says whether the
-    file carries a signature (checking it needs the key: :func:`load_model`).
+    For a ``.skops`` file this reads the metadata only (after the checksum check, the
+    size check of its members and the check of the types it names), never builds the
+    model; a pickle is not opened at all.  ``signature`` says what is known of the
+    file's origin: ``"none"``, ``"<kind>, not verified"`` (no key given), or
+    ``"<kind>, verified"`` when ``verify_key`` (Ed25519) or ``key`` (HMAC) matches;
+    a key that does not match raises :class:`UntrustedModelError`.
     """
     path = Path(path)
     suffix = _model_format(path)
+    key = _as_key(key)
+    _check_key_type(verify_key, "verify_key", "Ed25519PublicKey")
     if suffix in _PICKLE_SUFFIXES:
         if not path.is_file():
             raise FileNotFoundError(f"{path}: model file not found")
+        if key is not None or verify_key is not None:
+            raise UntrustedModelError(f"{path}: a pickle cannot be signed; a key was "
+                                      "given, so it is refused")
         return {
             "kind": "model",
             "format": "pickle",
@@ -310,14 +341,17 @@ def describe_model(path) -> dict:
             "bytes": path.stat().st_size,
             "note": "pickles run code when loaded; not opened",
         }
-    data, signed = verified_bytes(path)
-    metadata = read_metadata(path, data)
+    data, kind = verified_bytes(path, key, verify_key, max_bytes=max_bytes)
+    metadata = read_metadata(path, data, max_bytes)
     _trusted_types_of(path, data)
+    checked = key is not None or verify_key is not None
+    metadata.pop("signed", None)  # what the writer said; the comment is what counts
     return {
         "kind": "model",
         "format": "skops",
         "path": str(path),
         "bytes": len(data),
         **metadata,
-        "signed": signed,
+        "signature": "none" if kind is None
+        else f"{kind}, {'verified' if checked else 'not verified'}",
     }

@@ -7,8 +7,11 @@ optional ``rosbag`` extra).
 
 A ``LaserScan`` message does not say how high its sensor is mounted: pass
 ``mount_height``, or write the bag with :func:`write_run_bag`, which adds it on the
-topic ``/tunnelsense/mount_height`` (``std_msgs/Float64``).  Scans are numbered from 0
-in the order of their header stamps, which must increase strictly.
+topic ``/tunnelsense/mount_height`` (``std_msgs/Float64``).  Nor does it say how fast
+the vehicle drives, which turns scan counts into lengths: pass ``speed``, or record a
+``nav_msgs/Odometry`` or ``geometry_msgs/TwistStamped`` topic beside the scans (the
+speed at each scan is interpolated in time from its messages).  Scans are numbered
+from 0 in the order of their header stamps, which must increase strictly.
 """
 
 from __future__ import annotations
@@ -20,10 +23,16 @@ import numpy as np
 from tunnelsense._records import LaserGeometry, Run, ScanRecord, empty_run_gt
 from tunnelsense.exceptions import InputFormatError
 
-__all__ = ["is_bag", "open_bag_run", "write_run_bag"]
+__all__ = ["BagRun", "is_bag", "open_bag_run", "read_bag_run"]
 
 _LASERSCAN = ("sensor_msgs/msg/LaserScan", "sensor_msgs/LaserScan")
 _HEIGHT_TOPIC = "/tunnelsense/mount_height"
+#: Longest time (s) the speed of the first or last odometry message is held before or
+#: after it; a scan further from the odometry is an error, not a guessed speed.
+SPEED_HOLD = 1.0
+#: Message types that give the ego speed (ROS 2 name, ROS 1 name).
+_ODOMETRY = ("nav_msgs/msg/Odometry", "nav_msgs/Odometry")
+_TWIST = ("geometry_msgs/msg/TwistStamped", "geometry_msgs/TwistStamped")
 
 
 def is_bag(path) -> bool:
@@ -55,11 +64,30 @@ class BagRun:
     ``n_scans``).
     """
 
-    def __init__(self, path, topic, geometry, n_scans, name):
+    def __init__(self, path, topic, geometry, n_scans, name, speed=None):
         self.path, self.topic, self.geometry = path, topic, geometry
         self.n_scans, self.name = n_scans, name
         self.gt = empty_run_gt()
         self.info = {"source": str(path), "topic": topic}
+        # speed: None, a constant (m/s), or (topic, stamps, speeds) of an odometry topic
+        self._speed = speed
+        if isinstance(speed, tuple):
+            self.info["speed_topic"] = speed[0]
+        elif speed is not None:
+            self.info["speed"] = float(speed)
+
+    def speed_at(self, stamp):
+        """The ego speed (m/s) at ``stamp`` (s), or None when the bag gives none."""
+        if not isinstance(self._speed, tuple):
+            return self._speed
+        topic, stamps, speeds = self._speed
+        if not stamps[0] - SPEED_HOLD <= stamp <= stamps[-1] + SPEED_HOLD:
+            raise InputFormatError(
+                f"{self.path}: the scan at t={stamp:.3f} s lies outside the messages "
+                f"of {topic} (t={stamps[0]:.3f} to {stamps[-1]:.3f} s), which give no "
+                "speed there; pass the speed (--speed M/S)"
+            )
+        return float(np.interp(stamp, stamps, speeds))
 
     def __len__(self):
         return self.n_scans
@@ -78,7 +106,9 @@ class BagRun:
                 last = stamp
                 limit = np.float32(g.range_max)
                 ranges = np.where(ranges >= limit, np.inf, ranges).astype(np.float64)
-                yield ScanRecord(self.name, k, ranges, float(stamp), g)
+                speed = self.speed_at(stamp)
+                yield ScanRecord(self.name, k, ranges, float(stamp), g,
+                                 {} if speed is None else {"speed": speed})
 
 
 def _check_message(path, k, msg, ranges, g, stamp, last):
@@ -97,7 +127,8 @@ def _check_message(path, k, msg, ranges, g, stamp, last):
         )
 
 
-def open_bag_run(path, *, topic=None, mount_height=None) -> BagRun:
+def open_bag_run(path, *, topic=None, mount_height=None, speed=None,
+                 speed_topic=None) -> BagRun:
     """Open the ``LaserScan`` messages of a ROS bag as a laser run.
 
     Parameters
@@ -109,22 +140,36 @@ def open_bag_run(path, *, topic=None, mount_height=None) -> BagRun:
     mount_height : float, default=None
         Height of the sensor above the road (m); ``None``: from the bag's
         ``/tunnelsense/mount_height`` topic.
+    speed : float, default=None
+        The ego speed (m/s), the same for every scan.  ``None``: interpolated at each
+        scan's stamp from the bag's ``nav_msgs/Odometry`` or
+        ``geometry_msgs/TwistStamped`` topic (the length of the twist's linear
+        velocity; held at most :data:`SPEED_HOLD` = 1 s before its first and after
+        its last message, a scan further away is an error), or no speed when the
+        bag has no such topic.
+    speed_topic : str, default=None
+        The odometry or twist topic to read; ``None``: the only one in the bag.
 
     Returns
     -------
     run : BagRun
-        Iterable of :class:`~tunnelsense.ScanRecord`.
+        Iterable of :class:`~tunnelsense.ScanRecord`, each with the ego speed in its
+        payload (``"speed"``) when the bag or ``speed`` gives one.  Its ``info``
+        holds ``"speed"`` (a given speed) or ``"speed_topic"`` (the topic read).
 
     Raises
     ------
     InputFormatError
         No (or several) ``LaserScan`` topics and no ``topic``; no mount height;
-        impossible geometry; a bag rosbags cannot read.
+        impossible geometry; a ``speed`` that is not a positive number; several
+        odometry topics and no ``speed_topic``, or a ``speed_topic`` that is not
+        one; a bag rosbags cannot read.
     """
     AnyReader, _, _ = _rosbags()
     path = Path(path)
     if not is_bag(path):
         raise FileNotFoundError(f"{path}: not a ROS 1 .bag file or ROS 2 bag folder")
+    speed = _check_speed(speed)
     try:
         with AnyReader([path]) as reader:
             scans = [c for c in reader.connections if c.msgtype in _LASERSCAN]
@@ -149,6 +194,10 @@ def open_bag_run(path, *, topic=None, mount_height=None) -> BagRun:
             msg = reader.deserialize(first[2], first[0].msgtype)
             if mount_height is None:
                 mount_height = _stored_height(reader, path)
+            if speed is None:
+                speed = _odometry_speeds(reader, path, speed_topic)
+            elif speed_topic is not None:
+                raise InputFormatError("give speed or speed_topic, not both")
     except InputFormatError:
         raise
     except Exception as exc:  # rosbags raises its own errors on damaged bags
@@ -163,12 +212,64 @@ def open_bag_run(path, *, topic=None, mount_height=None) -> BagRun:
     if problem is not None:
         raise InputFormatError(f"{path}: {problem}")
     name = path.stem if path.is_file() else path.name
-    return BagRun(path, topic, LaserGeometry(**values), n_scans, name)
+    run = BagRun(path, topic, LaserGeometry(**values), n_scans, name, speed)
+    run.speed_at(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)  # up front
+    return run
+
+
+def _check_speed(speed):
+    if speed is None:
+        return None
+    try:
+        value = float(speed)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if isinstance(speed, bool) or not (np.isfinite(value) and value > 0):
+        raise InputFormatError(f"speed must be a positive number (m/s); got {speed!r}")
+    return value
+
+
+def _odometry_speeds(reader, path, speed_topic):
+    """``(topic, stamps, speeds)`` of the bag's odometry or twist topic, or None."""
+    conns = [c for c in reader.connections if c.msgtype in _ODOMETRY + _TWIST]
+    topics = sorted({c.topic for c in conns})
+    if speed_topic is None:
+        if len(topics) > 1:
+            raise InputFormatError(
+                f"{path}: {len(topics)} odometry topics ({', '.join(topics)}); name "
+                "one (--speed-topic) or give the speed (--speed)"
+            )
+        if not topics:
+            return None
+        speed_topic = topics[0]
+    elif speed_topic not in topics:
+        raise InputFormatError(
+            f"{path}: no nav_msgs/Odometry or geometry_msgs/TwistStamped topic "
+            f"{speed_topic!r}; it has {', '.join(topics) or 'none'}"
+        )
+    conns = [c for c in conns if c.topic == speed_topic]
+    stamps, speeds = [], []
+    for conn, _, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        twist = msg.twist.twist if conn.msgtype in _ODOMETRY else msg.twist
+        v = twist.linear
+        stamps.append(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)
+        speeds.append(float(np.sqrt(v.x * v.x + v.y * v.y + v.z * v.z)))
+    stamps, speeds = np.asarray(stamps), np.asarray(speeds)
+    if not len(stamps) or not (np.all(np.isfinite(stamps))
+                               and np.all(np.isfinite(speeds))):
+        raise InputFormatError(
+            f"{path}: topic {speed_topic} holds no message with a finite stamp and "
+            "velocity"
+        )
+    order = np.argsort(stamps, kind="stable")
+    return speed_topic, stamps[order], speeds[order]
 
 
 def _stored_height(reader, path) -> float:
     conns = [c for c in reader.connections if c.topic == _HEIGHT_TOPIC]
-    for conn, _, raw in reader.messages(connections=conns):
+    # an empty ``connections`` means "every topic" to rosbags: ask only when there is one
+    for conn, _, raw in reader.messages(connections=conns) if conns else ():
         return float(reader.deserialize(raw, conn.msgtype).data)
     raise InputFormatError(
         f"{path}: the bag does not say how high the laser is mounted; pass "
@@ -176,91 +277,11 @@ def _stored_height(reader, path) -> float:
     )
 
 
-def read_bag_run(path, *, topic=None, mount_height=None) -> Run:
+def read_bag_run(path, *, topic=None, mount_height=None, speed=None,
+                 speed_topic=None) -> Run:
     """Read a ROS bag's ``LaserScan`` messages as a :class:`~tunnelsense.Run`."""
-    stream = open_bag_run(path, topic=topic, mount_height=mount_height)
-    scans = list(stream)
-    ranges = np.array([s.ranges for s in scans]).reshape(len(scans), -1)
-    stamps = np.array([s.stamp for s in scans])
-    return Run.from_arrays(stream.name, ranges, stamps, stream.geometry,
-                           info=stream.info)
+    from tunnelsense._records import ScanSequence
 
-
-def write_run_bag(run: Run, path, *, version="ros2", topic="/scan") -> Path:
-    """Write a laser run as a ROS bag of ``sensor_msgs/LaserScan`` (ranges float32).
-
-    Parameters
-    ----------
-    run : Run
-        One geometry for all scans.
-    path : str or Path
-        A new ROS 2 bag folder (``version="ros2"``, sqlite3 storage) or ROS 1 ``.bag``
-        file (``version="ros1"``); an existing one is refused.
-    version : {"ros2", "ros1"}, default="ros2"
-    topic : str, default="/scan"
-
-    Notes
-    -----
-    ROS times cannot be negative: a run whose stamps start before 0 is shifted by
-    whole seconds (the differences between stamps stay as they were).
-
-    Returns
-    -------
-    path : Path
-    """
-    _, Stores, get_typestore = _rosbags()
-    from tunnelsense.exceptions import OutputExistsError
-
-    path = Path(path)
-    if path.exists():
-        raise OutputExistsError(f"{path}: exists; refusing to overwrite it")
-    if version == "ros2":
-        from rosbags.rosbag2 import Writer
-
-        store = get_typestore(Stores.ROS2_HUMBLE)
-        writer = Writer(path, version=8)
-    elif version == "ros1":
-        from rosbags.rosbag1 import Writer
-
-        store = get_typestore(Stores.ROS1_NOETIC)
-        writer = Writer(path)
-    else:
-        raise ValueError(f"version must be 'ros2' or 'ros1'; got {version!r}")
-    T = store.types
-    scan_type = "sensor_msgs/msg/LaserScan"
-    g = run.geometry
-    ranges = run.scans.ranges().astype(np.float32)
-    ranges[~np.isfinite(ranges)] = np.float32(g.range_max)
-    n_beams = ranges.shape[1]
-    stamps = np.array([r.stamp for r in run.scans], dtype=np.float64)
-    # ROS times are not negative: shift a run that starts before 0 by whole seconds
-    offset = float(np.ceil(-stamps.min())) if len(stamps) and stamps.min() < 0 else 0.0
-    with writer:
-        conn = writer.add_connection(topic, scan_type, typestore=store)
-        height = writer.add_connection(_HEIGHT_TOPIC, "std_msgs/msg/Float64",
-                                       typestore=store)
-        first = int(round((stamps[0] + offset) * 1e9)) if len(stamps) else 0
-        writer.write(height, first,
-                     store.serialize_ros1(T["std_msgs/msg/Float64"](g.mount_height),
-                                          "std_msgs/msg/Float64")
-                     if version == "ros1" else
-                     store.serialize_cdr(T["std_msgs/msg/Float64"](g.mount_height),
-                                         "std_msgs/msg/Float64"))
-        for k in range(len(stamps)):
-            ns = int(round((stamps[k] + offset) * 1e9))
-            sec, nanosec = divmod(ns, 1_000_000_000)
-            header = (T["std_msgs/msg/Header"](seq=k, stamp=T["builtin_interfaces/msg/Time"](
-                sec=sec, nanosec=nanosec), frame_id="laser") if version == "ros1" else
-                T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](
-                    sec=sec, nanosec=nanosec), frame_id="laser"))
-            msg = T[scan_type](
-                header=header, angle_min=g.angle_min,
-                angle_max=g.angle_min + g.angle_increment * (n_beams - 1),
-                angle_increment=g.angle_increment, time_increment=0.0, scan_time=0.0,
-                range_min=g.range_min, range_max=g.range_max, ranges=ranges[k],
-                intensities=np.empty(0, np.float32),
-            )
-            data = (store.serialize_ros1(msg, scan_type) if version == "ros1"
-                    else store.serialize_cdr(msg, scan_type))
-            writer.write(conn, ns, data)
-    return path
+    stream = open_bag_run(path, topic=topic, mount_height=mount_height, speed=speed,
+                          speed_topic=speed_topic)
+    return Run(stream.name, ScanSequence(list(stream)), stream.gt, stream.info)

@@ -1,18 +1,26 @@
 """Opening the model file a user names: a pickle only when trusted, of the right kind.
 
-What the commands' ``--model``, ``--trust-pickle`` and ``--key-file`` do, callable
-from Python: :func:`read_signing_key` reads a fleet's key, :func:`load_trusted_model`
-refuses a pickle unless told to trust it and a model of another detector.
+What the commands' ``--model``, ``--trust-pickle``, ``--verify-key`` and
+``--key-file`` do, callable from Python: :func:`load_trusted_model` refuses a pickle
+unless told to trust it, and reads a detector's ``.skops`` file strictly (an exact
+vocabulary of types, then exactly the detector's pipeline).
 """
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
 from tunnelsense.exceptions import UntrustedModelError
-from tunnelsense.io._model import KEY_ENV, load_model
+from tunnelsense.io._keys import read_secret
+from tunnelsense.io._model import (
+    MAX_MODEL_BYTES,
+    _check_key_type,
+    _warn_versions,
+    load_model,
+)
+from tunnelsense.io._model_file import _as_key, read_metadata, verified_bytes
+from tunnelsense.io._model_strict import check_detector, read_strict
 from tunnelsense.io._output import check_output
 
 __all__ = ["PICKLE_SUFFIXES", "check_model_path", "load_trusted_model", "read_signing_key"]
@@ -51,17 +59,7 @@ def check_model_path(path, *, overwrite=False, inputs=()) -> Path:
 
 
 def read_signing_key(path=None):
-    """A fleet's signing key: the stripped bytes of ``path``, else ``$TUNNELSENSE_MODEL_KEY``.
-
-    Parameters
-    ----------
-    path : str or Path, default=None
-        File holding the key; None reads the environment variable instead.
-
-    Returns
-    -------
-    key : bytes, str or None
-        None when neither is given.
+    """A fleet's shared HMAC secret (:func:`~tunnelsense.io.read_secret`).
 
     Examples
     --------
@@ -71,18 +69,15 @@ def read_signing_key(path=None):
     >>> read_signing_key(f)
     b'fleet-secret'
     """
-    if not path:
-        return os.environ.get(KEY_ENV) or None
-    try:
-        key = Path(path).read_bytes().strip()
-    except OSError as exc:
-        raise OSError(exc.errno, f"--key-file {path}: {exc.strerror}") from None
-    if not key:
-        raise ValueError(f"--key-file {path}: the file is empty")
-    return key
+    return read_secret(path)
 
 
-def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None):
+#: The last step of each detector's pipeline, and the detector.
+_DETECTORS = {"motion": "tunnel", "cluster": "street"}
+
+
+def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None,
+                       verify_key=None, max_bytes=MAX_MODEL_BYTES):
     """Load a model file (:func:`~tunnelsense.io.load_model`) that a command may use.
 
     Parameters
@@ -96,7 +91,11 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     trust_pickle : bool, default=False
         Load a pickle (it can run any code); a note says so on stderr.
     key : bytes or str, default=None
-        Refuse a ``.skops`` file not signed with this key.
+        Refuse a ``.skops`` file not signed with this shared HMAC secret.
+    verify_key : Ed25519PublicKey, default=None
+        Refuse a ``.skops`` file not signed with the private key of this public key.
+    max_bytes : int, default=MAX_MODEL_BYTES
+        Limit of the file and of its members' inflated sizes.
 
     Returns
     -------
@@ -105,7 +104,9 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     Raises
     ------
     UntrustedModelError
-        A pickle without ``trust_pickle``.
+        A pickle without ``trust_pickle``; for a detector's ``.skops`` file (last step
+        ``"motion"`` or ``"cluster"``), anything but exactly that detector's fitted
+        pipeline (see :mod:`tunnelsense.io._model_strict`).
     ValueError
         A model whose last step is not ``last_step``.
 
@@ -131,7 +132,14 @@ def load_trusted_model(path, *, last_step, command, trust_pickle=False, key=None
     if pickle:
         print(f"note: loading the pickle {path} (--trust-pickle): it can run any code",
               file=sys.stderr)
-    model = load_model(path, allow_pickle=pickle, key=key)
+    kind = _DETECTORS.get(last_step)
+    _check_key_type(verify_key, "verify_key", "Ed25519PublicKey")
+    if kind is not None and not pickle:
+        data, _ = verified_bytes(path, _as_key(key), verify_key, max_bytes=max_bytes)
+        _warn_versions(path, read_metadata(path, data, max_bytes))
+        return check_detector(read_strict(path, data, max_bytes=max_bytes), kind, path)
+    model = load_model(path, allow_pickle=pickle, key=key, verify_key=verify_key,
+                       max_bytes=max_bytes)
     steps = getattr(model, "steps", None)
     if not steps or steps[-1][0] != last_step:
         raise ValueError(f"{path}: not a model written by 'tunnelsense {command}'")

@@ -71,6 +71,9 @@ def plot_clusters(record, *, roi=(0.1, 2.0), regions=(4.0, 6.6), ax=None):
 def plot_dendrogram(record, *, cut=0.6, ax=None):
     """Fig. 5: the single-linkage dendrogram of a scan's ROI points and the cut line.
 
+    The y-axis reaches above the cut even when every merge is shorter, so that the
+    cut line is always seen.
+
     Parameters
     ----------
     record : ScanRecord
@@ -94,6 +97,8 @@ def plot_dendrogram(record, *, cut=0.6, ax=None):
         _, ax = plt.subplots(figsize=(8, 4))
     dendrogram(single(pdist(pts)), ax=ax, no_labels=True, color_threshold=cut)
     ax.axhline(cut, color="tab:red", lw=1.2, label=f"cut {cut:g} m")
+    bottom, top = ax.get_ylim()  # scipy sets it to the highest merge
+    ax.set_ylim(bottom, max(top, 1.1 * cut))
     ax.set(ylabel="linkage distance (m)",
            title=f"{record.run}: scan {record.scan}, {len(pts)} ROI points")
     ax.legend(loc="upper right")

@@ -6,8 +6,7 @@ import numbers
 
 import numpy as np
 import pandas as pd
-from sklearn.base import BaseEstimator, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
@@ -19,6 +18,7 @@ from tunnelsense.positioning._tables import (
     check_indicator_map,
     check_odometry,
 )
+from tunnelsense.utils._sklearn_compat import Interval, _fit_context
 
 __all__ = ["TunnelPositioner"]
 

@@ -13,8 +13,7 @@ import numbers
 
 import numpy as np
 import pandas as pd
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.base import BaseEstimator, TransformerMixin
 
 from tunnelsense._payload import (
     BEAMS,
@@ -29,6 +28,7 @@ from tunnelsense._payload import (
 from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
 from tunnelsense._streaming import StreamingMixin
 from tunnelsense.street._stream import ScanStream
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer"]
 

@@ -69,7 +69,7 @@ def make_parking_pipeline(**params):
     return Pipeline([("cluster", ScanClusterer(**params))])
 
 
-def train_detector(runs, *, search=False, n_jobs=None):
+def train_detector(runs, *, search=False, n_jobs=None, progress=None):
     """Fit the street detector on labelled runs; return it and a training summary.
 
     Parameters
@@ -82,6 +82,10 @@ def train_detector(runs, *, search=False, n_jobs=None):
         ``GroupKFold`` over the runs (at least two).
     n_jobs : int, default=None
         Parallel fits of the search.
+    progress : callable or None, default=None
+        ``progress(stage, done, total)`` as the work goes on, ``stage`` naming it:
+        the search's fits done (its refit included), or the fit; then the scoring
+        of the training runs.
 
     Returns
     -------
@@ -98,8 +102,10 @@ def train_detector(runs, *, search=False, n_jobs=None):
     >>> sorted(summary["training_scores"])
     ['parked', 'passing']
     """
-    from sklearn.model_selection import GridSearchCV, GroupKFold
+    from sklearn.model_selection import GroupKFold
 
+    from tunnelsense._fitting import search_ticks
+    from tunnelsense._search import PrefixGridSearch
     from tunnelsense.metrics import (
         make_street_scorer,
         objects_from_targets,
@@ -122,9 +128,11 @@ def train_detector(runs, *, search=False, n_jobs=None):
         if n_groups < 2:
             raise ValueError("search needs at least two runs (the folds are runs)")
         folds = min(n_groups, 5)
-        grid = GridSearchCV(pipeline, SEARCH_GRID, cv=GroupKFold(folds),
-                            scoring=make_street_scorer("parked", "f1"),
-                            error_score="raise", n_jobs=n_jobs)
+        # GridSearchCV's result, with its fits counted as they end
+        grid = PrefixGridSearch(pipeline, SEARCH_GRID, cv=GroupKFold(folds),
+                                scoring=make_street_scorer("parked", "f1"),
+                                n_jobs=n_jobs,
+                                progress=search_ticks(progress, SEARCH_GRID, folds))
         grid.fit(X, y, groups=groups)
         pipeline = grid.best_estimator_
         summary["search"] = {"grid": SEARCH_GRID, "best_params": grid.best_params_,
@@ -132,13 +140,22 @@ def train_detector(runs, *, search=False, n_jobs=None):
                              "scoring": "parked F1 (GroupKFold over runs)",
                              "folds": folds}
     else:
+        _report(progress, "fitting the detector", 0, 1)
         pipeline.fit(X, y)
+        _report(progress, "fitting the detector", 1, 1)
+    _report(progress, "scoring the training runs", 0, 1)
     summary["parameters"] = {k: v for k, v in pipeline.get_params(deep=True).items()
                              if "__" in k}
     summary["training_scores"] = street_scores(
         objects_from_targets(X, y), objects_from_targets(X, pipeline.predict(X)),
         zero_division=float("nan"))
+    _report(progress, "scoring the training runs", 1, 1)
     return pipeline, summary
+
+
+def _report(progress, stage, done, total):
+    if progress is not None:
+        progress(stage, done, total)
 
 
 def _rate(value):

@@ -15,9 +15,7 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import _fit_context
 from sklearn.utils import check_random_state
-from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._payload import (
     APPEARANCE,
@@ -48,6 +46,7 @@ from tunnelsense.tunnel._stumps import (
     samme,
     stump_decision,
 )
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = [
     "WeightedAdaBoost",

@@ -10,8 +10,6 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import _fit_context
-from sklearn.utils._param_validation import StrOptions
 
 from tunnelsense._payload import (
     CLUSTER_BOXES,
@@ -30,6 +28,7 @@ from tunnelsense.tunnel._mst import (
     mst_partition,
     region_boxes,
 )
+from tunnelsense.utils._sklearn_compat import StrOptions, _fit_context
 
 __all__ = [
     "DENSE_MAX_POINTS",

@@ -15,11 +15,12 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from sklearn.model_selection import GridSearchCV, GroupKFold
+from sklearn.model_selection import GroupKFold
 from threadpoolctl import threadpool_limits
 
-from tunnelsense._fitting import fit_pipeline
+from tunnelsense._fitting import counted, fit_pipeline, search_ticks
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
+from tunnelsense._search import PrefixGridSearch
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video
 from tunnelsense.io._results import (
@@ -30,6 +31,7 @@ from tunnelsense.io._results import (
     mot_result_lines,
 )
 from tunnelsense.io._sources import decode_ahead, open_tour
+from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.plotting._detections import draw_detections
@@ -53,7 +55,8 @@ SEARCH_GRID = {
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
-                           dask_scheduler=None, progress=None, verbose=0):
+                           dask_scheduler=None, progress=None, search_progress=None,
+                           verbose=0):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
@@ -66,18 +69,25 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         Labelled tours.
     search : bool, default=False
         Grid-search :data:`SEARCH_GRID` with ``GroupKFold`` over the tours (at least
-        2), then refit the best setting on all of them.
+        2), then refit the best setting on all of them.  The steps the grid does not
+        vary (keypoints, verifier, clusters) are fitted once per fold
+        (:class:`~tunnelsense._search.PrefixGridSearch`; the same result as
+        :class:`~sklearn.model_selection.GridSearchCV`).
     random_state : int, default=0
         Seed of the pipeline.
     n_jobs : int, default=1
-        Reader threads, the verifier's threads and the search's parallel fits.
+        Reader threads and the search's parallel fits (k-means runs on one thread).
     dask_scheduler : str or None, default=None
         Run the search's fits on this Dask cluster (e.g. ``"tcp://10.0.0.5:8786"``;
         needs the ``distributed`` extra); the workers must see the tours' files.
     progress : callable or None, default=None
-        ``progress(step_name, k, n_steps)`` before each step of a plain fit.
+        ``progress(stage, done, total)`` as the work goes on, ``stage`` naming it:
+        ``"decoding frames"``; then ``"fitting <step>"`` before each step of a plain
+        fit (``done`` steps of ``total``), or the search's fits done and its refit.
+    search_progress : callable or None, default=None
+        ``search_progress(done, total)`` after each fit of a search.
     verbose : int, default=0
-        Verbosity of the search.
+        Unused (kept for callers of earlier releases).
 
     Returns
     -------
@@ -98,27 +108,32 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
     X, y, groups = to_xy(tours)
-    frames = decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1))
+    frames = counted(decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1)),
+                     "decoding frames", len(X), progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
     # every frame is queued now: the model writer's import (about 1 s, in this
     # thread) overlaps the reader threads, which run without the interpreter lock
     import skops.io  # noqa: F401
     X = FrameSequence(decoded + list(frames))
-    model = make_indicator_pipeline(random_state=random_state,
-                                    verifier__n_jobs=n_jobs)
+    # k-means keeps its one BLAS thread: spinning BLAS or OpenMP threads make a fit
+    # several times slower on a loaded machine, and the centres do not depend on it
+    model = make_indicator_pipeline(random_state=random_state)
     found = None
     if search:
-        found = GridSearchCV(
+        # keypoints, verifier and clusters (the k-means) are fitted once per fold
+        found = PrefixGridSearch(
             model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
-            scoring=make_tunnel_scorer("youden"), error_score="raise", n_jobs=n_jobs,
-            verbose=verbose,
+            scoring=make_tunnel_scorer("youden"), n_jobs=n_jobs,
+            progress=search_ticks(progress, SEARCH_GRID, min(len(tours), 3),
+                                  search_progress),
         )
         with _dask(dask_scheduler) if dask_scheduler else contextlib.nullcontext():
             found.fit(X, y, groups=groups)
         model = found.best_estimator_
         output = model.predict(X)
     else:
-        model, output = fit_pipeline(model, X, y, progress=progress)
+        model, output = fit_pipeline(model, X, y, progress=progress and (
+            lambda name, k, n: progress(f"fitting {name}" if name else "fitted", k, n)))
     return model, _summary(tours, model, output, y, found)
 
 
@@ -282,7 +297,7 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
 
 
 def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
-                    progress=None, draw=None, draw_every=1):
+                    progress=None, draw=None, draw_every=1, draw_video=None):
     """Detect indicators in a tour or video, writing results as frames are final.
 
     ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
@@ -307,12 +322,17 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
         A folder to draw every ``draw_every``-th frame into
         (:func:`tunnelsense.plotting.draw_detections`), as ``000001.png``...
     draw_every : int, default=1
+    draw_video : str, Path or None, default=None
+        A ``.mp4`` or ``.avi`` file to draw every frame into, at the source's frame
+        rate (``cv2.VideoWriter``); it is not checked for overwriting here.  Written
+        beside under a temporary name and renamed when the run ends, early or not.
 
     Returns
     -------
     facts : dict
         ``frames``, ``detections``, ``trajectories`` (indicator trajectories),
-        ``resumed_lines`` and ``drawn`` (bytes of each picture drawn).
+        ``resumed_lines``, ``drawn`` (bytes of each picture drawn) and
+        ``video_frames`` (frames in ``draw_video``).
 
     Examples
     --------
@@ -340,19 +360,26 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     clusters = ResultsWriter(clusters_path(out), header=CLUSTERS_HEADER, resume=resume,
                              overwrite=overwrite)
     images = {}
-    if draw is not None and Path(source).is_file():
+    drawing = draw is not None or draw_video is not None
+    if drawing and Path(source).is_file():
         frames = _keep_images(frames, images)  # video frames are decoded once
     released = stream_detect(model, frames, progress=progress, n_threads=n_threads)
-    if draw is not None:
-        Path(draw).mkdir(parents=True, exist_ok=True)
+    if drawing:
+        if draw is not None:
+            Path(draw).mkdir(parents=True, exist_ok=True)
         pictures = draw_detections(_with_images(released, images))
     else:
         pictures = ((r, None) for r in released)
     facts = {"frames": 0, "detections": 0, "resumed_lines": results.resumed_lines,
-             "drawn": []}
+             "drawn": [], "video_frames": 0}
     ids = set()
-    with results, clusters:
+    video = (VideoOutput(draw_video, fps=source_frame_rate(source))
+             if draw_video is not None else contextlib.nullcontext())
+    with results, clusters, video:
         for r, pic in pictures:
+            if draw_video is not None:
+                video.write(pic)
+                facts["video_frames"] = video.frames
             lines = mot_result_lines(r)
             for line in lines:
                 results.write(line)
@@ -363,7 +390,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
             facts["frames"] += 1
             facts["detections"] += len(lines)
             ids.update(np.asarray(r.payload["detections"]).reshape(-1, 6)[:, 4].tolist())
-            if pic is not None and (r.frame - 1) % draw_every == 0:
+            if draw is not None and (r.frame - 1) % draw_every == 0:
                 target = Path(draw) / f"{r.frame:06d}.png"
                 if not cv2.imwrite(str(target), pic):
                     raise OSError(f"{target}: OpenCV could not write the picture")

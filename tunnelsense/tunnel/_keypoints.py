@@ -14,8 +14,7 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._payload import KEYPOINT_BAND, KEYPOINTS, check_image, where
@@ -23,6 +22,7 @@ from tunnelsense._records import FrameSequence, check_frames, decode_once
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel._common import require_boxes
 from tunnelsense.tunnel._intensity import indicator_band, sample_keypoints
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
 

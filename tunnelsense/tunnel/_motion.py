@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numbers
 
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.base import BaseEstimator, TransformerMixin
 
 from tunnelsense._payload import (
     APPEARANCE,
@@ -37,6 +36,7 @@ from tunnelsense.tunnel._pcc_stream import (
     pearson_r,
     straightness,
 )
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["PCCVerifier", "curve_fit_r", "pearson_r", "straightness"]
 

@@ -14,12 +14,14 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import BaseEstimator, ClassifierMixin, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.base import BaseEstimator, ClassifierMixin, TransformerMixin
 from sklearn.utils.multiclass import check_classification_targets
-from sklearn.utils.validation import (
+from sklearn.utils.validation import check_is_fitted
+
+from tunnelsense.utils._sklearn_compat import (
+    Interval,
     _check_sample_weight,
-    check_is_fitted,
+    _fit_context,
     validate_data,
 )
 

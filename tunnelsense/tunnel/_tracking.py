@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import numbers
 
-from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.base import BaseEstimator, TransformerMixin
 
 from tunnelsense._payload import (
     CLUSTER_BOXES,
@@ -28,6 +27,7 @@ from tunnelsense._payload import (
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense._streaming import StreamingMixin, stream_order
 from tunnelsense.tunnel._linking import LinkerStream, link_log_likelihood
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["TrajectoryLinker", "link_log_likelihood"]
 

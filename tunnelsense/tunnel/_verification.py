@@ -10,8 +10,6 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from sklearn.base import _fit_context
-from sklearn.utils._param_validation import Interval, StrOptions
 
 from tunnelsense._payload import (
     KEYPOINTS,
@@ -34,6 +32,7 @@ from tunnelsense.tunnel._kmeans import (
     rank_positive_centers,
     verify_histograms,
 )
+from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = [
     "KMeansHistogramVerifier",
@@ -108,12 +107,13 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         ``None`` drops the test (the paper's rule).
     batch_size : int, default=4096
         Rows per mini-batch of the large-set k-means (see ``max_full_samples``).
-    n_steps : int, default=300
-        Mini-batches drawn (uniformly, with replacement) for a large-set k-means.
+    n_steps : int, default=100
+        Mini-batches drawn (uniformly, with replacement) for a large-set k-means
+        (100 batches of 4,096 rows: within 1 % of the inertia of 300 batches on
+        histograms, at a third of the cost).
     max_full_samples : int, default=20000
         A set of at most this many descriptors is clustered with full Lloyd
-        :class:`~sklearn.cluster.KMeans`, a larger one with mini-batch k-means fed by
-        ``partial_fit`` (:func:`fit_kmeans`).
+        k-means, a larger one with mini-batch k-means (:func:`fit_kmeans`).
     pos_label : int, float, bool or str, default=1
         For 2-D arrays: the value of ``y`` that marks a positive descriptor.
     random_state : int, RandomState instance or None, default=None
@@ -135,6 +135,9 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         Number of kept centres.
     n_positive_, n_negative_ : int
         Numbers of positive and negative descriptors used in ``fit``.
+    quantum_ : float
+        The grid (a power of two) the descriptors and centres are rounded to, so
+        that every distance is exact and every decision the same on every CPU.
     n_features_in_ : int
         Descriptor length (for frames: ``bins``, or ``2 * bins`` with the context).
     n_frames_fit_ : int
@@ -195,7 +198,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         max_distance=0.4,
         margin=0.04,
         batch_size=4096,
-        n_steps=300,
+        n_steps=100,
         max_full_samples=20_000,
         pos_label=1,
         random_state=None,

@@ -22,7 +22,7 @@ from functools import partial
 import numpy as np
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
-from sklearn.utils import estimator_checks as _ec
+from sklearn.utils import estimator_checks as sk_checks
 
 from tunnelsense._records import (
     FrameRecord,
@@ -44,16 +44,16 @@ __all__ = [
 #: scikit-learn API checks that need no 2-D array input, run one by one on record
 #: stages (see :func:`sklearn_api_checks`).
 SKLEARN_RECORD_API_CHECKS = (
-    _ec.check_estimator_cloneable,
-    _ec.check_estimator_tags_renamed,
-    _ec.check_valid_tag_types,
-    _ec.check_estimator_repr,
-    _ec.check_no_attributes_set_in_init,
-    _ec.check_parameters_default_constructible,
-    _ec.check_get_params_invariance,
-    _ec.check_set_params,
-    _ec.check_do_not_raise_errors_in_init_or_set_params,
-    _ec.check_mixin_order,
+    sk_checks.check_estimator_cloneable,
+    sk_checks.check_estimator_tags_renamed,
+    sk_checks.check_valid_tag_types,
+    sk_checks.check_estimator_repr,
+    sk_checks.check_no_attributes_set_in_init,
+    sk_checks.check_parameters_default_constructible,
+    sk_checks.check_get_params_invariance,
+    sk_checks.check_set_params,
+    sk_checks.check_do_not_raise_errors_in_init_or_set_params,
+    sk_checks.check_mixin_order,
 )
 
 

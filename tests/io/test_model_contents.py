@@ -1,0 +1,430 @@
+"""What a detector's model file may hold: bounded sizes, exact contents, no smuggled calls."""
+
+import copy
+import hashlib
+import io
+import json
+import os
+import struct
+import subprocess
+import sys
+import warnings
+import zipfile
+import zlib
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
+from tunnelsense._cli import main
+from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+from tunnelsense.exceptions import (
+    InputFormatError,
+    ModelVersionWarning,
+    UntrustedModelError,
+)
+from tunnelsense.io import load_model, save_model, write_run, write_tour
+from tunnelsense.io._trust import load_trusted_model
+
+LAST = {"tunnel": "motion", "street": "cluster"}
+
+
+@pytest.fixture(scope="module")
+def genuine(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("genuine")
+    tour = make_tunnel_tour(120, scenario="light", random_state=5, name="tour")
+    X, y, _ = to_xy([tour])
+    tunnel = make_indicator_pipeline(random_state=0).fit(X, y)
+    run = make_street_scans(300, random_state=5, name="run")
+    Xs, ys, _ = to_xy([run])
+    street = make_parking_pipeline().fit(Xs, ys)
+    return {
+        "tunnel": save_model(tunnel, folder / "tunnel.skops"),
+        "street": save_model(street, folder / "street.skops"),
+        "tour": write_tour(tour, folder / "tour"),
+        "run": write_run(run, folder / "run"),
+        "X": {"tunnel": X, "street": Xs},
+        "detections": {"tunnel": _detections(tunnel, X), "street": _detections(street, Xs)},
+    }
+
+
+def _detections(model, X):
+    """What a user sees: the detections of every frame or scan."""
+    return [np.asarray(p.payload["detections"] if hasattr(p, "payload") else p).tolist()
+            for p in model.predict(X)]
+
+
+def _members(path):
+    src = zipfile.ZipFile(io.BytesIO(path.read_bytes()))
+    return {i.filename: src.read(i.filename) for i in src.infolist()}
+
+
+def _zip(members, raw=None) -> bytes:
+    """A zip of ``members`` (name -> bytes), plus ``raw`` members (name -> (deflated
+    bytes, crc, size)), with tunnelsense's checksum, written by hand."""
+    entries = []
+    for name, payload in members.items():
+        c = zlib.compressobj(6, zlib.DEFLATED, -15)
+        entries.append((name, c.compress(payload) + c.flush(), zlib.crc32(payload),
+                        len(payload)))
+    entries += [(n, *v) for n, v in (raw or {}).items()]
+    out, central = bytearray(), bytearray()
+    for name, data, crc, size in entries:
+        encoded = name.encode()
+        central += struct.pack("<IHHHHHHIIIHHHHHII", 0x02014B50, 20, 20, 0, 8, 0, 0, crc,
+                               len(data), size, len(encoded), 0, 0, 0, 0, 0, len(out))
+        central += encoded
+        out += struct.pack("<IHHHHHIIIHH", 0x04034B50, 20, 0, 8, 0, 0, crc, len(data),
+                           size, len(encoded), 0) + encoded + data
+    comment = b"tunnelsense-sha256:" + b"0" * 64
+    start = len(out)
+    out += central + struct.pack("<IHHHHIIH", 0x06054B50, 0, 0, len(entries),
+                                 len(entries), len(central), start, len(comment)) + comment
+    out[-64:] = hashlib.sha256(bytes(out[:-64])).hexdigest().encode()
+    return bytes(out)
+
+
+def _bomb(size=2 * 2**30):
+    """A raw deflate stream of ``size`` zero bytes (about 2 MB for 2 GB), and its CRC."""
+    chunk = bytes(2**20)
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    first = c.compress(chunk) + c.flush(zlib.Z_FULL_FLUSH)
+    repeat = c.compress(chunk) + c.flush(zlib.Z_FULL_FLUSH)
+    n = size // len(chunk)
+    crc = 0
+    for _ in range(n):
+        crc = zlib.crc32(chunk, crc)
+    return first + repeat * (n - 1) + c.flush(), crc, n * len(chunk)
+
+
+@pytest.fixture(scope="module")
+def bomb():
+    return _bomb()
+
+
+_PEAK = """
+import resource, sys
+from tunnelsense.cli import main
+try:
+    if sys.argv[1] == "load_model":
+        from tunnelsense.io import load_model
+        load_model(sys.argv[2])
+        rc = 0
+    else:
+        rc = main(sys.argv[1:])
+except Exception as exc:
+    print(type(exc).__name__, exc, file=sys.stderr)
+    rc = 2
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, rc)
+"""
+
+
+@pytest.mark.parametrize("member,how", [("npy", "detect"), ("npy", "load_model"),
+                                        ("schema.json", "info"),
+                                        ("tunnelsense.json", "info")])
+def test_a_zip_bomb_is_refused_before_it_inflates(genuine, bomb, tmp_path, member, how):
+    members = _members(genuine["street"])
+    name = next(n for n in members if n.endswith(".npy")) if member == "npy" else member
+    del members[name]
+    path = tmp_path / "bomb.skops"
+    path.write_bytes(_zip(members, {name: bomb}))
+    assert path.stat().st_size < 3e6
+    out = tmp_path / "o.csv"
+    argv = {"detect": ["detect", "street", "--model", str(path), str(genuine["run"]),
+                       "--out", str(out), "--quiet"],
+            "info": ["info", str(path)], "load_model": ["load_model", str(path)]}[how]
+    done = subprocess.run([sys.executable, "-c", _PEAK, *argv], capture_output=True,
+                          text=True, timeout=300)
+    peak_kb, rc = map(int, done.stdout.split()[-2:])
+    assert peak_kb < 300 * 1024, f"peak {peak_kb / 1024:.0f} MB"
+    assert rc in (1, 2)
+    assert "UntrustedModelError" in done.stderr or "error:" in done.stderr
+    assert "inflate" in done.stderr and name in done.stderr
+    assert not out.exists()
+
+
+def _rewrite(path, out, edit):
+    members = _members(path)
+    members["schema.json"] = json.dumps(edit(json.loads(members["schema.json"]))).encode()
+    out.write_bytes(_zip(members))
+    return out
+
+
+def _steps(schema):
+    return schema["content"]["content"]["steps"]["content"]
+
+
+def _attrs(schema, index):
+    return _steps(schema)[index]["content"][1]["content"]["content"]
+
+
+def _json(value):
+    return {"__class__": "str", "__module__": "builtins", "__loader__": "JsonNode",
+            "content": json.dumps(value), "is_json": True}
+
+
+def _function_transformer(schema):
+    step = _steps(schema)[0]["content"][1]
+    step.update({"__class__": "FunctionTransformer",
+                 "__module__": "sklearn.preprocessing._function_transformer"})
+    return schema
+
+
+def _extra_step(schema):
+    _steps(schema).append(copy.deepcopy(_steps(schema)[0]))
+    return schema
+
+
+def _steps_int(schema):
+    schema["content"]["content"]["steps"]["content"] = [_json(1)]
+    return schema
+
+
+def _param(index, name, value):
+    def edit(schema):
+        attrs = _attrs(schema, index)
+        if name not in attrs:  # a new attribute: its key type too, as skops writes
+            dict_node = _steps(schema)[index]["content"][1]["content"]
+            dict_node["key_types"]["content"].append(
+                {"__class__": "str", "__module__": "builtins", "__loader__": "TypeNode"})
+        attrs[name] = _json(value)
+        return schema
+
+    return edit
+
+
+def _array_member(schema, members, name, array):
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    members[name] = buffer.getvalue()
+
+
+CASES = {
+    # kind, edit of the schema, what the refusal names
+    "function-transformer": ("street", _function_transformer, "FunctionTransformer"),
+    "extra-step": ("street", _extra_step, "steps"),
+    "steps=[1]": ("street", _steps_int, "steps"),
+    "max_distance=NaN": ("tunnel", _param(1, "max_distance", float("nan")),
+                         "max_distance"),
+    "row_stride=-1": ("tunnel", _param(0, "row_stride", -1), "row_stride"),
+    "cut=-1": ("street", _param(0, "cut", -1.0), "cut"),
+    "extra-attribute": ("street", _param(0, "payload_", 1), "payload_"),
+    "stump index": ("tunnel", _param(3, "n_features_in_", 10**6), "n_features_in_"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_model_that_is_not_exactly_the_detector_is_refused(genuine, tmp_path, case,
+                                                             capsys):
+    kind, edit, named = CASES[case]
+    crafted = _rewrite(genuine[kind], tmp_path / "crafted.skops", edit)
+    with pytest.raises(UntrustedModelError, match=named):
+        load_trusted_model(crafted, last_step=LAST[kind], command="x")
+    out = tmp_path / "out.txt"
+    source = genuine["tour" if kind == "tunnel" else "run"]
+    assert main(["detect", kind, "--model", str(crafted), str(source), "--out",
+                 str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert named in err and "internal error" not in err
+    assert not out.exists()
+
+
+def test_forged_fitted_arrays_are_refused(genuine, tmp_path):
+    members = _members(genuine["tunnel"])
+    schema = json.loads(members["schema.json"])
+    attrs = _attrs(schema, 1)  # the verifier
+    for name, array in (("centers_", np.zeros((3, 5))),
+                        ("center_scores_", np.zeros(7, dtype=np.int64)),
+                        ("negative_centers_", np.full((3, 1), np.inf))):
+        forged = dict(members)
+        _array_member(schema, forged, attrs[name]["file"], array)
+        path = tmp_path / f"{name}.skops"
+        path.write_bytes(_zip(forged))
+        with pytest.raises(UntrustedModelError, match=name):
+            load_trusted_model(path, last_step="motion", command="x")
+
+
+# --- crafted files that call code under skops 0.11-0.14 (the floor is 0.15) ---
+
+def _generator_node(schema_of_rng):
+    return schema_of_rng
+
+
+@pytest.fixture
+def probe(monkeypatch):
+    """A numpy.random attribute that records being called."""
+    calls = []
+    monkeypatch.setattr(np.random, "_tunnelsense_probe", lambda *a, **k: calls.append(a),
+                        raising=False)
+    return calls
+
+
+def test_a_random_generator_node_calling_numpy_random_is_refused(genuine, tmp_path,
+                                                                 probe):
+    """skops 0.11-0.14 call the bit generator name a file gives, with any name."""
+    import skops.io
+
+    from tunnelsense.tunnel import KMeansHistogramVerifier
+
+    base = save_model(KMeansHistogramVerifier(random_state=np.random.default_rng(0)),
+                      tmp_path / "rng.skops")
+
+    def smuggle(schema):
+        rng = schema["content"]["content"]["random_state"]
+        rng["content"]["bit_generator"]["content"]["bit_generator"]["content"] = (
+            json.dumps("_tunnelsense_probe"))
+        return schema
+
+    crafted = _rewrite(base, tmp_path / "crafted.skops", smuggle)
+    # the installed skops names it (0.14 reported nothing and called it)
+    assert "numpy.random._tunnelsense_probe" in skops.io.get_untrusted_types(
+        data=crafted.read_bytes())
+    with pytest.raises(UntrustedModelError, match="numpy.random._tunnelsense_probe"):
+        load_model(crafted)
+    # the same node in a detector's pipeline: refused by the strict reader as well
+    node = json.loads(_members(crafted)["schema.json"])["content"]["content"][
+        "random_state"]
+
+    def inject(schema):
+        _attrs(schema, 1)["random_state"] = node
+        return schema
+
+    tunnel = _rewrite(genuine["tunnel"], tmp_path / "tunnel.skops", inject)
+    with pytest.raises(UntrustedModelError, match="Generator"):
+        load_trusted_model(tunnel, last_step="motion", command="x")
+    assert probe == []
+
+
+def test_a_method_node_is_refused(genuine, tmp_path, probe):
+    """A bound method of a trusted estimator, placed where skops calls it (a dict's
+    key type)."""
+    def inject(schema):
+        est = _steps(schema)[0]["content"][1]
+        method = {"__class__": est["__class__"], "__module__": est["__module__"],
+                  "__loader__": "MethodNode",
+                  "content": {"obj": copy.deepcopy(est), "func": "set_params"}}
+        est["content"]["key_types"]["content"][0] = method
+        return schema
+
+    crafted = _rewrite(genuine["street"], tmp_path / "crafted.skops", inject)
+    with pytest.raises(UntrustedModelError, match="not trusted"):
+        load_model(crafted)
+    with pytest.raises(UntrustedModelError, match="MethodNode"):
+        load_trusted_model(crafted, last_step="cluster", command="x")
+
+
+# --- mutations of genuine schemas: a documented error, or the same detections ---
+
+#: Values no tunnelsense model holds for any parameter or fitted number (non-finite,
+#: beyond 2**53, a string where a number is, a list).
+_BAD_VALUES = [float("nan"), float("inf"), -float("inf"), 1e300, 10**20, -(10**20),
+               "x", [1, 2]]
+
+#: Shapes no documented fitted array has.
+_BAD_SHAPES = [(0,), (3,), (7, 3), (1, 1, 1)]
+
+
+def _json_paths(node, path=()):
+    """Paths of every JsonNode, array node and object node in a schema."""
+    if isinstance(node, dict):
+        if node.get("__loader__") in ("JsonNode", "NdArrayNode", "ObjectNode"):
+            yield path
+        for k, v in node.items():
+            yield from _json_paths(v, (*path, k))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from _json_paths(v, (*path, i))
+
+
+def _at(schema, path):
+    for p in path:
+        schema = schema[p]
+    return schema
+
+
+@st.composite
+def mutations(draw, schema):
+    paths = sorted(_json_paths(schema), key=repr)
+    path = draw(st.sampled_from(paths))
+    what = draw(st.sampled_from(["value", "type", "array", "drop"]))
+    detail = draw(st.one_of(st.sampled_from(_BAD_VALUES),
+                            st.sampled_from(["MSTClusterer", "PCCVerifier",
+                                             "ScanClusterer", "WeightedAdaBoost"])))
+    shape = draw(st.sampled_from(_BAD_SHAPES))
+    dtype = draw(st.sampled_from(["float64", "int64", "bool", "float32"]))
+    return path, what, detail, shape, dtype
+
+
+_MODULES = {"MSTClusterer": "tunnelsense.tunnel._clustering",
+            "PCCVerifier": "tunnelsense.tunnel._motion",
+            "ScanClusterer": "tunnelsense.street._detector",
+            "WeightedAdaBoost": "tunnelsense.tunnel._appearance"}
+
+
+def _mutate(members, mutation):
+    path, what, detail, shape, dtype = mutation
+    schema = json.loads(members["schema.json"])
+    node = _at(schema, path)
+    loader = node["__loader__"]
+    if what == "drop" and path and isinstance(path[-1], str) and path[-2] == "content":
+        del _at(schema, path[:-1])[path[-1]]
+    elif loader == "ObjectNode" or (what == "type" and isinstance(detail, str)
+                                    and detail in _MODULES):
+        name = detail if isinstance(detail, str) and detail in _MODULES else "PCCVerifier"
+        node.update({"__class__": name, "__module__": _MODULES[name]})
+    elif loader == "NdArrayNode" or what == "array":
+        if loader == "NdArrayNode":
+            buffer = io.BytesIO()
+            np.save(buffer, np.ones(shape, dtype=dtype))
+            members[node["file"]] = buffer.getvalue()
+        else:
+            node["content"] = json.dumps([1, 2])
+    else:
+        node["content"] = json.dumps(detail)
+    members["schema.json"] = json.dumps(schema).encode()
+    return members
+
+
+MUTATIONS = settings(max_examples=int(os.environ.get("TUNNELSENSE_FUZZ_EXAMPLES", 40)),
+                     deadline=None, suppress_health_check=list(HealthCheck))
+
+
+@pytest.mark.parametrize("kind", ["street", "tunnel"])
+def test_mutated_schemas_are_refused_or_detect_the_same(genuine, tmp_path_factory, kind):
+    members = _members(genuine[kind])
+    schema = json.loads(members["schema.json"])
+    folder = tmp_path_factory.mktemp("mutated")
+
+    @MUTATIONS
+    @given(mutations(schema))
+    def check(mutation):
+        path = folder / "m.skops"
+        path.write_bytes(_zip(_mutate(dict(members), mutation)))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ModelVersionWarning)
+                model = load_trusted_model(path, last_step=LAST[kind], command="x")
+        except InputFormatError as exc:  # UntrustedModelError is one
+            assert str(path) in str(exc)
+            return
+        assert _detections(model, genuine["X"][kind]) == genuine["detections"][kind], (
+            mutation)
+
+    check()
+
+
+def test_verifier_centres_off_their_grid_are_refused(genuine, tmp_path):
+    """Centres that do not lie on quantum_ would not give exact distances."""
+    members = _members(genuine["tunnel"])
+    schema = json.loads(members["schema.json"])
+    attrs = _attrs(schema, 1)  # the verifier
+    model = load_trusted_model(genuine["tunnel"], last_step="motion", command="x")
+    centers = model.named_steps["verifier"].centers_ + 1e-9
+    forged = dict(members)
+    _array_member(schema, forged, attrs["centers_"]["file"], centers)
+    path = tmp_path / "off-grid.skops"
+    path.write_bytes(_zip(forged))
+    with pytest.raises(UntrustedModelError, match="grid"):
+        load_trusted_model(path, last_step="motion", command="x")

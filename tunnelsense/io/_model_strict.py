@@ -1,0 +1,424 @@
+"""Reading a detector's model file strictly: an exact vocabulary, then the structure.
+
+The commands load only the two pipelines ``train tunnel`` and ``train street`` write,
+so they need not trust anything else.  :func:`load_detector` reads such a file
+without skops' general loader (and without its discovery of every scikit-learn
+estimator, which costs more than half a second): the schema may hold only the node
+kinds those pipelines are written with, each of an exact type,
+
+* ``ObjectNode`` of :class:`~sklearn.pipeline.Pipeline` or of a tunnelsense
+  estimator (:data:`~tunnelsense.io.TRUSTED_TYPES`), built with ``__new__`` and its
+  attribute dict (no ``__init__``, no ``__setstate__`` of ours runs);
+* ``DictNode`` (string keys), ``ListNode``, ``TupleNode`` of the builtins;
+* ``JsonNode`` holding a JSON string, boolean, null or a finite number within
+  2**53 (no parameter or count of a model is larger; NaN and infinities never);
+* ``NdArrayNode`` of a NumPy ``.npy`` member of a numeric or boolean dtype, read
+  with ``allow_pickle=False``,
+
+and anything else (a method, a function, a type other than ``str`` for a key, a
+random generator, a cached reference, an object array) refuses the file.  Then the
+model must be what the command expects: the pipeline's steps exactly the expected
+classes in the expected order (by type and name), every step's parameters valid by
+its own ``_parameter_constraints``, its attributes exactly its parameters and the
+fitted attributes its class documents, with their documented shapes and dtypes.
+Any deviation is an :class:`~tunnelsense.exceptions.UntrustedModelError` naming it,
+before a frame is read.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import numbers
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from tunnelsense.exceptions import UntrustedModelError
+from tunnelsense.io._model_file import check_sizes
+
+__all__ = ["EXPECTED_STEPS", "check_detector", "read_strict"]
+
+#: The steps of each detector's pipeline: (name, class name), ``None`` for a step
+#: that may be ``"passthrough"`` (the tunnel detector's optional verifier).
+EXPECTED_STEPS = {
+    "tunnel": [
+        ("keypoints", "IntensityKeypointSampler"),
+        ("verifier", "KMeansHistogramVerifier", None),
+        ("clusters", "MSTClusterer"),
+        ("appearance", "WeightedAdaBoost"),
+        ("tracks", "TrajectoryLinker"),
+        ("motion", "PCCVerifier"),
+    ],
+    "street": [("cluster", "ScanClusterer")],
+}
+
+_MAX_DEPTH = 24
+
+
+def _classes() -> dict:
+    """Exact type name -> class, for the types a detector's file may build."""
+    from sklearn.pipeline import Pipeline
+
+    from tunnelsense.street._detector import ScanClusterer
+    from tunnelsense.tunnel import (
+        IntensityKeypointSampler,
+        KMeansHistogramVerifier,
+        MSTClusterer,
+        PCCVerifier,
+        TrajectoryLinker,
+        WeightedAdaBoost,
+    )
+
+    classes = [Pipeline, ScanClusterer, IntensityKeypointSampler,
+               KMeansHistogramVerifier, MSTClusterer, PCCVerifier, TrajectoryLinker,
+               WeightedAdaBoost]
+    return {f"{c.__module__}.{c.__qualname__}": c for c in classes}
+
+
+class _Reader:
+    def __init__(self, path, zf):
+        self.path, self.zf, self.classes = path, zf, _classes()
+
+    def refuse(self, where, what):
+        raise UntrustedModelError(f"{self.path}: {where}: {what}; tunnelsense models "
+                                  "never hold that, refusing to load it")
+
+    def build(self, node, where, depth=0):
+        if depth > _MAX_DEPTH:
+            self.refuse(where, f"nested deeper than {_MAX_DEPTH} levels")
+        if not isinstance(node, dict):
+            self.refuse(where, f"a {type(node).__name__} where a node was expected")
+        loader, module, name = (node.get("__loader__"), node.get("__module__"),
+                                node.get("__class__"))
+        kind = (loader, module, name)
+        if kind == ("JsonNode", "builtins", "str"):
+            return self.json_value(node, where)
+        if kind in (("ListNode", "builtins", "list"), ("TupleNode", "builtins", "tuple")):
+            items = node.get("content")
+            if not isinstance(items, list):
+                self.refuse(where, f"a {loader} without a list of items")
+            built = [self.build(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(items)]
+            return built if name == "list" else tuple(built)
+        if kind == ("DictNode", "builtins", "dict"):
+            return self.dict_value(node, where, depth)
+        if kind == ("NdArrayNode", "numpy", "ndarray"):
+            return self.array(node, where)
+        if loader == "ObjectNode" and f"{module}.{name}" in self.classes:
+            cls = self.classes[f"{module}.{name}"]
+            attrs = self.build(node.get("content"), f"{where}.{name}", depth + 1)
+            if not isinstance(attrs, dict):
+                self.refuse(where, f"{name} without a dict of attributes")
+            attrs.pop("_sklearn_version", None)  # versions: the metadata member
+            obj = cls.__new__(cls)
+            obj.__dict__.update(attrs)
+            return obj
+        self.refuse(where, f"a {loader} of {module}.{name}")
+
+    def json_value(self, node, where):
+        content = node.get("content")
+        if not isinstance(content, str) or len(content) > 4096:
+            self.refuse(where, "a JSON node without a short JSON text")
+        try:
+            value = json.loads(content)
+        except (ValueError, RecursionError):
+            self.refuse(where, "a JSON node that is not JSON")
+        if value is not None and not isinstance(value, bool | int | float | str):
+            self.refuse(where, f"a JSON {type(value).__name__} (only numbers, strings, "
+                        "booleans and null)")
+        if isinstance(value, int | float) and not abs(value) <= 2**53:
+            self.refuse(where, f"the number {value!r} (non-finite, or beyond 2**53)")
+        return value
+
+    def dict_value(self, node, where, depth):
+        content, key_types = node.get("content"), node.get("key_types")
+        if not isinstance(content, dict) or not isinstance(key_types, dict):
+            self.refuse(where, "a DictNode without content and key types")
+        types = key_types.get("content")
+        if (key_types.get("__loader__") != "ListNode" or not isinstance(types, list)
+                or len(types) != len(content)):
+            self.refuse(where, "a DictNode whose key types are not one list entry a key")
+        for t in types:
+            if not isinstance(t, dict) or (t.get("__loader__"), t.get("__module__"),
+                                           t.get("__class__")) != ("TypeNode", "builtins",
+                                                                   "str"):
+                self.refuse(where, "a dict key of another type than str")
+        return {k: self.build(v, f"{where}.{k}", depth + 1) for k, v in content.items()}
+
+    def array(self, node, where):
+        member = node.get("file")
+        if node.get("type") != "numpy" or not isinstance(member, str):
+            self.refuse(where, "an array not stored as a .npy member (an object array)")
+        try:
+            raw = self.zf.read(member)
+            array = np.load(io.BytesIO(raw), allow_pickle=False)
+        except KeyError:
+            self.refuse(where, f"an array member {member!r} that is not in the file")
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+            self.refuse(where, f"an array member {member!r} that NumPy cannot read "
+                        f"({exc})")
+        if not isinstance(array, np.ndarray) or array.dtype.kind not in "biuf":
+            self.refuse(where, f"an array of dtype {getattr(array, 'dtype', '?')}")
+        return array
+
+
+_PLAIN = {("JsonNode", "builtins", "str"), ("ListNode", "builtins", "list"),
+          ("TupleNode", "builtins", "tuple"), ("DictNode", "builtins", "dict"),
+          ("NdArrayNode", "numpy", "ndarray"), ("TypeNode", "builtins", "str")}
+
+
+def _refuse_foreign_nodes(path, schema, classes) -> None:
+    """Name every node of the schema outside the vocabulary, before building any."""
+    foreign, stack = set(), [schema]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            if "__loader__" in item:
+                kind = (item.get("__loader__"), item.get("__module__"),
+                        item.get("__class__"))
+                if kind not in _PLAIN and not (
+                        kind[0] == "ObjectNode" and f"{kind[1]}.{kind[2]}" in classes):
+                    foreign.add(f"{kind[1]}.{kind[2]} ({kind[0]})")
+            stack.extend(item.values())
+        elif isinstance(item, list):
+            stack.extend(item)
+    if foreign:
+        raise UntrustedModelError(
+            f"{path}: names types that are not trusted (they could run code when "
+            f"loaded; tunnelsense models never hold them): {', '.join(sorted(foreign))}"
+            "; refusing to load it")
+
+
+def read_strict(path, data: bytes, *, max_bytes=None):
+    """Build the model in ``data`` (the verified bytes of ``path``) from the exact
+    vocabulary of the module's docstring."""
+    path = Path(path)
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            check_sizes(path, zf, max_bytes)
+            schema = json.loads(zf.read("schema.json"))
+            if not isinstance(schema, dict) or schema.get("protocol") not in (1, 2):
+                raise UntrustedModelError(f"{path}: schema.json is not a skops schema "
+                                          "of protocol 1 or 2")
+            reader = _Reader(path, zf)
+            _refuse_foreign_nodes(path, schema, reader.classes)
+            return reader.build(schema, "model")
+    except UntrustedModelError:
+        raise
+    except (zipfile.BadZipFile, KeyError, ValueError, RecursionError, OSError,
+            EOFError, NotImplementedError) as exc:
+        raise UntrustedModelError(f"{path}: malformed model file "
+                                  f"({type(exc).__name__}: {exc})") from None
+
+
+# ---------------------------------------------------------------------------
+# structure, parameters and fitted attributes
+
+
+def _int(value, low=0):
+    return (isinstance(value, numbers.Integral) and not isinstance(value, bool)
+            and value >= low)
+
+
+def _finite(value):
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _array(est, name, kinds, shape):
+    """The fitted array ``name`` of dtype kind in ``kinds`` and ``shape`` (None: any)."""
+    value = getattr(est, name)
+    if not isinstance(value, np.ndarray) or value.dtype.kind not in kinds:
+        return f"{name} must be an array of kind {kinds!r}"
+    if len(shape) != value.ndim or any(s is not None and s != n
+                                       for s, n in zip(shape, value.shape, strict=True)):
+        return f"{name} has shape {value.shape}, expected {shape}"
+    if value.dtype.kind == "f" and not np.isfinite(value).all():
+        return f"{name} holds non-finite values"
+    return None
+
+
+def _check_keypoints(est):
+    try:
+        kind = np.dtype(est.pixel_dtype_).kind
+    except TypeError:
+        kind = None
+    if not isinstance(est.pixel_dtype_, str) or kind not in "uif":
+        return "pixel_dtype_ must name a numeric NumPy dtype"
+    if not (_finite(est.low_) and _finite(est.high_) and est.low_ <= est.high_):
+        return "low_ and high_ must be finite with low_ <= high_"
+    return None
+
+
+def _check_verifier(est):
+    n = est.n_features_in_
+    if not _int(n, 1) or n != int(est._n_descriptor):
+        return "n_features_in_ must be the descriptor length of the parameters"
+    if not _int(est.n_centers_, 1):
+        return "n_centers_ must be a positive integer"
+    k = est.n_centers_
+    for name, kinds, shape in (
+        ("positive_centers_", "f", (None, n)), ("negative_centers_", "f", (None, n)),
+        ("centers_", "f", (k, n)), ("center_scores_", "f", (k,)),
+    ):
+        if problem := _array(est, name, kinds, shape):
+            return problem
+    q = est.quantum_
+    if not (_finite(q) and q > 0 and math.frexp(q)[0] == 0.5):
+        return "quantum_ must be a positive power of two"
+    for name in ("positive_centers_", "negative_centers_", "centers_"):
+        grid = getattr(est, name) / q
+        if not np.array_equal(grid, np.rint(grid)):
+            return f"{name} must lie on the grid of quantum_"
+    if not (_int(est.n_positive_) and _int(est.n_negative_)):
+        return "n_positive_ and n_negative_ must be counts"
+    return None
+
+
+def _check_boost(est):
+    n = est.n_features_in_
+    if not _int(n, 1) or n != est._n_features():
+        return "n_features_in_ must be the feature count of the parameters"
+    m = getattr(est.stump_features_, "shape", (0,))[0]
+    if m < 1:
+        return "stump_features_ must hold at least one stump"
+    for name, kinds, shape in (
+        ("classes_", "biu", (2,)), ("stump_features_", "iu", (m,)),
+        ("stump_thresholds_", "f", (m,)), ("_left", "iu", (m,)), ("_right", "iu", (m,)),
+        ("stump_weights_", "f", (m,)), ("stump_errors_", "f", (m,)),
+        ("stump_classes_", "iu", (m, 2)),
+    ):
+        if problem := _array(est, name, kinds, shape):
+            return problem
+    if not ((est.stump_features_ >= 0) & (est.stump_features_ < n)).all():
+        return "stump_features_ must index the features"
+    for name in ("_left", "_right", "stump_classes_"):
+        if not ((getattr(est, name) >= 0) & (getattr(est, name) < 2)).all():
+            return f"{name} must index classes_"
+    if not (np.array_equal(est.stump_classes_[:, 0], est._left)
+            and np.array_equal(est.stump_classes_[:, 1], est._right)):
+        return "stump_classes_ must be _left and _right side by side"
+    if not (_finite(est._total_weight)
+            and math.isclose(est._total_weight, float(est.stump_weights_.sum()),
+                             rel_tol=1e-9, abs_tol=1e-12)):
+        return "_total_weight must be the sum of stump_weights_"
+    if not (_int(est.n_clusters_fit_) and _int(est.n_positive_fit_)):
+        return "n_clusters_fit_ and n_positive_fit_ must be counts"
+    return None
+
+
+def _check_frames_fit(est):
+    return None if _int(est.n_frames_fit_) else "n_frames_fit_ must be a count"
+
+
+def _check_scan(est):
+    if problem := _array(est, "region_edges_", "f", (2,)):
+        return problem
+    if not est.region_edges_[0] <= est.region_edges_[1]:
+        return "regions must be two increasing depths"
+    if not (len(est.labels_) == 3 and all(isinstance(s, str) for s in est.labels_)):
+        return "region_labels must be three strings"
+    if not (est.min_height < est.max_height and est.min_length < est.max_length):
+        return "min_height < max_height and min_length < max_length must hold"
+    if not np.array_equal(est.region_edges_, np.asarray(est.regions, dtype=float)):
+        return "region_edges_ must be the regions parameter"
+    if est.labels_ != tuple(est.region_labels):
+        return "labels_ must be the region_labels parameter"
+    return None
+
+
+#: The methods with which the estimators' ``fit`` checks what their constraints
+#: cannot express (pairs, ranges).
+_FIT_CHECKS = ("_check_settings", "_check_range", "_check_region_params")
+
+#: Per class: its fitted attributes (documented in its docstring) and their check.
+_FITTED = {
+    "IntensityKeypointSampler": (("pixel_dtype_", "low_", "high_", "n_frames_fit_"),
+                                 lambda e: _check_frames_fit(e) or _check_keypoints(e)),
+    "KMeansHistogramVerifier": (
+        ("positive_centers_", "negative_centers_", "center_scores_", "centers_",
+         "n_centers_", "quantum_", "n_positive_", "n_negative_",
+         "n_features_in_", "n_frames_fit_"),
+        lambda e: _check_frames_fit(e) or _check_verifier(e)),
+    "MSTClusterer": (("n_frames_fit_",), _check_frames_fit),
+    "WeightedAdaBoost": (
+        ("classes_", "stump_features_", "stump_thresholds_", "_left", "_right",
+         "stump_weights_", "stump_errors_", "stump_classes_", "_total_weight",
+         "n_features_in_", "n_clusters_fit_", "n_positive_fit_"), _check_boost),
+    "TrajectoryLinker": (("n_frames_fit_",), _check_frames_fit),
+    "PCCVerifier": (("n_frames_fit_",), _check_frames_fit),
+    "ScanClusterer": (("region_edges_", "labels_"), _check_scan),
+}
+
+
+def _check_step(path, where, est):
+    name = type(est).__name__
+    params = set(type(est)._get_param_names())
+    fitted, check = _FITTED[name]
+    found = set(vars(est))
+    if found != params | set(fitted):
+        extra = sorted(found - params - set(fitted))
+        missing = sorted((params | set(fitted)) - found)
+        raise UntrustedModelError(
+            f"{path}: {where} ({name}): "
+            + (f"unexpected attributes {', '.join(extra)}" if extra else "")
+            + ("; " if extra and missing else "")
+            + (f"missing attributes {', '.join(missing)}" if missing else "")
+            + " (a model of another tunnelsense version, or edited); refusing to load it"
+        )
+    try:
+        est._validate_params()
+        for method in _FIT_CHECKS:  # what fit checks beyond the constraints
+            if hasattr(est, method):
+                getattr(est, method)()
+    except (ValueError, TypeError) as exc:  # InvalidParameterError is both
+        raise UntrustedModelError(f"{path}: {where} ({name}): invalid parameter: "
+                                  f"{exc}; refusing to load it") from None
+    try:
+        problem = check(est)
+    except (AttributeError, TypeError, ValueError) as exc:
+        problem = f"{type(exc).__name__}: {exc}"
+    if problem:
+        raise UntrustedModelError(f"{path}: {where} ({name}): {problem}; refusing to "
+                                  "load it")
+
+
+def check_detector(model, kind, path):
+    """Refuse a model that is not exactly the ``kind`` detector's fitted pipeline."""
+    from sklearn.pipeline import Pipeline
+
+    path = Path(path)
+    if type(model) is not Pipeline:
+        raise UntrustedModelError(f"{path}: holds a {type(model).__name__}, not the "
+                                  f"{kind} detector's Pipeline")
+    expected_keys = set(Pipeline._get_param_names())
+    if set(vars(model)) != expected_keys:
+        raise UntrustedModelError(
+            f"{path}: the Pipeline's attributes are {sorted(vars(model))}, expected "
+            f"{sorted(expected_keys)}; refusing to load it")
+    if model.memory is not None or not isinstance(model.verbose, bool) or getattr(
+            model, "transform_input", None) is not None:
+        raise UntrustedModelError(f"{path}: the Pipeline's memory, verbose or "
+                                  "transform_input is not what tunnelsense writes")
+    steps, expected = model.steps, EXPECTED_STEPS[kind]
+    if (not isinstance(steps, list) or len(steps) != len(expected)
+            or not all(isinstance(s, tuple) and len(s) == 2 for s in steps)):
+        raise UntrustedModelError(
+            f"{path}: the Pipeline's steps are not the {len(expected)} (name, "
+            f"estimator) pairs of the {kind} detector; refusing to load it")
+    for index, ((name, est), spec) in enumerate(zip(steps, expected, strict=True)):
+        where = f"step {index} {name!r}"
+        optional = len(spec) == 3
+        if name != spec[0]:
+            raise UntrustedModelError(f"{path}: {where}: expected the step "
+                                      f"{spec[0]!r} ({spec[1]}) there")
+        if optional and isinstance(est, str) and est == "passthrough":
+            continue
+        if type(est).__name__ != spec[1] or type(est) not in _classes().values():
+            raise UntrustedModelError(
+                f"{path}: {where}: a {type(est).__module__}.{type(est).__name__}, "
+                f"expected tunnelsense's {spec[1]}; refusing to load it")
+        _check_step(path, where, est)
+    return model
