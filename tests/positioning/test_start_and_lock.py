@@ -226,6 +226,7 @@ def test_unlocked_rows_are_checked(tmp_path):
         read_positions(tmp_path / "q.csv", sigma=True)
 
 
+@pytest.mark.slow
 def test_a_short_window_changes_nothing_online_and_smooths_with_a_lag():
     """The stream holds ``window`` frames: the filter's positions are the same with
     any window that holds a trajectory; the fixed-lag smoother stays close to the
