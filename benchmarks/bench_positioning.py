@@ -10,6 +10,14 @@ Two parts:
   noise); the timing error of its passes is printed beside the real detector's.
 * ``--rendered``: a 2-km tour rendered, the real detector trained on another tour
   and run on it, then the positioner (end to end, about 2 minutes).
+* ``--memory``: the online stream's time per frame and memory on tours of 3k, 30k
+  and 300k frames (``tracemalloc``: what the stream holds at the end and at its
+  peak, the final rows drained every 1,024 frames as ``position --model`` does).
+* ``--lock``: tours that start mid-tunnel on maps with irregular gaps (150-250 m),
+  with no start: the passes until the lock, wrong locks, the error after the lock;
+  and with a start 10 m off (sigma 20 m).
+* ``--speed``: ``position --model`` beside ``detect tunnel`` on one rendered tour,
+  alternating in one run (``--frames``, default 3,000), medians and their ratio.
 
 For each setting, the worst over ``--seeds`` tours: the maximum error of dead
 reckoning (DR), of the online filter (what is known at each frame), of the online
@@ -155,13 +163,183 @@ def rendered(seed):
           f"{timing.std():.2f} m ({len(timing)} passes)")
 
 
+def _stream_run(pos, rows, frames, tracks, heights):
+    """Push a tour through a fresh stream; drain it every 1,024 frames."""
+    stream, n_fixes = pos.start_stream(), 0
+    for k, (f, t, v, a, b) in enumerate(rows, 1):
+        stream._advance(f, t, v)
+        if b > a:
+            stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])
+        stream._finish(f)
+        if k % 1024 == 0:
+            stream.drain()
+            n_fixes += int(stream.drain_fixes()["accepted"].sum())
+    return stream, n_fixes
+
+
+def memory(sizes=(3_000, 30_000, 300_000)):
+    """Time per frame and memory of the online stream, flat in the tour's length."""
+    import tracemalloc
+
+    print("stream time (median of 3) and memory held at the end and at the peak")
+    print(f"{'frames':>8} {'us/frame':>9} {'held KB':>8} {'peak KB':>8} "
+          f"{'fixes':>6}")
+    for n in sizes:
+        distance = n / 30.0 * 22.0  # 80 km/h
+        truth = make_tunnel_kinematics(distance, speed_kmh=80.0, random_state=0)
+        _, odometry, indicators = make_tunnel_odometry(truth, random_state=0)
+        det = simulate_indicator_detections(truth, random_state=0)
+        odometry = odometry.iloc[:n]
+        det = det[det["frame"] <= n]
+        pos = TunnelPositioner().fit(indicators)
+        frames = det["frame"].to_numpy()
+        starts = np.searchsorted(frames, odometry["frame"].to_numpy()).tolist()
+        ends = np.searchsorted(frames, odometry["frame"].to_numpy(), "right").tolist()
+        tracks, heights = det["id"].tolist(), det["bb_height"].tolist()
+        frames = frames.tolist()
+        rows = list(zip(odometry["frame"].tolist(), odometry["stamp"].tolist(),
+                        odometry["speed"].tolist(), starts, ends, strict=True))
+
+        args = (pos, rows, frames, tracks, heights)
+        times = []
+        for _ in range(3):  # time without tracemalloc (it slows allocation)
+            t0 = time.perf_counter()
+            _stream_run(*args)
+            times.append(time.perf_counter() - t0)
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        stream, n_fixes = _stream_run(*args)
+        held, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        stream.close()
+        print(f"{n:>8} {1e6 * np.median(times) / n:>9.1f} {(held - base) / 1024:>8.0f} "
+              f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
+
+
+def lock(seeds):
+    """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
+    print(f"lock-on, irregular map (gaps 150-250 m), {len(seeds)} tours (seeds "
+          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error 1-4 %")
+    passes, wrong, err, never = [], 0, [], 0
+    start_rows = []
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
+                                       indicator_spacing_m=(150.0, 250.0),
+                                       random_state=seed)
+        scale = rng.choice([-1, 1]) * rng.uniform(0.01, 0.04)
+        positions, odometry, indicators = make_tunnel_odometry(
+            truth, scale_error=scale, random_state=seed)
+        det = simulate_indicator_detections(truth, random_state=seed)
+        est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
+            det, odometry, return_fixes=True)
+        e = position_errors(positions, est, odometry, indicators)
+        if e["lock"] is None:
+            never += 1
+            continue
+        # the passes the lock-on saw (the last one may be just ahead of the camera)
+        passes.append(int(fixes["reason"].str.contains("lock").sum()))
+        wrong += e["max"] > 50.0
+        err.append(e["max"])
+        s0 = positions["chainage"].iloc[0]
+        for smooth in (False, True):
+            est, fixes = TunnelPositioner(
+                initial_chainage=s0 + 10.0, initial_sigma=20.0, smooth=smooth).fit(
+                indicators).predict(det, odometry, return_fixes=True)
+            e = position_errors(positions, est, odometry, indicators)
+            kept = fixes[fixes["accepted"]].sort_values("pass_frame")
+            first, first_id = kept["pass_frame"].iloc[0], kept["indicator_id"].iloc[0]
+            after = est["frame"].to_numpy() > first
+            err_after = np.abs(est["chainage"] - positions["chainage"]).to_numpy()[after]
+            start_rows.append((smooth, max(abs(p["error"]) for p in e["passes"]
+                                           if p["chainage"] > kept[
+                                               "indicator_chainage"].iloc[0]
+                                           and p["id"] != first_id),
+                               err_after.max(), e["dead_reckoning"]["max"], e["max"]))
+    passes = np.asarray(passes)
+    print(f"  locked: {len(passes)} of {len(seeds)}; wrong locks {wrong}; passes seen "
+          f"until the lock: " + ", ".join(f"{k}: {np.sum(passes == k)}"
+                                   for k in range(1, passes.max() + 1)))
+    print(f"  largest error after the lock: {max(err):.2f} m")
+    print("start 10 m off (sigma 20 m), the same tours:")
+    for smooth in (False, True):
+        rows = [r for r in start_rows if r[0] == smooth]
+        worst_pass = max(r[1] for r in rows)
+        ratio = min(r[3] / r[2] for r in rows)
+        ratios = np.array([r[3] / r[2] for r in rows])
+        print(f"  {'smoothed' if smooth else 'online  '}: worst error at a pass after "
+              f"the first {worst_pass:.2f} m; largest error after the first pass "
+              f"{max(r[2] for r in rows):.2f} m, at least {ratio:.1f}x below dead "
+              f"reckoning ({np.mean(ratios >= 10):.0%} of tours 10x or more); largest "
+              f"error anywhere {max(r[4] for r in rows):.2f} m")
+
+
+def speed(n_frames, repeats=3, seed=0):
+    """``position --model`` beside ``detect tunnel`` on one tour, in one run."""
+    from tunnelsense._cli import main as cli
+    from tunnelsense.datasets import make_tunnel_tour
+    from tunnelsense.io import write_tour
+
+    root = Path(tempfile.mkdtemp(prefix="bench-position-speed-"))
+    write_tour(make_tunnel_tour(600, random_state=seed + 100), root / "train")
+    write_tour(make_tunnel_tour(n_frames, random_state=seed, first_indicator_m=60.0,
+                                speed_kmh=(80.0, 100.0)), root / "tour")
+    model = str(root / "m.skops")
+    cli(["train", "tunnel", str(root / "train"), "--model", model, "--quiet",
+         "--jobs", "1"])
+    tour = str(root / "tour")
+    commands = {
+        "detect tunnel": ["detect", "tunnel", "--model", model, tour, "--out",
+                          str(root / "r.txt"), "--quiet", "--force"],
+        "position --model": ["position", tour, "--model", model, "--out",
+                             str(root / "p.csv"), "--quiet", "--force"],
+    }
+    times = {k: [] for k in commands}
+    cpu = {k: [] for k in commands}
+    for _ in range(repeats):  # alternating, so both see the same machine load
+        for name, args in commands.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            assert cli(args) == 0
+            times[name].append(time.perf_counter() - t0)
+            cpu[name].append(time.process_time() - c0)
+    print(f"{n_frames} frames, {repeats} runs each, alternating (wall and CPU time of "
+          "the process, reader threads included):")
+    for what, table in (("wall", times), ("CPU", cpu)):
+        med = {k: float(np.median(v)) for k, v in table.items()}
+        for name, v in table.items():
+            print(f"  {what:4} {name:17} median {med[name]:6.2f} s  "
+                  f"({', '.join(f'{t:.2f}' for t in v)})")
+        pairs = np.divide(table["position --model"], table["detect tunnel"])
+        print(f"  {what:4} ratio position --model / detect tunnel: "
+              f"{med['position --model'] / med['detect tunnel']:.3f} (of medians); "
+              f"median of the pairs {np.median(pairs):.3f} "
+              f"({', '.join(f'{r:.3f}' for r in pairs)})")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--rendered", action="store_true",
                         help="also a rendered 2-km tour with the real detector")
     parser.add_argument("--only-rendered", action="store_true")
+    parser.add_argument("--memory", action="store_true", help="only the stream's "
+                        "time and memory from 3k to 300k frames")
+    parser.add_argument("--lock", action="store_true", help="only lock-on and a start "
+                        "10 m off, on --seeds tours from seed 1000")
+    parser.add_argument("--speed", action="store_true", help="only position --model "
+                        "beside detect tunnel on one rendered tour")
+    parser.add_argument("--frames", type=int, default=3000)
+    parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    if args.speed:
+        speed(args.frames, args.repeats)
+        return
+    if args.memory:
+        memory()
+        return
+    if args.lock:
+        lock(list(range(1000, 1000 + args.seeds)))
+        return
     if not args.only_rendered:
         statistical(list(range(args.seeds)))
     if args.rendered or args.only_rendered:

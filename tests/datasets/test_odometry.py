@@ -142,3 +142,34 @@ def test_statistical_detections_follow_the_pinhole_model():
     depth = 100.0 - s[one["frame"].to_numpy() - 1]
     np.testing.assert_allclose(one["bb_height"], 800.0 / depth)
     assert depth.min() >= 9.3 and one["bb_height"].min() >= 12.0
+
+
+def test_a_tour_started_mid_tunnel_on_an_irregular_map(global_random_seed):
+    """Chainages are the tunnel's: the tour starts 1 km in; gaps drawn from a range."""
+    truth = make_tunnel_kinematics(2000.0, start_chainage_m=1000.0,
+                                   indicator_spacing_m=(150.0, 250.0),
+                                   random_state=global_random_seed)
+    regular = make_tunnel_kinematics(2000.0, random_state=global_random_seed)
+    s = np.asarray(truth.chainage)
+    # the same motion, shifted by the start
+    np.testing.assert_allclose(s - 1000.0, regular.chainage, atol=1e-9)
+    gaps = np.diff(truth.indicator_chainage)
+    assert gaps.min() >= 150.0 and gaps.max() <= 250.0 and gaps.std() > 15.0
+    # the map covers the tunnel behind the start and 300 m past the end
+    assert truth.indicator_chainage[0] < 270.0
+    assert s[-1] < truth.indicator_chainage[-1] <= s[-1] + 300.0
+    positions, odometry, indicators = make_tunnel_odometry(
+        truth, scale_error=0.0, speed_bias=0.0, speed_noise=0.0)
+    assert positions["chainage"].iloc[0] == 1000.0
+    np.testing.assert_allclose(dead_reckoning(odometry, initial_chainage=1000.0), s,
+                               atol=1e-6)
+    # signs behind the start are never seen; each one ahead passes where the map says
+    det = simulate_indicator_detections(truth, box_noise=0.0, random_state=0)
+    seen = indicators.set_index("id").loc[sorted(set(det["id"])), "chainage"]
+    assert seen.min() > 1000.0
+    for oid, track in det.groupby("id"):
+        where = s[track["frame"].to_numpy() - 1]
+        passed, _ = estimate_pass(where, track["bb_height"].to_numpy())
+        assert passed == pytest.approx(seen[oid], abs=1e-6)
+    with pytest.raises(ValueError, match="indicator_spacing_m"):
+        make_tunnel_kinematics(100.0, indicator_spacing_m=(250.0, 150.0))

@@ -104,7 +104,10 @@ def test_streaming_equals_batch_and_is_immediate(global_random_seed):
             assert out[0] == f  # this frame's position, at once
             online.append(out)
         got = stream.close()
-        pd.testing.assert_frame_equal(got, batch)
+        # with smooth: the stream's fixed-lag smoother (its window holds this tour)
+        # against the whole-tour smoother, the same estimate to rounding
+        pd.testing.assert_frame_equal(got, batch, rtol=0, atol=0 if not smooth
+                                      else 1e-4)
         if not smooth:
             pd.testing.assert_frame_equal(pd.DataFrame(online, columns=got.columns),
                                           batch)
@@ -123,7 +126,10 @@ def test_late_detections_are_delayed_measurements(global_random_seed):
         late = det[det["frame"] == f - lag] if i >= lag else None
         stream.push(f, t, v, w, late, until=f - lag)
     stream.add_detections(det[det["frame"] > frames[-1] - lag])
-    pd.testing.assert_frame_equal(stream.close(), batch)
+    # a fix known after its pass (here) or before it (in the batch: the sign left
+    # the image a few metres ahead) is applied at another frame: the process noise
+    # over those metres is left out, a fraction of a millimetre
+    pd.testing.assert_frame_equal(stream.close(), batch, rtol=0, atol=1e-3)
     fixed = stream.fixes["accepted"].sum()
     assert fixed >= 3
 
@@ -131,12 +137,21 @@ def test_late_detections_are_delayed_measurements(global_random_seed):
 def test_without_scale_estimation_the_drift_stays():
     _, positions, odometry, indicators, det = _tour(0)
     s = positions["chainage"].to_numpy()
-    fixed = TunnelPositioner(estimate_scale=False).fit(indicators).predict(det, odometry)
+    fixed = TunnelPositioner(estimate_scale=False, relock_after=0).fit(
+        indicators).predict(det, odometry)
     scaled = TunnelPositioner().fit(indicators).predict(det, odometry)
     tail = s > 1000
     e_fixed = np.abs(fixed["chainage"].to_numpy() - s)[tail].max()
     e_scaled = np.abs(scaled["chainage"].to_numpy() - s)[tail].max()
     assert e_fixed > 3.0 > 1.0 > e_scaled  # 3 % of 200 m between signs
+    # the gate rejects the fixes of the drifting filter; after three in a row it
+    # drops its position rather than write a drifting one (the map is periodic:
+    # there is nothing to lock on to again)
+    relock = TunnelPositioner(estimate_scale=False).fit(indicators)
+    got, fixes = relock.predict(det, odometry, return_fixes=True)
+    assert fixes["reason"].str.startswith("outside the gate").sum() >= 3
+    assert got["locked"].iloc[0] and not got["locked"].iloc[-1]
+    assert got.loc[~got["locked"], "chainage"].isna().all()
 
 
 def test_estimate_pass_is_exact_on_the_pinhole_model():

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import argparse
 import json
+import math
 import time
 from pathlib import Path
 
@@ -20,13 +22,63 @@ def _cmd_position(args) -> int:
     positions, fixes = position_tour(
         args.tour, args.out, model=model, results=args.results,
         odometry=args.odometry, indicator_map=args.map, smooth=args.smooth,
+        start_chainage=args.start_chainage, start_sigma=args.start_sigma,
+        odometry_scale=args.odometry_scale,
+        odometry_scale_sigma=args.odometry_scale_sigma,
         overwrite=args.force, inputs=[args.model, *common.key_files(args)],
         colour=common.colour(args),
+        n_threads=args.jobs,
         progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
     print(f"wrote {args.out}: {len(positions)} frames, {kept} of {len(fixes)} "
           f"trajectories gave a position fix ({time.perf_counter() - start:.1f} s)")
+    print(fixes.attrs.get("lock_status", ""))
+    locked = positions[positions["locked"]]
+    if len(locked):
+        last = locked.iloc[-1]
+        if len(locked) < len(positions):
+            print(f"{len(positions) - len(locked)} frames before the lock have no "
+                  "chainage (locked=false)")
+        print(f"odometry scale at the end: {last['scale']:.5f} +- "
+              f"{last['scale_sigma']:.5f} (start the next tunnel with it: "
+              f"--odometry-scale {last['scale']:.5f} --odometry-scale-sigma "
+              f"{max(last['scale_sigma'], 1e-5):.5f})")
+    else:
+        print("no frame has a chainage (locked=false everywhere)")
     return 0
+
+
+def _start(text):
+    """``--start-chainage``: metres, or ``unknown``."""
+    if text.strip().lower() in ("unknown", "none"):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a chainage in metres or 'unknown'; got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite chainage; got {text!r}")
+    return value
+
+
+def _positive(text):
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
+    return value
+
+
+def _scale(text):
+    value = _positive(text)
+    if not 0.5 <= value <= 2.0:
+        raise argparse.ArgumentTypeError(
+            f"expected a scale factor between 0.5 and 2 (true / odometry distance); "
+            f"got {text!r}")
+    return value
 
 
 def _cmd_evaluate_position(args) -> int:
@@ -75,8 +127,27 @@ def register_top(sub) -> None:
         p, group=source, help_model="model written by 'train tunnel' (detect online)")
     source.add_argument("--results", metavar="TXT", help="results file of 'detect tunnel'")
     p.add_argument("--out", required=True, metavar="POS.csv", help="file to write")
-    p.add_argument("--smooth", action="store_true", help="offline: smooth with every "
-                   "fix (default: what was known at each frame)")
+    p.add_argument("--smooth", action="store_true", help="smooth: with --results over "
+                   "the whole tour (offline), with --model by a fixed-lag smoother "
+                   "(rows released some seconds late); default: what was known at "
+                   "each frame")
+    p.add_argument("--start-chainage", type=_start, default=0.0, metavar="M",
+                   help="chainage of the first frame (m), e.g. from GPS before the "
+                   "portal; 'unknown' locks on to the map from the spacing of the "
+                   "indicators passed (rows before the lock: locked=false, no "
+                   "chainage; a map with evenly spaced indicators cannot be locked on "
+                   "to). Default 0: the tour starts at the map's chainage 0")
+    p.add_argument("--start-sigma", type=_positive, default=1.0, metavar="S",
+                   help="standard deviation of --start-chainage (m, default 1)")
+    p.add_argument("--odometry-scale", type=_scale, default=1.0, metavar="S",
+                   help="the odometry's scale factor (true / odometry distance), e.g. "
+                   "the scale the previous tunnel ended with (default 1: uncalibrated)")
+    p.add_argument("--odometry-scale-sigma", type=_positive, default=0.05,
+                   metavar="S", help="its standard deviation (default 0.05: a wheel "
+                   "odometry within about 5 %%)")
+    p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
+                   "decode frames ahead of the detector (with --model; default: the "
+                   "number of CPUs)")
     common.add_output_arguments(p, quiet=True)
     common.add_colour_arguments(p)
     p.set_defaults(func=_cmd_position)

@@ -238,6 +238,7 @@ def make_tunnel_kinematics(
     speed_kmh=(60.0, 100.0),
     indicator_spacing_m=200.0,
     first_indicator_m=None,
+    start_chainage_m=0.0,
     frame_rate=30.0,
     curve_radius_m=math.inf,
     random_state=None,
@@ -245,9 +246,14 @@ def make_tunnel_kinematics(
     """The motion of a camera through a long tunnel, without rendering its frames.
 
     The speed varies smoothly within ``speed_kmh`` as in :func:`make_tunnel_tour`;
-    indicators stand every ``indicator_spacing_m``.  With
+    indicators stand every ``indicator_spacing_m``, or, given a range, at gaps drawn
+    uniformly from it (a map whose irregular spacing identifies where one is).  With
     :func:`simulate_indicator_detections` it stands in for a rendered tour when a
     tour of many kilometres would take too long to render.
+
+    The tunnel's chainage starts at 0; the tour starts ``start_chainage_m`` into it
+    (a log started mid-tunnel), so the indicators also stand behind the camera's
+    start, and the chainages of the positions and the map are the tunnel's.
 
     Parameters
     ----------
@@ -255,10 +261,14 @@ def make_tunnel_kinematics(
         Distance to drive (m, > 0).
     speed_kmh : (float, float) or float, default=(60.0, 100.0)
         Speed range.
-    indicator_spacing_m : float, default=200.0
-        Distance between indicators.
+    indicator_spacing_m : float or (float, float), default=200.0
+        Distance between indicators; a range ``(low, high)`` draws each gap
+        uniformly from it.
     first_indicator_m : float or None, default=None
-        Chainage of the first indicator; None draws it in ``[20, 20 + spacing)``.
+        Chainage of the first indicator; None draws it in ``[20, 20 + spacing)``
+        (``spacing`` the range's low end).
+    start_chainage_m : float, default=0.0
+        Chainage of the camera at the first frame (m, >= 0).
     frame_rate : float, default=30.0
         Frames per second.
     curve_radius_m : float, default=inf
@@ -273,7 +283,14 @@ def make_tunnel_kinematics(
     lo, hi = (speed_kmh, speed_kmh) if np.ndim(speed_kmh) == 0 else speed_kmh
     lo = _check_error("speed_kmh", lo, 1.0, 300.0)
     hi = _check_error("speed_kmh", hi, lo, 300.0)
-    spacing = _check_error("indicator_spacing_m", indicator_spacing_m, 20.0, 1e5)
+    if np.ndim(indicator_spacing_m) == 0:
+        gap_lo = gap_hi = _check_error("indicator_spacing_m", indicator_spacing_m,
+                                       20.0, 1e5)
+    else:
+        gap_lo, gap_hi = (float(v) for v in indicator_spacing_m)
+        gap_lo = _check_error("indicator_spacing_m", gap_lo, 20.0, 1e5)
+        gap_hi = _check_error("indicator_spacing_m", gap_hi, gap_lo, 1e5)
+    start = _check_error("start_chainage_m", start_chainage_m, 0.0, 1e7)
     seed = int(check_random_state(random_state).randint(0, 2**31 - 1))
     rng = np.random.default_rng(seed)
     base = rng.uniform(lo, hi)
@@ -287,10 +304,19 @@ def make_tunnel_kinematics(
     speed = np.clip(base + min(4.0, (hi - lo) / 2) * wobble, lo, hi) / 3.6
     s = np.concatenate([[0.0], np.cumsum(speed[:-1] / frame_rate)])
     n = int(np.searchsorted(s, distance_m, side="right"))
-    first = rng.uniform(20.0, 20.0 + spacing) if first_indicator_m is None else float(
+    s = start + s
+    first = rng.uniform(20.0, 20.0 + gap_lo) if first_indicator_m is None else float(
         first_indicator_m)
-    k = int(math.floor((s[n - 1] + 300.0 - first) / spacing)) + 1
-    ind = first + spacing * np.arange(max(k, 0))
+    end = s[n - 1] + 300.0
+    if gap_hi == gap_lo:
+        k = int(math.floor((end - first) / gap_lo)) + 1
+        ind = first + gap_lo * np.arange(max(k, 0))
+    else:
+        # irregular gaps: from a stream of their own, so the motion is the same
+        gaps = np.random.default_rng([seed, 1]).uniform(
+            gap_lo, gap_hi, int((end - first) / gap_lo) + 2)
+        ind = first + np.concatenate([[0.0], np.cumsum(gaps)])
+        ind = ind[ind <= end]
     kappa = 0.0 if math.isinf(curve_radius_m) else 1.0 / float(curve_radius_m)
     return TourKinematics(t[:n], s[:n], speed[:n], kappa, ind,
                           np.arange(1, len(ind) + 1), seed)

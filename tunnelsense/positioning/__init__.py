@@ -3,7 +3,8 @@
 Where GPS fails, a vehicle integrates its odometry; each emergency-telephone
 indicator the far-infrared detector finds stands at a surveyed chainage and resets
 the accumulated error (Wang et al., 2013, section 1).  :class:`TunnelPositioner`
-fuses the two with a 1-D Kalman filter over distance.
+fuses the two with a 1-D Kalman filter over distance, from a given start or, without
+one, by locking on to the map from the spacing of the indicators passed.
 """
 
 from tunnelsense.positioning._evaluate import (
@@ -18,7 +19,7 @@ from tunnelsense.positioning._online import locate_online
 from tunnelsense.positioning._plot import plot_positioning
 from tunnelsense.positioning._positioner import TunnelPositioner
 from tunnelsense.positioning._run import evaluate_positions, position_tour, tour_tables
-from tunnelsense.positioning._stream import FIX_COLUMNS, PositionStream
+from tunnelsense.positioning._stream import FIX_COLUMNS, Position, PositionStream
 from tunnelsense.positioning._tables import (
     ESTIMATE_COLUMNS,
     check_indicator_map,
@@ -32,6 +33,7 @@ from tunnelsense.positioning._tables import (
 __all__ = [
     "ESTIMATE_COLUMNS",
     "FIX_COLUMNS",
+    "Position",
     "PositionStream",
     "TunnelPositioner",
     "check_indicator_map",

@@ -5,13 +5,19 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
+import pandas as pd
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._filter import forward, rts_smooth
 from tunnelsense.positioning._fixes import detection_table
 from tunnelsense.positioning._stream import PositionStream
-from tunnelsense.positioning._tables import check_indicator_map, check_odometry
+from tunnelsense.positioning._tables import (
+    ESTIMATE_COLUMNS,
+    check_indicator_map,
+    check_odometry,
+)
 from tunnelsense.utils._sklearn_compat import Interval, _fit_context
 
 __all__ = ["TunnelPositioner"]
@@ -35,10 +41,26 @@ class TunnelPositioner(BaseEstimator):
     or a trajectory of a missed sign's neighbour is rejected, and the position then
     drifts with the odometry until the next sign.
 
+    Where the tour starts is ``initial_chainage`` (the chainage of the first frame,
+    e.g. from GPS at the portal) with its uncertainty ``initial_sigma``.  With
+    ``initial_chainage=None`` the start is unknown: the positioner keeps hypotheses
+    over which indicator each pass was (the odometry distances between passes must
+    match the map's gaps) and locks on when one explains the passes clearly better
+    than every other; until then its rows have ``locked=False`` and no chainage.  A
+    map whose indicators are evenly spaced gives no such cue: there it does not
+    lock.  When the gate rejects ``relock_after`` passes in a row (a wrong start),
+    it drops its position and locks on again the same way.
+
+    The odometry's scale factor is estimated along the way and written with each
+    position (``scale``, ``scale_sigma``); ``initial_scale`` and ``scale_sigma``
+    take it from a previous tunnel, so a vehicle starts the next one calibrated.
+
     ``fit`` takes the indicator map; ``predict`` the detections and the odometry
     of one tour.  ``predict`` runs the same stream state as :meth:`start_stream`,
     with each frame's detections pushed with its odometry sample, so both give
-    identical positions.
+    identical positions; with ``smooth`` it then runs the Rauch-Tung-Striebel
+    smoother over the whole tour (offline), where the stream is a fixed-lag
+    smoother that holds ``window`` frames (online, memory independent of the tour).
 
     Parameters
     ----------
@@ -46,13 +68,20 @@ class TunnelPositioner(BaseEstimator):
         Estimate the odometry's scale factor along with the chainage.
     smooth : bool, default=False
         ``predict`` returns the Rauch-Tung-Striebel smoother's estimate given every
-        fix (offline) instead of the filter's estimate at each frame (online).
-    initial_chainage : float, default=0.0
-        Chainage of the first frame (m), e.g. the tunnel entrance from GPS.
+        fix (offline) instead of the filter's estimate at each frame (online); the
+        stream releases a fixed-lag smoother's estimate.
+    initial_chainage : float or None, default=0.0
+        Chainage of the first frame (m), e.g. the tunnel entrance from GPS.  The
+        default assumes the tour starts at the map's chainage 0 (the portal the map
+        is measured from).  None: unknown, lock on from the passes.
     initial_sigma : float, default=1.0
         Its standard deviation (m).
+    initial_scale : float, default=1.0
+        Prior of the odometry's scale factor (true distance / odometry distance),
+        e.g. the ``scale`` a previous tunnel ended with.
     scale_sigma : float, default=0.05
-        Prior standard deviation of the odometry's scale factor around 1.
+        Prior standard deviation of the odometry's scale factor around
+        ``initial_scale``.
     speed_noise : float, default=0.2
         Standard deviation of the odometry's speed noise (m/s).
     scale_drift : float, default=1e-4
@@ -75,6 +104,23 @@ class TunnelPositioner(BaseEstimator):
         of the pass fit.  None uses the scale growth alone.
     sign_height_m : float or None, default=None
         Height of the indicators (m).
+    window : int, default=3000
+        Frames the stream holds (100 s at 30 fps): a pass older than this is not
+        used, and the fixed-lag smoother releases a frame ``window // 2`` to
+        ``window`` frames late.
+    lock_margin : float, default=9.0
+        Log-likelihood ratio by which the lock's hypothesis must beat every
+        hypothesis that puts the vehicle at another indicator (9: 8000 to 1).
+    lock_passes : int, default=3
+        Fewest passes the lock's hypothesis explains (two gaps between them).
+    miss_rate : float, default=0.05
+        Probability that the detector misses an indicator (lock-on scoring).
+    false_pass_rate : float, default=0.05
+        False passes per km (lock-on scoring): trajectories of something else
+        that pass the positioner's own checks (boxes, approach, extrapolation).
+    relock_after : int, default=3
+        Passes rejected by the gate in a row after which the position is dropped
+        and found again by locking on (0: never).
 
     Attributes
     ----------
@@ -94,7 +140,7 @@ class TunnelPositioner(BaseEstimator):
     >>> detections = simulate_indicator_detections(truth, random_state=0)
     >>> est = TunnelPositioner().fit(indicators).predict(detections, odometry)
     >>> list(est.columns)
-    ['frame', 'stamp', 'chainage', 'sigma']
+    ['frame', 'stamp', 'chainage', 'sigma', 'locked', 'scale', 'scale_sigma']
     >>> bool(abs(est["chainage"] - positions["chainage"]).iloc[-1] < 1.0)
     True
     """
@@ -102,8 +148,10 @@ class TunnelPositioner(BaseEstimator):
     _parameter_constraints: dict = {
         "estimate_scale": ["boolean"],
         "smooth": ["boolean"],
-        "initial_chainage": [Interval(numbers.Real, None, None, closed="neither")],
+        "initial_chainage": [Interval(numbers.Real, None, None, closed="neither"),
+                             None],
         "initial_sigma": [Interval(numbers.Real, 0, None, closed="left")],
+        "initial_scale": [Interval(numbers.Real, 0.5, 2.0, closed="both")],
         "scale_sigma": [Interval(numbers.Real, 0, 1, closed="both")],
         "speed_noise": [Interval(numbers.Real, 0, None, closed="left")],
         "scale_drift": [Interval(numbers.Real, 0, None, closed="left")],
@@ -115,6 +163,12 @@ class TunnelPositioner(BaseEstimator):
         "max_extrapolation": [Interval(numbers.Real, 0, None, closed="neither")],
         "focal_length_px": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "sign_height_m": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "window": [Interval(numbers.Integral, 2, None, closed="left")],
+        "lock_margin": [Interval(numbers.Real, 0, None, closed="neither")],
+        "lock_passes": [Interval(numbers.Integral, 2, None, closed="left")],
+        "miss_rate": [Interval(numbers.Real, 0, 1, closed="neither")],
+        "false_pass_rate": [Interval(numbers.Real, 0, None, closed="neither")],
+        "relock_after": [Interval(numbers.Integral, 0, None, closed="left")],
     }
 
     def __init__(
@@ -124,6 +178,7 @@ class TunnelPositioner(BaseEstimator):
         smooth=False,
         initial_chainage=0.0,
         initial_sigma=1.0,
+        initial_scale=1.0,
         scale_sigma=0.05,
         speed_noise=0.2,
         scale_drift=1e-4,
@@ -135,11 +190,18 @@ class TunnelPositioner(BaseEstimator):
         max_extrapolation=60.0,
         focal_length_px=None,
         sign_height_m=None,
+        window=3000,
+        lock_margin=9.0,
+        lock_passes=3,
+        miss_rate=0.05,
+        false_pass_rate=0.05,
+        relock_after=3,
     ):
         self.estimate_scale = estimate_scale
         self.smooth = smooth
         self.initial_chainage = initial_chainage
         self.initial_sigma = initial_sigma
+        self.initial_scale = initial_scale
         self.scale_sigma = scale_sigma
         self.speed_noise = speed_noise
         self.scale_drift = scale_drift
@@ -151,6 +213,12 @@ class TunnelPositioner(BaseEstimator):
         self.max_extrapolation = max_extrapolation
         self.focal_length_px = focal_length_px
         self.sign_height_m = sign_height_m
+        self.window = window
+        self.lock_margin = lock_margin
+        self.lock_passes = lock_passes
+        self.miss_rate = miss_rate
+        self.false_pass_rate = false_pass_rate
+        self.relock_after = relock_after
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -184,9 +252,8 @@ class TunnelPositioner(BaseEstimator):
         >>> pos = TunnelPositioner().fit(pd.DataFrame({"id": [1], "chainage": [50.0]}))
         >>> stream = pos.start_stream()
         >>> stream.push(1, 0.0, 20.0)
-        (1, 0.0, 0.0, 1.0)
-        >>> frame, stamp, chainage, sigma = stream.push(2, 0.5, 20.0)
-        >>> chainage
+        Position(frame=1, stamp=0.0, chainage=0.0, sigma=1.0, locked=True, scale=1.0, scale_sigma=0.05)
+        >>> stream.push(2, 0.5, 20.0).chainage
         10.0
         """
         check_is_fitted(self)
@@ -210,9 +277,13 @@ class TunnelPositioner(BaseEstimator):
         Returns
         -------
         positions : DataFrame
-            ``frame, stamp, chainage, sigma``.
+            ``frame, stamp, chainage, sigma, locked, scale, scale_sigma``: the
+            chainage (m) and its standard deviation, whether the position is known
+            (without a start: once locked on; chainage and sigma empty before), and
+            the odometry's estimated scale factor and its standard deviation.
         fixes : DataFrame
-            Only with ``return_fixes``.
+            Only with ``return_fixes``: one row per trajectory; its
+            ``attrs["lock_status"]`` says whether and where the stream locked on.
         """
         check_is_fitted(self)
         odometry = check_odometry(odometry)
@@ -228,15 +299,58 @@ class TunnelPositioner(BaseEstimator):
         ends = np.searchsorted(frames, odometry["frame"].to_numpy(), side="right")
         tracks, heights = table["track_id"].tolist(), table["bb_height"].tolist()
         frames = frames.tolist()
-        stream = self.start_stream()
-        for (f, t, v, _w), a, b in zip(odometry.itertuples(index=False), starts, ends,
-                                      strict=True):
+        stream = PositionStream(self, lagged=False, keep_fixes=True)
+        f_all = odometry["frame"].tolist()
+        t_all, v_all = odometry["stamp"].tolist(), odometry["speed"].tolist()
+        for f, t, v, a, b in zip(f_all, t_all, v_all, starts.tolist(), ends.tolist(),
+                                 strict=True):
             stream._advance(f, t, v)  # noqa: SLF001 - push without a table per frame
             if b > a:
                 stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])  # noqa: SLF001
             stream._finish(f)  # noqa: SLF001
         positions = stream.close()
-        return (positions, stream.fixes) if return_fixes else positions
+        if self.smooth:
+            positions = self._smooth(odometry, stream)
+        if not return_fixes:
+            return positions
+        fixes = stream.fixes
+        fixes.attrs["lock_status"] = stream.lock_status()
+        return positions, fixes
+
+    def _smooth(self, odometry, stream):
+        """The RTS smoother over the whole tour, with every fix the stream used."""
+        t = odometry["stamp"].to_numpy()
+        v = odometry["speed"].to_numpy()
+        dt = np.diff(t)
+        inc = v[:-1] * dt
+        q_s = (float(self.speed_noise) * dt) ** 2
+        q_c = (float(self.scale_drift) ** 2 * dt if self.estimate_scale
+               else np.zeros_like(dt))
+        sc2 = float(self.scale_sigma) ** 2 if self.estimate_scale else 0.0
+        fixes = {}
+        for k, u, z, r in stream.fix_list:
+            fixes.setdefault(k, []).append((u, z, r))
+        known = self.initial_chainage is not None and not stream.relocked
+        if known:
+            x0 = [float(self.initial_chainage), float(self.initial_scale)]
+            P0 = np.diag([float(self.initial_sigma) ** 2, sc2])
+        else:  # diffuse: every frame placed by the fixes
+            lo, hi = self.indicator_chainage_[0], self.indicator_chainage_[-1]
+            x0 = [(lo + hi) / 2, float(self.initial_scale)]
+            P0 = np.diag([(10.0 * max(hi - lo, 1000.0)) ** 2, sc2])
+        prior, post, prior_cov, post_cov = forward(x0, P0, inc, q_s, q_c, fixes)
+        x, cov = rts_smooth(inc, prior, post, prior_cov, post_cov)
+        n = len(t)
+        locked = known or bool(fixes)
+        nan = np.full(n, np.nan)
+        return pd.DataFrame({
+            "frame": odometry["frame"].to_numpy(np.int64), "stamp": t,
+            "chainage": x[:, 0] if locked else nan,
+            "sigma": np.sqrt(np.maximum(cov[:, 0, 0], 0.0)) if locked else nan,
+            "locked": np.full(n, locked),
+            "scale": x[:, 1] if locked else nan,
+            "scale_sigma": np.sqrt(np.maximum(cov[:, 1, 1], 0.0)) if locked else nan,
+        }, columns=list(ESTIMATE_COLUMNS))
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -54,9 +54,16 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 
 
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
-                  indicator_map=None, smooth=False, overwrite=False, progress=None,
-                  inputs=(), colour=None):
+                  indicator_map=None, smooth=False, start_chainage=0.0,
+                  start_sigma=1.0, odometry_scale=1.0, odometry_scale_sigma=0.05,
+                  overwrite=False, progress=None, inputs=(), n_threads=0, colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
+
+    The file has a row per frame: ``frame,stamp,chainage,sigma,locked,scale,
+    scale_sigma`` -- the chainage (m) and its standard deviation, whether the
+    position is known (without a start, rows before the lock are ``false`` with the
+    chainage left empty), and the odometry's estimated scale factor and its
+    standard deviation (the last row's is what to give the next tunnel).
 
     Parameters
     ----------
@@ -71,7 +78,19 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     odometry, indicator_map : str or Path, default=None
         Files to use instead of the tour's own (:func:`tour_tables`).
     smooth : bool, default=False
-        Smooth with every fix (offline); default: what was known at each frame.
+        Smooth: with ``results`` over the whole tour (offline), with ``model`` by a
+        fixed-lag smoother (online); default: what was known at each frame.
+    start_chainage : float or None, default=0.0
+        Chainage of the first frame (m).  The default assumes the tour starts at
+        the map's chainage 0 (the portal it is measured from).  None: unknown; the
+        position locks on to the map from the spacing of the indicators passed.
+    start_sigma : float, default=1.0
+        Standard deviation of ``start_chainage`` (m).
+    odometry_scale, odometry_scale_sigma : float, default=1.0, 0.05
+        Prior of the odometry's scale factor (true / odometry distance) and its
+        standard deviation: by default a wheel odometry within about 5 %; give the
+        ``scale`` and ``scale_sigma`` a previous tunnel ended with to start
+        calibrated.
     overwrite : bool, default=False
         Replace an existing ``out``.
     colour : int, "luminance" or None, default=None
@@ -82,12 +101,15 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         detected with ``model``.
     inputs : sequence of path, default=()
         More files ``out`` must not be (the model file, a key file).
+    n_threads : int, default=0
+        Reader threads decoding frames ahead of the detector (with ``model``).
 
     Returns
     -------
     positions : DataFrame
     fixes : DataFrame
-        One row per trajectory; ``accepted`` marks those that gave a fix.
+        One row per trajectory; ``accepted`` marks those that gave a fix;
+        ``attrs["lock_status"]`` says whether and where the position locked on.
 
     Examples
     --------
@@ -102,26 +124,33 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     >>> len(positions), len(fixes)
     (20, 0)
     """
-    from tunnelsense.io import open_tour, read_mot_results
+    from tunnelsense.io import read_mot_results
 
     if (model is None) == (results is None):
         raise ValueError("give exactly one of model and results")
     odometry, indicator_map, tables = tour_tables(tour, odometry, indicator_map)
     extra = [p for p in (*inputs, results) if p]
     check_output(out, overwrite=overwrite, inputs=[*tables, *extra], what="--out")
-    odo, positioner = read_odometry(odometry), TunnelPositioner(smooth=smooth)
+    positioner = TunnelPositioner(
+        smooth=smooth, initial_chainage=start_chainage, initial_sigma=start_sigma,
+        initial_scale=odometry_scale, scale_sigma=odometry_scale_sigma)
+    odo = read_odometry(odometry)
     positioner.fit(read_indicator_map(indicator_map))
     if results is not None:
         detections = read_mot_results(results)
         _check_coverage(odo, detections, tour, odometry)
         positions, fixes = positioner.predict(detections, odo, return_fixes=True)
     else:
+        from tunnelsense.tunnel._detect import open_frames
+
         positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
-        frames = open_tour(tour, colour=colour).frames
-        bar = progress and progress(len(frames), "detecting and positioning")
-        positions, fixes = locate_online(model, frames, odo, positioner, progress=bar)
+        # as detect tunnel: a video decoded lazily
+        frames, total = open_frames(tour, colour=colour)
+        bar = progress and progress(total, "detecting and positioning")
+        positions, fixes = locate_online(model, frames, odo, positioner, progress=bar,
+                                         n_threads=n_threads)
     with atomic_write(out, "w") as f:
-        positions.to_csv(f, index=False, lineterminator="\n")
+        write_positions(positions, f)
     return positions, fixes
 
 

@@ -1,29 +1,101 @@
 """The positioner's online state: one odometry sample in, one position out.
 
 A fix is known only when its trajectory has ended, a few frames after the sign has
-left the image; by then the camera is past the sign.  The fix is applied as a
+left the image.  When the camera is already past the sign, the fix is applied as a
 delayed measurement: the state at the frame of the pass is corrected and the
 odometry since is propagated again (cheap in 1-D).  A pass still ahead (the sign
-left the image but the camera has not reached it yet) waits until the odometry
-reaches it.
+left the image some metres before the camera reaches it) is a measurement of the
+state now, ``z = s + c u`` with ``u`` the odometry distance still to go, applied at
+once: the position is corrected before the camera passes the sign.
+
+Memory does not grow with the tour: the state of the last ``window`` frames is held
+in fixed-size arrays (a ring), enough for any delayed pass; with ``smooth`` the
+stream is a fixed-lag smoother that releases each frame's smoothed position once at
+least ``window // 2`` later frames have been seen.  Without a start, the stream locks
+on to the map from the passes (:class:`~tunnelsense.positioning._lock.LockOn`); until
+then its rows have ``locked=False`` and no chainage.
 """
 
 from __future__ import annotations
+
+import math
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.positioning._filter import forward, rts_smooth, transition
 from tunnelsense.positioning._fixes import detection_table, estimate_pass
+from tunnelsense.positioning._lock import LockOn
 from tunnelsense.positioning._tables import ESTIMATE_COLUMNS
 
-__all__ = ["FIX_COLUMNS", "PositionStream"]
+__all__ = ["FIX_COLUMNS", "Position", "PositionStream"]
 
 #: Columns of the fix log (``PositionStream.fixes``).
 FIX_COLUMNS = ("track_id", "first_frame", "last_frame", "pass_frame", "pass_distance",
                "indicator_id", "indicator_chainage", "predicted", "sigma",
                "mahalanobis", "accepted", "reason")
+
+_NAN5 = (math.nan,) * 5
+
+
+class Position(NamedTuple):
+    """One frame's position (a row of ``ESTIMATE_COLUMNS``)."""
+
+    frame: int
+    stamp: float
+    chainage: float
+    sigma: float
+    locked: bool
+    scale: float
+    scale_sigma: float
+
+
+class _Rows:
+    """Released rows, in fixed-size numpy blocks until taken."""
+
+    def __init__(self):
+        self._blocks, self._buf, self._n = [], np.empty((1024, 7)), 0
+
+    def add(self, row):
+        if self._n == len(self._buf):
+            self._blocks.append(self._buf)
+            self._buf, self._n = np.empty((1024, 7)), 0
+        self._buf[self._n] = row
+        self._n += 1
+
+    def take(self) -> pd.DataFrame:
+        a = np.concatenate([*self._blocks, self._buf[:self._n]])
+        self._blocks, self._buf, self._n = [], np.empty((1024, 7)), 0
+        return rows_table(a)
+
+
+def rows_table(a) -> pd.DataFrame:
+    """An ``(n, 7)`` array of rows as the positions table."""
+    a = np.asarray(a, np.float64).reshape(-1, 7)
+    return pd.DataFrame({
+        "frame": a[:, 0].astype(np.int64), "stamp": a[:, 1], "chainage": a[:, 2],
+        "sigma": a[:, 3], "locked": a[:, 4] > 0, "scale": a[:, 5],
+        "scale_sigma": a[:, 6]}, columns=list(ESTIMATE_COLUMNS))
+
+
+def _row(frame, stamp, x):
+    """The output row of a state ``x = (s, c, P00, P01, P11)``."""
+    s, c, a, _, e = x
+    if s != s:  # not locked
+        return (frame, stamp, math.nan, math.nan, 0.0, math.nan, math.nan)
+    return (frame, stamp, s, math.sqrt(max(a, 0.0)), 1.0, c, math.sqrt(max(e, 0.0)))
+
+
+def _update(x, u, z, r):
+    """Kalman update of ``x = (s, c, P00, P01, P11)`` with ``z = s + c u``."""
+    s, c, a, b, e = x
+    ha, hb = a + u * b, b + u * e  # P h
+    S = ha + u * hb + r
+    k0, k1 = ha / S, hb / S
+    res = z - (s + u * c)
+    return (s + k0 * res, c + k1 * res, a - k0 * k0 * S, b - k0 * k1 * S,
+            e - k1 * k1 * S)
 
 
 class PositionStream:
@@ -31,25 +103,57 @@ class PositionStream:
 
     ``push(frame, stamp, speed, ...)`` takes the odometry sample of the next frame
     (and any detections the detector has released since) and returns that frame's
-    position at once; ``close()`` ends the tour and returns the whole table.
+    position at once; :meth:`drain` takes the rows final so far (the pushed
+    positions, or with ``smooth`` the fixed-lag smoother's), :meth:`close` ends the
+    tour and returns the rows not yet drained.
     """
 
-    def __init__(self, positioner):
+    def __init__(self, positioner, *, lagged=None, keep_fixes=False):
         p = positioner
         self._p = p
         self._map = np.asarray(p.indicator_chainage_, np.float64)
         self._ids = np.asarray(p.indicator_ids_, np.int64)
-        self._frames, self._stamps, self._dist = [], [], []
-        self._inc, self._qs, self._qc = [], [], []
-        self._prior, self._prior_cov, self._post, self._post_cov = [], [], [], []
-        self._index = {}
-        self._fixes = {}  # frame index -> [(u, z, r)]
-        self._tracks = {}  # track id -> ([index], [height])
-        self._pending = []  # passes ahead of the odometry: (distance, log row)
+        W = self._W = max(int(p.window), 2)
+        self._fr = np.zeros(W, np.int64)
+        self._st, self._d, self._u = np.zeros(W), np.zeros(W), np.zeros(W)
+        self._cq = np.zeros((W, 2))  # cumulative process noise (chainage, scale)
+        self._prior, self._post = np.zeros((W, 5)), np.zeros((W, 5))
+        self._n = 0
+        self._lagged = bool(p.smooth) if lagged is None else bool(lagged)
+        self._released = 0
         self._speed = None
-        self._online = []
+        self._c0 = float(p.initial_scale)
+        self._sc2 = float(p.scale_sigma) ** 2 if p.estimate_scale else 0.0
+        self._fixes = {}  # frame index -> [(u, z, r)], applied online
+        # (frame index, u, z, r) of every fix, for the whole-tour smoother (offline)
+        self.fix_list = [] if keep_fixes else None
+        self.relocked = False
+        self._tracks = {}  # track id -> [distances, heights, last frame, last index]
         self._log = []
+        self._rows = _Rows()
         self._closed = False
+        self._rejected = []  # consecutive passes the gate rejected
+        self.lock_frame = None
+        if p.initial_chainage is None:
+            self._start_lockon()
+        else:
+            self._lockon, self._lock_k = None, 0
+            self.lock_frame = "start"
+
+    def _start_lockon(self):
+        p = self._p
+        self._lock_k = None
+        self._lock_q = None  # cumulative noise at the last pass given to the lock-on
+        self._lockon = LockOn(
+            self._map, scale=self._c0, scale_sigma=math.sqrt(self._sc2),
+            fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
+            false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
+            min_passes=p.lock_passes)
+
+    @property
+    def locked(self) -> bool:
+        """Whether the stream knows where it is on the map."""
+        return self._lock_k is not None
 
     # ------------------------------------------------------------------ online
     def push(self, frame, stamp, speed, yaw_rate=0.0, detections=None, *, until=None):
@@ -76,107 +180,168 @@ class PositionStream:
 
         Returns
         -------
-        position : tuple
-            ``(frame, stamp, chainage, sigma)`` of this frame.
+        position : Position
+            ``(frame, stamp, chainage, sigma, locked, scale, scale_sigma)`` of this
+            frame, what the filter knows now (NaN chainage while not locked).
         """
         self._advance(frame, stamp, speed)
         if detections is not None:
             self.add_detections(detections)
         return self._finish(frame if until is None else until)
 
+    def _slot(self, i):
+        return i % self._W
+
     def _advance(self, frame, stamp, speed):
         """Append the frame's odometry sample; apply the passes it reaches."""
         if self._closed:
             raise RuntimeError("the stream is closed")
         frame, stamp, speed = int(frame), float(stamp), float(speed)
-        if not np.isfinite(stamp) or not np.isfinite(speed):
+        if not math.isfinite(stamp) or not math.isfinite(speed):
             raise InputFormatError(f"frame {frame}: stamp and speed must be finite")
-        if self._frames and (frame <= self._frames[-1] or stamp <= self._stamps[-1]):
-            raise InputFormatError(
-                f"frame {frame}: frames and stamps must increase (last frame "
-                f"{self._frames[-1]} at {self._stamps[-1]} s)")
-        p = self._p
-        if not self._frames:
-            x = np.array([float(p.initial_chainage), 1.0])
-            P = np.diag([float(p.initial_sigma) ** 2,
-                         float(p.scale_sigma) ** 2 if p.estimate_scale else 0.0])
-            d = 0.0
-        else:
-            dt = stamp - self._stamps[-1]
+        n, W, p = self._n, self._W, self._p
+        if n:
+            j = (n - 1) % W
+            last_frame, last_stamp = int(self._fr[j]), float(self._st[j])
+            if frame <= last_frame or stamp <= last_stamp:
+                raise InputFormatError(
+                    f"frame {frame}: frames and stamps must increase (last frame "
+                    f"{last_frame} at {last_stamp} s)")
+            if self._lagged and n - self._released >= W:
+                self._release(n - W // 2)
+            dt = stamp - last_stamp
             u = self._speed * dt
             q_s = (float(p.speed_noise) * dt) ** 2
             q_c = float(p.scale_drift) ** 2 * dt if p.estimate_scale else 0.0
-            F, Q = transition(u, q_s, q_c)
-            x, P = F @ self._post[-1], F @ self._post_cov[-1] @ F.T + Q
-            d = self._dist[-1] + u
-            self._inc.append(u)
-            self._qs.append(q_s)
-            self._qc.append(q_c)
-        self._index[frame] = len(self._frames)
-        self._frames.append(frame)
-        self._stamps.append(stamp)
-        self._dist.append(d)
+            s, c, a, b, e = self._post[j].tolist()
+            x = (s + u * c, c, a + 2 * u * b + u * u * e + q_s, b + u * e, e + q_c)
+            d = float(self._d[j]) + u
+            cq0, cq1 = self._cq[j].tolist()
+            cq = (cq0 + q_s, cq1 + q_c)
+        else:
+            u, d, cq = 0.0, 0.0, (0.0, 0.0)
+            if self._lock_k is None:
+                x = _NAN5
+            else:
+                x = (float(p.initial_chainage), self._c0,
+                     float(p.initial_sigma) ** 2, 0.0, self._sc2)
+        i = n % W
+        self._fr[i], self._st[i], self._d[i], self._u[i] = frame, stamp, d, u
+        self._cq[i] = cq
+        self._prior[i] = x
+        self._post[i] = x
+        self._fixes.pop(n - W, None)
+        self._n = n + 1
         self._speed = speed
-        self._prior.append(x)
-        self._prior_cov.append(P)
-        self._post.append(x)
-        self._post_cov.append(P)
-        # passes the odometry has now reached
-        due = [item for item in self._pending if item[0] <= d]
-        self._pending = [item for item in self._pending if item[0] > d]
-        for dist, row in due:
-            self._apply(dist, row)
 
     def _finish(self, until):
         """End the trajectories complete by ``until``; the last frame's position."""
-        p = self._p
-        horizon = int(until)
-        for track in [t for t, (idx, _) in self._tracks.items()
-                      if self._frames[idx[-1]] + int(p.max_gap) < horizon]:
-            self._end_track(track)
-        x, P = self._post[-1], self._post_cov[-1]
-        out = (self._frames[-1], self._stamps[-1], float(x[0]),
-               float(np.sqrt(max(P[0, 0], 0.0))))
-        self._online.append(out)
-        return out
+        horizon = int(until) - int(self._p.max_gap)
+        if self._tracks:
+            for track in [t for t, v in self._tracks.items() if v[2] < horizon]:
+                self._end_track(track)
+        j = (self._n - 1) % self._W
+        row = _row(int(self._fr[j]), float(self._st[j]), self._post[j].tolist())
+        if not self._lagged:
+            self._rows.add(row)
+        return Position(row[0], row[1], row[2], row[3], bool(row[4]), row[5], row[6])
+
+    def drain(self) -> pd.DataFrame:
+        """The rows final since the last call (online: every pushed frame's; with
+        ``smooth``: the fixed-lag smoother's, ``window // 2`` frames or more behind)."""
+        return self._rows.take()
 
     def close(self):
-        """End the tour: use the last trajectories; return every frame's position.
+        """End the tour: use the last trajectories; return the rows not yet drained.
 
         Returns
         -------
         positions : DataFrame
-            ``frame, stamp, chainage, sigma``: what :meth:`push` returned (the
-            filter), or, with ``smooth=True``, the RTS smoother's estimate given
-            every fix.
+            ``frame, stamp, chainage, sigma, locked, scale, scale_sigma``: what
+            :meth:`push` returned (the filter), or, with ``smooth``, the fixed-lag
+            smoother's estimate.
         """
         if not self._closed:
             for track in list(self._tracks):
                 self._end_track(track)
-            for _, row in self._pending:
-                row.update(accepted=False, reason="pass after the end of the tour")
-                self._log.append(row)
-            self._pending = []
             self._closed = True
-        if not self._p.smooth or not self._frames:
-            return pd.DataFrame(self._online, columns=list(ESTIMATE_COLUMNS))
-        inc = np.asarray(self._inc)
-        prior, post, prior_cov, post_cov = forward(
-            self._prior[0], self._prior_cov[0], inc, np.asarray(self._qs),
-            np.asarray(self._qc), self._fixes)
-        x, cov = rts_smooth(inc, prior, post, prior_cov, post_cov)
-        return pd.DataFrame({
-            "frame": np.asarray(self._frames, np.int64),
-            "stamp": np.asarray(self._stamps, np.float64),
-            "chainage": x[:, 0],
-            "sigma": np.sqrt(np.maximum(cov[:, 0, 0], 0.0)),
-        })
+            if self._lagged:
+                self._release(self._n)
+        return self._rows.take()
+
+    def _release(self, upto):
+        """Smooth the held frames backwards; release those before ``upto``."""
+        lo, n, W = self._released, self._n, self._W
+        if upto <= lo:
+            return
+        post, prior, us = self._post, self._prior, self._u
+        nxt = post[(n - 1) % W].tolist()  # smoothed state of frame i + 1
+        out = []
+        for i in range(n - 1, lo - 1, -1):
+            sl = i % W
+            x = post[sl].tolist()
+            if i < n - 1 and x[0] == x[0] and nxt[0] == nxt[0]:
+                sn = (i + 1) % W
+                A, B, E = prior[sn, 2], prior[sn, 3], prior[sn, 4]
+                xp0, xp1 = prior[sn, 0], prior[sn, 1]
+                u = us[sn]
+                s, c, a, b, e = x
+                # G = P F^T M^-1, F = [[1, u], [0, 1]], M the prior covariance at i+1
+                m00, m01, m10, m11 = a + b * u, b, b + e * u, e
+                det = A * E - B * B
+                if E > 0 and det > 1e-12 * A * E:
+                    g00 = (m00 * E - m01 * B) / det
+                    g01 = (m01 * A - m00 * B) / det
+                    g10 = (m10 * E - m11 * B) / det
+                    g11 = (m11 * A - m10 * B) / det
+                else:  # no scale state
+                    g00, g01, g10, g11 = m00 / A, 0.0, 0.0, 0.0
+                d0, d1 = nxt[0] - xp0, nxt[1] - xp1
+                D00, D01, D11 = nxt[2] - A, nxt[3] - B, nxt[4] - E
+                # G D G^T
+                t00, t01 = g00 * D00 + g01 * D01, g00 * D01 + g01 * D11
+                t10, t11 = g10 * D00 + g11 * D01, g10 * D01 + g11 * D11
+                x = (s + g00 * d0 + g01 * d1, c + g10 * d0 + g11 * d1,
+                     a + t00 * g00 + t01 * g01, b + t00 * g10 + t01 * g11,
+                     e + t10 * g10 + t11 * g11)
+            nxt = x
+            if i < upto:
+                out.append(_row(int(self._fr[sl]), float(self._st[sl]), x))
+        for row in reversed(out):
+            self._rows.add(row)
+        self._released = upto
 
     @property
     def fixes(self) -> pd.DataFrame:
-        """Every trajectory's fix: where it passed, its indicator, kept or why not."""
+        """Every trajectory's fix not yet drained: where it passed, its indicator,
+        kept or why not."""
         rows = sorted(self._log, key=lambda r: (r["last_frame"], r["track_id"]))
         return pd.DataFrame(rows, columns=list(FIX_COLUMNS))
+
+    def drain_fixes(self) -> pd.DataFrame:
+        """:attr:`fixes` so far, then forgotten (memory stays flat); held while
+        locking on, since the lock names the indicators of the passes before it."""
+        if self._lockon is not None and self._lockon.n_passes:
+            return pd.DataFrame(columns=list(FIX_COLUMNS))
+        out = self.fixes
+        self._log = []
+        return out
+
+    def lock_status(self) -> str:
+        """A sentence on the lock: where it was taken, or why there is none."""
+        if self.lock_frame == "start":
+            return "started from the given chainage"
+        if self.lock_frame is not None:
+            return f"locked on to the map at frame {self.lock_frame}"
+        lk = self._lockon
+        places = lk.n_explaining() if lk is not None else 0
+        if lk is None or lk.n_passes == 0:
+            return "not locked on: no indicator pass"
+        if places > 1:
+            return (f"not locked on: after {lk.n_passes} passes, {places} places of the "
+                    "map explain them equally (a map with evenly spaced indicators "
+                    "needs a start: give the chainage of the first frame)")
+        return f"not locked on: {lk.n_passes} passes do not single out a place yet"
 
     # ------------------------------------------------------------------ fixes
     def add_detections(self, detections):
@@ -187,28 +352,62 @@ class PositionStream:
         """
         if self._closed:
             raise RuntimeError("the stream is closed")
-        table = detection_table(detections)
-        self._add_rows(table["frame"].tolist(), table["track_id"].tolist(),
-                       table["bb_height"].tolist())
+        if isinstance(detections, list) and all(
+                hasattr(r, "payload") for r in detections):
+            frames, tracks, heights = _from_records(detections)
+        else:
+            table = detection_table(detections)
+            frames, tracks, heights = (table["frame"].tolist(),
+                                       table["track_id"].tolist(),
+                                       table["bb_height"].tolist())
+        self._add_rows(frames, tracks, heights)
+
+    def _index(self, frame):
+        """The index of a frame still held; None when it has left the window."""
+        n, W = self._n, self._W
+        j = (n - 1) % W
+        if n and int(self._fr[j]) == frame:
+            return n - 1
+        lo = max(0, n - W)
+        order = self._ordered(self._fr, lo)
+        k = int(np.searchsorted(order, frame))
+        if k < len(order) and order[k] == frame:
+            return lo + k
+        return None
+
+    def _ordered(self, a, lo):
+        """``a`` of the frames ``lo .. n-1`` in frame order (a view when it can)."""
+        n, W = self._n, self._W
+        i0, i1 = lo % W, (n - 1) % W + 1
+        return a[i0:i1] if i0 < i1 else np.concatenate([a[i0:], a[:i1]])
 
     def _add_rows(self, frames, tracks, heights):
+        last_f, last_k = None, None
         for f, t, h in zip(frames, tracks, heights, strict=True):
-            i = self._index.get(f)
-            if i is None:
-                raise InputFormatError(
-                    f"detections: frame {f} has no odometry sample before it (frames "
-                    f"so far {self._frames[0]}..{self._frames[-1]})")
-            idx, hs = self._tracks.setdefault(t, ([], []))
-            idx.append(i)
-            hs.append(h)
+            if f != last_f:
+                k = self._index(f)
+                if k is None:
+                    n, W = self._n, self._W
+                    first = int(self._fr[max(0, n - W) % W]) if n else None
+                    raise InputFormatError(
+                        f"detections: frame {f} has no odometry sample held (frames "
+                        f"held {first}..{int(self._fr[(n - 1) % W]) if n else None}; "
+                        f"the positioner holds the last window={W} frames)")
+                last_f, last_k = f, k
+            entry = self._tracks.get(t)
+            if entry is None:
+                entry = self._tracks[t] = [[], [], f, last_k, f]
+            entry[0].append(float(self._d[last_k % self._W]))
+            entry[1].append(h)
+            entry[2], entry[3] = f, last_k
 
     def _end_track(self, track):
         p = self._p
-        idx, hs = self._tracks.pop(track)
-        idx, hs = np.asarray(idx), np.asarray(hs)
+        d, hs, last_frame, last_k, first_frame = self._tracks.pop(track)
+        d, hs = np.asarray(d), np.asarray(hs, np.float64)
         keep = hs >= float(p.min_height)
-        row = {"track_id": track, "first_frame": self._frames[idx[0]],
-               "last_frame": self._frames[idx[-1]], "pass_frame": -1,
+        row = {"track_id": track, "first_frame": first_frame,
+               "last_frame": last_frame, "pass_frame": -1,
                "pass_distance": np.nan, "indicator_id": -1,
                "indicator_chainage": np.nan, "predicted": np.nan, "sigma": np.nan,
                "mahalanobis": np.nan, "accepted": False, "reason": ""}
@@ -216,10 +415,12 @@ class PositionStream:
             row["reason"] = f"fewer than {p.min_detections} boxes of >= {p.min_height} px"
             self._log.append(row)
             return
-        d = np.asarray(self._dist)[idx[keep]]
+        d = d[keep]
         slope = None
         if p.focal_length_px is not None and p.sign_height_m is not None:
-            scale = self._post[idx[-1]][1]
+            scale = self._post[last_k % self._W][1] if last_k >= self._n - self._W \
+                else math.nan
+            scale = scale if scale == scale else self._c0
             slope = -scale / (float(p.focal_length_px) * float(p.sign_height_m))
         dist, var = estimate_pass(d, hs[keep], slope=slope)
         row["pass_distance"] = dist
@@ -233,45 +434,150 @@ class PositionStream:
                              f"{p.max_extrapolation} m)")
             self._log.append(row)
             return
-        if dist < self._dist[0]:
+        if dist < 0.0:
             row["reason"] = "passed before the first frame"
             self._log.append(row)
             return
         row["_var"] = var
-        if dist > self._dist[-1]:
-            self._pending.append((dist, row))
-        else:
-            self._apply(dist, row)
+        self._apply(dist, row)
 
     def _apply(self, dist, row):
         """Gate and apply the fix of a pass at odometry distance ``dist``."""
-        p = self._p
         var = row.pop("_var")
-        k = int(np.searchsorted(self._dist, dist, side="right")) - 1
-        u = dist - self._dist[k]
-        x, P = self._post[k], self._post_cov[k]
-        h = np.array([1.0, u])
-        pred = float(h @ x)
-        r = float(p.fix_sigma) ** 2 + x[1] ** 2 * var
-        s = float(h @ P @ h) + r
+        n, W = self._n, self._W
+        lo = max(0, n - W)
+        k = lo + int(np.searchsorted(self._ordered(self._d, lo), dist, side="right")) - 1
+        self._log.append(row)
+        if k < lo:
+            row.update(accepted=False, reason=f"pass older than the positioner's window "
+                       f"({W} frames)")
+            return
+        u = dist - float(self._d[k % W])
+        row.update(pass_frame=int(self._fr[k % W]))
+        if self._lock_k is None:
+            self._to_lockon(dist, var, k, u, row)
+            return
+        if k < self._lock_k:
+            row.update(accepted=False, reason="pass before the lock")
+            return
+        self._gate(dist, var, k, u, row)
+
+    def _gate(self, dist, var, k, u, row):
+        """Associate a pass with the nearest indicator; use it if within the gate."""
+        p, W = self._p, self._W
+        x = self._post[k % W].tolist()
+        s, c, a, b, e = x
+        pred = s + u * c
+        r = float(p.fix_sigma) ** 2 + c * c * var
+        S = a + 2 * u * b + u * u * e + r
         j = int(np.argmin(np.abs(self._map - pred)))
-        m = abs(self._map[j] - pred) / np.sqrt(s)
-        row.update(pass_frame=self._frames[k], indicator_id=int(self._ids[j]),
-                   indicator_chainage=float(self._map[j]), predicted=pred,
-                   sigma=float(np.sqrt(s)), mahalanobis=float(m))
+        m = abs(self._map[j] - pred) / math.sqrt(S)
+        row.update(indicator_id=int(self._ids[j]), indicator_chainage=float(self._map[j]),
+                   predicted=pred, sigma=math.sqrt(S), mahalanobis=float(m))
         if m > float(p.gate):
             row.update(accepted=False, reason=f"outside the gate ({m:.1f} sigma)")
-            self._log.append(row)
+            self._rejected.append((dist, var, k, u, row))
+            if p.relock_after and len(self._rejected) >= int(p.relock_after):
+                self._unlock()
             return
+        self._rejected = []
         row.update(accepted=True, reason="")
-        self._log.append(row)
-        self._fixes.setdefault(k, []).append((u, float(self._map[j]), r))
+        z = float(self._map[j])
+        self._fixes.setdefault(k, []).append((u, z, r))
+        if self.fix_list is not None:
+            self.fix_list.append((k, u, z, r))
         # delayed measurement: correct at the pass, propagate the odometry since
-        prior, post, prior_cov, post_cov = forward(
-            self._prior[k], self._prior_cov[k], self._inc[k:], self._qs[k:],
-            self._qc[k:], self._fixes, start=k)
-        n = len(self._frames)
-        self._prior[k:n] = list(prior)
-        self._prior_cov[k:n] = list(prior_cov)
-        self._post[k:n] = list(post)
-        self._post_cov[k:n] = list(post_cov)
+        self._post[k % W] = _update(x, u, z, r)
+        self._propagate(k)
+
+    def _propagate(self, k):
+        """Propagate the post state of frame ``k`` to the last frame, with the fixes."""
+        post, prior, W = self._post, self._prior, self._W
+        x = post[k % W].tolist()
+        for i in range(k + 1, self._n):
+            sl = i % W
+            u = float(self._u[sl])
+            q_s = float(self._cq[sl, 0] - self._cq[(i - 1) % W, 0])
+            q_c = float(self._cq[sl, 1] - self._cq[(i - 1) % W, 1])
+            s, c, a, b, e = x
+            x = (s + u * c, c, a + 2 * u * b + u * u * e + q_s, b + u * e, e + q_c)
+            prior[sl] = x
+            for fu, z, r in self._fixes.get(i, ()):
+                x = _update(x, fu, z, r)
+            post[sl] = x
+
+    # ------------------------------------------------------------------ lock-on
+    def _to_lockon(self, dist, var, k, u, row):
+        """Give a pass to the hypotheses over the map; lock when one wins."""
+        W = self._W
+        cq = self._cq[k % W].tolist()
+        q = (0.0, 0.0) if self._lock_q is None else (cq[0] - self._lock_q[0],
+                                                     cq[1] - self._lock_q[1])
+        self._lock_q = cq
+        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row))
+        row.update(accepted=False, reason=(f"{row['reason']}; " if row["reason"] else "")
+                   + "locking on")
+        if lock is None:
+            return
+        p = self._p
+        s, c = lock["state"]
+        P = lock["cov"]
+        # the state at the pass, moved back to its frame (u before it)
+        a, b, e = P[0, 0], P[0, 1], P[1, 1]
+        x = (s - c * u, c, a - 2 * u * b + u * u * e, b - u * e, e)
+        for (kk, uu, vv, rr), j in lock["passes"]:
+            if j < 0:
+                continue
+            z = float(self._map[j])
+            if self.fix_list is not None:
+                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
+            rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
+                      indicator_chainage=z)
+        self._lock_k = k
+        self.lock_frame = int(self._fr[k % W])
+        self._lockon = None
+        self._prior[k % W] = x
+        self._post[k % W] = x
+        self._propagate(k)
+
+    def _unlock(self):
+        """The gate has rejected several passes in a row: find the place again."""
+        rejected, self._rejected = self._rejected, []
+        self._start_lockon()
+        self.lock_frame = None
+        self.relocked = True
+        self.fix_list = [] if self.fix_list is not None else None
+        self._fixes = {}
+        n, W = self._n, self._W
+        first = rejected[0][2]
+        for i in range(max(first, n - W), n):  # unknown from the first rejected pass
+            self._post[i % W] = _NAN5
+        for dist, var, k, u, row in rejected:
+            if k < n - W:
+                continue
+            if self._lock_k is None:
+                self._to_lockon(dist, var, k, u, row)
+            elif k >= self._lock_k:
+                self._gate(dist, var, k, u, row)
+
+
+def _from_records(records):
+    """``frame, track_id, bb_height`` lists of the detector's frame records."""
+    frames, tracks, heights = [], [], []
+    for record in records:
+        det = record.payload.get("detections") if record.payload else None
+        if det is None:
+            raise InputFormatError(
+                "detections: expected frame records from the indicator pipeline's "
+                "predict (payload['detections']) or a results table")
+        det = np.asarray(det, np.float64).reshape(-1, 6)
+        if not len(det):
+            continue
+        h = det[:, 3]
+        if not np.all(np.isfinite(h)) or np.any(h <= 0):
+            raise InputFormatError("detections: bb_height must be finite and positive")
+        order = np.argsort(det[:, 4], kind="stable")
+        frames.extend([int(record.frame)] * len(det))
+        tracks.extend(det[order, 4].astype(np.int64).tolist())
+        heights.extend(h[order].tolist())
+    return frames, tracks, heights

@@ -34,10 +34,11 @@ ODOMETRY_COLUMNS = ("frame", "stamp", "speed", "yaw_rate")
 MAP_COLUMNS = ("id", "chainage")
 POSITION_COLUMNS = ("frame", "stamp", "chainage")
 #: Columns of a position estimate (``TunnelPositioner.predict``).
-ESTIMATE_COLUMNS = ("frame", "stamp", "chainage", "sigma")
+ESTIMATE_COLUMNS = ("frame", "stamp", "chainage", "sigma", "locked", "scale",
+                    "scale_sigma")
 
 
-def _columns(table, columns, what):
+def _columns(table, columns, what, *, finite=True):
     if not isinstance(table, pd.DataFrame):
         raise InputFormatError(f"{what}: expected a table (DataFrame); got "
                                f"{type(table).__name__}")
@@ -51,7 +52,7 @@ def _columns(table, columns, what):
             v = pd.to_numeric(table[c], errors="raise").to_numpy(np.float64)
         except (TypeError, ValueError):
             raise InputFormatError(f"{what}: column {c!r} must hold numbers") from None
-        if not np.all(np.isfinite(v)):
+        if finite and not np.all(np.isfinite(v)):
             bad = int(np.flatnonzero(~np.isfinite(v))[0])
             raise InputFormatError(f"{what}: row {bad + 1}: {c} is not a finite number")
         out[c] = v
@@ -119,13 +120,45 @@ def check_indicator_map(indicator_map, what="indicator map") -> pd.DataFrame:
     return table
 
 
+def _locked(values, what):
+    if values.dtype == bool:
+        return values.to_numpy()
+    text = values.astype(str).str.strip().str.lower()
+    ok = text.isin(["true", "false", "1", "0", "1.0", "0.0"])
+    if not ok.all():
+        bad = int(np.flatnonzero(~ok.to_numpy())[0])
+        raise InputFormatError(f"{what}: row {bad + 1}: locked must be true or false")
+    return text.isin(["true", "1", "1.0"]).to_numpy()
+
+
 def check_positions(positions, what="positions", *, sigma=False) -> pd.DataFrame:
-    """Check a positions table: ``frame, stamp, chainage`` (``sigma``)."""
-    columns = ESTIMATE_COLUMNS if sigma else POSITION_COLUMNS
-    v = _columns(positions, columns, what)
+    """Check a positions table: ``frame, stamp, chainage`` (the truth), or an estimate
+    ``frame, stamp, chainage, sigma`` with ``sigma=True`` (and ``locked``, ``scale``,
+    ``scale_sigma`` when present; chainage and sigma may be empty where not locked).
+    """
+    if not sigma:
+        v = _columns(positions, POSITION_COLUMNS, what)
+        v["frame"] = _frames(v["frame"], what)
+        return pd.DataFrame(v)
+    v = _columns(positions, ESTIMATE_COLUMNS[:4], what, finite=False)
+    for c in ("frame", "stamp"):
+        if not np.all(np.isfinite(v[c])):
+            bad = int(np.flatnonzero(~np.isfinite(v[c]))[0])
+            raise InputFormatError(f"{what}: row {bad + 1}: {c} is not a finite number")
     v["frame"] = _frames(v["frame"], what)
-    if sigma and np.any(v["sigma"] < 0):
+    locked = (_locked(positions["locked"], what) if "locked" in positions.columns
+              else np.ones(len(v["frame"]), bool))
+    for c in ("chainage", "sigma"):
+        bad = locked & ~np.isfinite(v[c])
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise InputFormatError(f"{what}: row {k + 1}: {c} is not a finite number "
+                                   "(and the row is locked)")
+    if np.any(v["sigma"][locked] < 0):
         raise InputFormatError(f"{what}: sigma must be >= 0")
+    v["locked"] = locked
+    if {"scale", "scale_sigma"} <= set(positions.columns):
+        v.update(_columns(positions, ("scale", "scale_sigma"), what, finite=False))
     return pd.DataFrame(v)
 
 

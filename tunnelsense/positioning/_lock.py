@@ -1,0 +1,196 @@
+"""Locking on to the indicator map without a start: which indicator was just passed.
+
+With no start (a log begun mid-tunnel, GPS lost before the portal, a restart), the
+passes alone say where the vehicle is: the odometry distances between them, times
+an unknown scale near 1, must match the gaps between the indicators they are.  Each
+hypothesis says "this pass was indicator ``j``" and runs its own 1-D Kalman filter
+(chainage and odometry scale) over the later passes, each associated with the
+nearest indicator ahead within the gate.  Its score is the log-likelihood of the
+passes: a Gaussian term for a pass it explains, the log of the false-pass rate for
+one it does not, the log of the miss rate for an indicator it skips.  Hypotheses are
+anchored at each of the first few passes, so one false alarm among them does not
+prevent the lock.
+
+The lock is taken when the best hypothesis has explained ``min_passes`` passes and
+its score beats every hypothesis that puts the vehicle at another indicator by
+``margin``.  On a strictly periodic map every interior hypothesis explains the
+passes equally: there is no lock, and nothing is guessed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+__all__ = ["LockOn"]
+
+
+class LockOn:
+    """Hypotheses over the map, updated pass by pass (see the module's docstring).
+
+    Parameters
+    ----------
+    chainage : ndarray of shape (n_indicators,)
+        The map, increasing.
+    scale, scale_sigma : float
+        Prior of the odometry's scale factor (true distance / odometry distance).
+    fix_sigma : float
+        Standard deviation of a pass's chainage (m), added to the pass fit's own.
+    gate : float
+        Largest Mahalanobis distance of an explained pass.
+    miss_rate : float
+        Probability that the detector misses an indicator.
+    false_pass_rate : float
+        False passes per metre (a trajectory of something else that passes).
+    margin : float
+        Log-likelihood ratio of the lock over the best rival.
+    min_passes : int
+        Fewest passes the locked hypothesis explains (the anchor included).
+    max_anchors : int, default=3
+        Hypotheses are anchored at each of the first ``max_anchors`` passes.
+    memory : int, default=32
+        Passes whose association is remembered (reported at the lock).
+    """
+
+    def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
+                 false_pass_rate, margin, min_passes, max_anchors=3, memory=32):
+        self.map = np.asarray(chainage, np.float64)
+        self.scale, self.scale_sigma = float(scale), float(scale_sigma)
+        self.fix_var = float(fix_sigma) ** 2
+        self.gate2 = float(gate) ** 2
+        self.log_hit = math.log1p(-float(miss_rate))
+        self.log_miss = math.log(max(float(miss_rate), 1e-12))
+        self.log_false = math.log(max(float(false_pass_rate), 1e-300))
+        self.margin = float(margin)
+        self.min_passes = int(min_passes)
+        self.max_anchors = int(max_anchors)
+        self.n_passes = 0
+        self._last_dist = None
+        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
+        self._last = np.empty(0, np.int64)  # last indicator explained
+        self._hits = np.empty(0, np.int64)  # passes explained
+        self._assign = deque(maxlen=int(memory))  # per pass: (tag, indicator per hyp)
+
+    @property
+    def n_hypotheses(self) -> int:
+        return len(self._last)
+
+    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None):
+        """A pass at odometry distance ``dist`` (variance ``var``).
+
+        ``q_s, q_c``: process noise of the chainage and the scale accumulated since
+        the previous pass.  ``tag`` is given back with the pass's association at the
+        lock.  Returns the lock (:meth:`lock`) or None.
+        """
+        h = self._h
+        if self.n_hypotheses:
+            delta = float(dist) - self._last_dist
+            s, c = h["s"] + h["c"] * delta, h["c"]
+            p00 = h["p00"] + 2 * delta * h["p01"] + delta**2 * h["p11"] + q_s
+            p01 = h["p01"] + delta * h["p11"]
+            p11 = h["p11"] + q_c
+            r = self.fix_var + c * c * float(var)
+            S = p00 + r
+            # the nearest indicator at or after the last one explained
+            top = len(self.map) - 1
+            i = np.clip(np.searchsorted(self.map, s), min(1, top), top)
+            lo = np.maximum(np.maximum(i - 1, 0), self._last)
+            hi = np.maximum(i, self._last)
+            j = np.where(np.abs(self.map[lo] - s) <= np.abs(self.map[hi] - s), lo, hi)
+            res = self.map[j] - s
+            m2 = res * res / S
+            ok = m2 <= self.gate2
+            # an unexplained pass: the indicators surely behind the vehicle now were
+            # missed (it is not at the one it should have seen)
+            behind = np.searchsorted(self.map, s - np.sqrt(self.gate2 * S)) - 1
+            j = np.where(ok, j, np.maximum(behind, self._last))
+            skipped = np.maximum(j - self._last - (ok > 0), 0)
+            h["score"] = h["score"] + skipped * self.log_miss + np.where(
+                ok, -0.5 * m2 - 0.5 * np.log(2 * np.pi * S) + self.log_hit,
+                self.log_false)
+            k0, k1 = np.where(ok, p00 / S, 0.0), np.where(ok, p01 / S, 0.0)
+            h["s"], h["c"] = s + k0 * res, c + k1 * res
+            h["p00"], h["p01"], h["p11"] = (p00 - k0 * p00, p01 - k0 * p01,
+                                            p11 - k1 * p01)
+            self._last = j
+            self._hits = self._hits + ok
+            assign = np.where(ok, j, -1)
+        else:
+            assign = np.empty(0, np.int64)
+        if self.n_passes < self.max_anchors:
+            assign = self._spawn(float(var), assign)
+        self._assign.append((tag, assign))
+        self.n_passes += 1
+        self._last_dist = float(dist)
+        self._prune()
+        return self.lock()
+
+    def _spawn(self, var, assign):
+        """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
+        m = len(self.map)
+        new = {"s": self.map.copy(), "c": np.full(m, self.scale),
+               "p00": np.full(m, self.fix_var + self.scale**2 * var),
+               "p01": np.zeros(m), "p11": np.full(m, self.scale_sigma**2),
+               "score": np.full(m, self.n_passes * self.log_false + self.log_hit)}
+        for key, value in new.items():
+            self._h[key] = np.concatenate([self._h[key], value])
+        self._last = np.concatenate([self._last, np.arange(m)])
+        self._hits = np.concatenate([self._hits, np.ones(m, np.int64)])
+        self._assign = deque(((t, np.concatenate([a, np.full(m, -1)]))
+                              for t, a in self._assign), maxlen=self._assign.maxlen)
+        return np.concatenate([assign, np.arange(m)])
+
+    def _prune(self):
+        """Forget hypotheses far behind the best (they can no longer win)."""
+        score = self._h["score"]
+        keep = score >= score.max() - 4 * self.margin - 20.0
+        if keep.all():
+            return
+        for key in self._h:
+            self._h[key] = self._h[key][keep]
+        self._last, self._hits = self._last[keep], self._hits[keep]
+        self._assign = deque(((t, a[keep]) for t, a in self._assign),
+                             maxlen=self._assign.maxlen)
+
+    def ranking(self):
+        """``(best, margin)``: the best hypothesis and its lead over any hypothesis
+        that puts the vehicle at another indicator (inf when there is none)."""
+        score = self._h["score"]
+        if not len(score):
+            return None, 0.0
+        best = int(np.argmax(score))
+        rival = score[self._last != self._last[best]]
+        return best, float(score[best] - rival.max()) if len(rival) else math.inf
+
+    def n_explaining(self):
+        """How many places of the map explain the passes within ``margin`` of the best."""
+        score = self._h["score"]
+        if not len(score):
+            return 0
+        near = score >= score.max() - self.margin
+        return len(np.unique(self._last[near]))
+
+    def lock(self):
+        """The lock, when one hypothesis explains the passes clearly best; else None.
+
+        Returns
+        -------
+        lock : dict or None
+            ``state`` ``(s, c)`` and ``cov`` (2x2) at the last pass, ``indicator``
+            (index of the last indicator explained), ``passes``: ``(tag, index)``
+            of each remembered pass (index -1: not explained), ``margin``.
+        """
+        best, margin = self.ranking()
+        if best is None or self._hits[best] < self.min_passes or margin < self.margin:
+            return None
+        h = self._h
+        return {
+            "state": np.array([h["s"][best], h["c"][best]]),
+            "cov": np.array([[h["p00"][best], h["p01"][best]],
+                             [h["p01"][best], h["p11"][best]]]),
+            "indicator": int(self._last[best]),
+            "passes": [(t, int(a[best])) for t, a in self._assign],
+            "margin": margin,
+        }
