@@ -172,6 +172,12 @@ def _check_coverage(odo, detections, tour, odometry) -> None:
             f"{last} frames of the tour have none); the odometry must cover every frame")
 
 
+def write_positions(positions, f):
+    """Write a positions table as CSV: ``locked`` as true/false, unknown cells empty."""
+    positions.assign(locked=positions["locked"].map({True: "true", False: "false"})
+                     ).to_csv(f, index=False, lineterminator="\n")
+
+
 def evaluate_positions(tour, positions, *, odometry=None, indicator_map=None, draw=None,
                        overwrite=False):
     """Score a position estimate against a tour's true positions; plot it if asked.
