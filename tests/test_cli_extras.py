@@ -113,6 +113,7 @@ def test_ctrl_c_during_start_up_imports_is_one_line(monkeypatch, capsys):
     assert capsys.readouterr().err == "tunnelsense: interrupted\n"
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_work_is_one_line(tmp_path):
     """A real SIGINT while a tour is simulated: exit 130, one line, no traceback."""
     import threading

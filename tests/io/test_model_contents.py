@@ -125,6 +125,7 @@ print(peak, rc)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("member,how", [("npy", "detect"), ("npy", "load_model"),
                                         ("schema.json", "info"),
                                         ("tunnelsense.json", "info")])

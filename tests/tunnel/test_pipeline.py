@@ -107,6 +107,7 @@ def test_frames_without_keypoints_give_no_detections(tours, dtype):
     assert [len(r.payload["detections"]) for r in black] == [0, 0, 0]
 
 
+@pytest.mark.slow
 def test_grid_search_by_tour(tours):
     X, y, groups = to_xy(tours)
     search = GridSearchCV(

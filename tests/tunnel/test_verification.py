@@ -406,6 +406,7 @@ def _indicator_figures(sampler, verifier, tour, min_height):
     return n, kept, neg, neg_kept
 
 
+@pytest.mark.slow
 def test_on_simulated_tours_not_used_for_fitting(global_random_seed):
     """Issue 4's validation, on small tours (the full-size figures are in
     docs/tunnel-stages.md, from ``benchmarks/bench_tunnel_stages.py --validation``).
