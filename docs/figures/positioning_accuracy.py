@@ -16,7 +16,11 @@ reckoning (DR), of the online filter (what is known at each frame), of the onlin
 filter once two signs have been passed, and of the offline smoother, and the
 smoother's worst error at an indicator pass; also the positioner's time per frame.
 
-Run: ``python benchmarks/bench_positioning.py [--seeds 3] [--rendered]``.
+Run from a source checkout or an unpacked sdist (no extra needed)::
+
+    python docs/figures/positioning_accuracy.py [--seeds 3] [--rendered]
+
+It prints the tables of the Positioning page, the machine and the day.
 """
 
 import os
@@ -25,11 +29,15 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import machine  # noqa: E402
 
 from tunnelsense.datasets import (  # noqa: E402
     make_tunnel_kinematics,
@@ -116,7 +124,7 @@ def statistical(seeds):
 
 
 def rendered(seed):
-    from tunnelsense._cli import main
+    from tunnelsense.cli import main
     from tunnelsense.datasets import make_tunnel_tour
     from tunnelsense.io import read_mot_results, write_tour
     from tunnelsense.positioning import (
@@ -162,6 +170,7 @@ def main():
                         help="also a rendered 2-km tour with the real detector")
     parser.add_argument("--only-rendered", action="store_true")
     args = parser.parse_args()
+    print(machine())
     if not args.only_rendered:
         statistical(list(range(args.seeds)))
     if args.rendered or args.only_rendered:
