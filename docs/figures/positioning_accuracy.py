@@ -133,7 +133,7 @@ def rendered(seed):
         read_positions,
     )
 
-    root = Path(tempfile.mkdtemp(prefix="bench-positioning-"))
+    root = Path(tempfile.mkdtemp(prefix="positioning-accuracy-"))
     t0 = time.perf_counter()
     write_tour(make_tunnel_tour(600, random_state=seed + 100), root / "train")
     tour = make_tunnel_tour(2700, random_state=seed, first_indicator_m=60.0,
