@@ -29,6 +29,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import shutil  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -161,6 +162,7 @@ def rendered(seed):
           f"{r['kept']}, rejected {r['rejected']}")
     print(f"  pass timing error of the real detector: mean {timing.mean():+.2f} m, sd "
           f"{timing.std():.2f} m ({len(timing)} passes)")
+    shutil.rmtree(root, ignore_errors=True)
 
 
 def main():
