@@ -2,8 +2,8 @@
 
 A 900-frame tour at 90 km/h (750 m, indicators at 40, 240, 440 and 640 m) is
 rendered and written, a detector is trained on another tour, and ``position`` /
-``evaluate position`` run on it.  The 2-km figures with real detections are in the
-benchmark (``benchmarks/bench_positioning.py``).
+``evaluate position`` run on it.  The 2-km figures with real detections are made by
+``docs/figures/positioning_accuracy.py``.
 """
 
 import json

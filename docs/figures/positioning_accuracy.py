@@ -24,7 +24,11 @@ reckoning (DR), of the online filter (what is known at each frame), of the onlin
 filter once two signs have been passed, and of the offline smoother, and the
 smoother's worst error at an indicator pass; also the positioner's time per frame.
 
-Run: ``python benchmarks/bench_positioning.py [--seeds 3] [--rendered]``.
+Run from a source checkout or an unpacked sdist (no extra needed)::
+
+    python docs/figures/positioning_accuracy.py [--seeds 3] [--rendered]
+
+It prints the tables of the Positioning page, the machine and the day.
 """
 
 import os
@@ -33,11 +37,16 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import machine  # noqa: E402
 
 from tunnelsense.datasets import (  # noqa: E402
     make_tunnel_kinematics,
@@ -124,7 +133,7 @@ def statistical(seeds):
 
 
 def rendered(seed):
-    from tunnelsense._cli import main
+    from tunnelsense.cli import main
     from tunnelsense.datasets import make_tunnel_tour
     from tunnelsense.io import read_mot_results, write_tour
     from tunnelsense.positioning import (
@@ -133,7 +142,7 @@ def rendered(seed):
         read_positions,
     )
 
-    root = Path(tempfile.mkdtemp(prefix="bench-positioning-"))
+    root = Path(tempfile.mkdtemp(prefix="positioning-accuracy-"))
     t0 = time.perf_counter()
     write_tour(make_tunnel_tour(600, random_state=seed + 100), root / "train")
     tour = make_tunnel_tour(2700, random_state=seed, first_indicator_m=60.0,
@@ -161,6 +170,7 @@ def rendered(seed):
           f"{r['kept']}, rejected {r['rejected']}")
     print(f"  pass timing error of the real detector: mean {timing.mean():+.2f} m, sd "
           f"{timing.std():.2f} m ({len(timing)} passes)")
+    shutil.rmtree(root, ignore_errors=True)
 
 
 def _stream_run(pos, rows, frames, tracks, heights):
@@ -331,6 +341,7 @@ def main():
     parser.add_argument("--frames", type=int, default=3000)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    print(machine())
     if args.speed:
         speed(args.frames, args.repeats)
         return
