@@ -222,6 +222,8 @@ def make_tunnel_tour(
     fpn += (3.0 - 3.0 * r2).astype(np.float32)  # slight vignetting
     noise_pick = rng.integers(0, [2, pad + 1, pad + 1], size=(n_frames, 3))
 
+    warming = p["ambient_warming"]
+    agc = _Agc(fps, p["agc_time_s"]) if p["agc"] else None
     images = np.empty((n_frames, H, W), dtype=np.uint8)
     rows = []
     for f in range(n_frames):
@@ -229,6 +231,8 @@ def make_tunnel_tour(
         sc = float(s_ego[f])
         half = bg.render(sc, pose)
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
+        if warming:  # lining and road follow the air; signs, lamps, engines do not
+            img += np.float32(warming)
         drawn = []  # (depth, class, id, box, occluder?)
         todo = []
         lo, hi = np.searchsorted(indicators, [sc + _Z_NEAR, sc + _Z_FAR])
@@ -260,7 +264,7 @@ def make_tunnel_tour(
                 oid = lamp_ids[row, k]
             else:
                 veh = vehicles[key]
-                sbox = _draw_shadow(img, cam, pose, veh, f, ds)
+                sbox = _draw_shadow(img, cam, pose, veh, f, ds, warming)
                 if sbox is not None:
                     drawn.append((sbox[4], SHADOW, shadow_ids[key], sbox, False))
                 box = _draw_vehicle(img, cam, pose, veh, f, ds)
@@ -273,6 +277,8 @@ def make_tunnel_tour(
         j, di, dj = noise_pick[f]
         img += bank[j, di : di + H, dj : dj + W]
         img += fpn
+        if agc is not None:
+            agc.apply(img)
         np.clip(img, 0, 255, out=img)
         np.rint(img, out=img)
         images[f] = img
@@ -323,10 +329,51 @@ def make_tunnel_tour(
         "indicator_tall_m": float(p["indicator_size_m"][1]),
         "indicator_height_m": float(p["indicator_height_m"]),
     }
+    # the sensor and air factors, named only when in use (a default tour's info and
+    # its seqinfo.ini are as they were)
+    if p["sensor_scale"] != 1.0:
+        info["sensor_scale"] = float(p["sensor_scale"])
+    if warming:
+        info["ambient_warming"] = float(warming)
+    if agc is not None:
+        info["agc"] = True
+        info["agc_gain_min"] = round(float(min(agc.gains)), 6)
+        info["agc_gain_max"] = round(float(max(agc.gains)), 6)
     tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
     # where the camera was (positions, odometry, indicator map): no random draws here
     kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)
     return with_kinematics(tour, kin)
+
+
+class _Agc:
+    """A camera's automatic gain control, reacting to hot objects in view.
+
+    It maps the frame's 1st and 99.5th percentiles (on a 1-in-8 grid, before the
+    8-bit clip) to ``levels`` (what a default frame shows), following a change with
+    time constant ``tau`` s: a hot truck or a near lamp raises the upper percentile
+    and the gain drops, a cooler view raises it; every grey level moves, frame by
+    frame.
+    """
+
+    def __init__(self, fps, tau, levels=(92.0, 240.0)):
+        self.alpha = 1.0 - math.exp(-1.0 / (fps * tau))
+        self.levels = levels
+        self.gain, self.offset = None, None
+        self.gains = []
+
+    def apply(self, img):
+        lo, hi = np.percentile(img[4::8, 4::8], [1.0, 99.5])
+        hi = max(float(hi), float(lo) + 1.0)
+        g = (self.levels[1] - self.levels[0]) / (hi - lo)
+        o = self.levels[0] - g * float(lo)
+        if self.gain is None:  # the camera starts settled
+            self.gain, self.offset = g, o
+        else:
+            self.gain += self.alpha * (g - self.gain)
+            self.offset += self.alpha * (o - self.offset)
+        self.gains.append(self.gain)
+        img *= np.float32(self.gain)
+        img += np.float32(self.offset)
 
 
 def _correlate(bank, sigma_px):
