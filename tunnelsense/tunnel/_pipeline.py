@@ -27,6 +27,12 @@ PIPELINE_DEFAULTS = {
     # training tours (robust estimate), not the paper's camera's outcome [160, 190]:
     # a camera with another gain puts its indicators elsewhere
     "keypoints__band": "learned",
+    # every frame in the training frames' radiometry (background level and spread)
+    # and size before anything else: a unit's gain and offset, an automatic gain
+    # control and a 320x240 sensor of the same field of view change nothing the
+    # later stages see but rounding and sharpness
+    "keypoints__radiometry": "frame",
+    "keypoints__frame_size": "training",
     # the cluster rectangle is the in-band region around the keypoints, not the
     # grid-quantized rectangle of the keypoints: stable centre and scale
     "clusters__box": "region",
@@ -57,6 +63,8 @@ PIPELINE_DEFAULTS = {
 #: bridging 3 frames, a straight-line Pearson r, and the verifier's paper settings.
 PAPER_SETTINGS = {
     "keypoints__band": "fixed",
+    "keypoints__radiometry": "raw",
+    "keypoints__frame_size": "native",
     "verifier__context_size": None,
     "verifier__max_distance": 0.14,
     "verifier__margin": None,

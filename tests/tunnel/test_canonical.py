@@ -1,0 +1,136 @@
+"""Frames made canonical before the first stage: the training frames' radiometry
+(background level and spread) and size."""
+
+import numpy as np
+import pytest
+
+from tunnelsense import FrameSequence, to_xy
+from tunnelsense.datasets import make_tunnel_tour
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io import cluster_lines, load_model, save_model
+from tunnelsense.tunnel import IntensityKeypointSampler, make_indicator_pipeline
+from tunnelsense.tunnel._intensity import background_levels, normalize_frame
+from tunnelsense.utils import record_stage_checks
+
+QUIET = dict(first_indicator_m=40.0, lateral_jitter_m=0.0, pitch_jitter_deg=0.0,
+             traffic_per_km=0.0, speed_kmh=80.0, focal_length_px=700.0)
+
+
+@pytest.fixture(scope="module")
+def tours():
+    plain = make_tunnel_tour(40, random_state=4, **QUIET)
+    other = make_tunnel_tour(40, random_state=4, gain=0.7, offset=-20.0, **QUIET)
+    small = make_tunnel_tour(40, random_state=4, sensor_scale=0.5, **QUIET)
+    return plain, other, small
+
+
+def _keypoint_set(seq):
+    return {tuple(k[:2]) for r in seq for k in r.payload["keypoints"].tolist()}
+
+
+def test_background_levels_follow_an_affine_change():
+    rng = np.random.default_rng(0)
+    img = np.clip(rng.normal(100, 8, (120, 160)), 0, 255)
+    img[20:40, 30:40] = 175
+    a = background_levels(img.astype(np.uint8))
+    b = background_levels(np.clip(0.7 * img - 20 + 0.5, 0, 255).astype(np.uint8))
+    assert b[0] == pytest.approx(0.7 * a[0] - 20, abs=0.6)
+    assert b[1] == pytest.approx(0.7 * a[1], rel=0.1)
+    back = normalize_frame(np.clip(0.7 * img - 20 + 0.5, 0, 255).astype(np.uint8),
+                           *b, *a)
+    assert np.abs(back.astype(float) - img.astype(np.uint8)).max() <= 2.0
+
+
+def test_gain_and_offset_leave_the_keypoints(tours):
+    plain, other, _ = tours
+    X, y, _ = to_xy([plain])
+    Xo, _, _ = to_xy([other])
+    kw = dict(band="learned", radiometry="frame")
+    sampler = IntensityKeypointSampler(**kw).fit(X, y)
+    a, b = _keypoint_set(sampler.transform(X)), _keypoint_set(sampler.transform(Xo))
+    assert len(a) > 100
+    assert len(a & b) >= 0.95 * len(a | b)
+    # the raw band loses them
+    raw = IntensityKeypointSampler(band="learned").fit(X, y)
+    a, b = _keypoint_set(raw.transform(X)), _keypoint_set(raw.transform(Xo))
+    assert len(a & b) < 0.5 * len(a | b)
+
+
+def test_a_smaller_frame_is_resampled_to_the_training_size(tours):
+    plain, _, small = tours
+    X, y, _ = to_xy([plain])
+    Xs, _, _ = to_xy([small])
+    sampler = IntensityKeypointSampler(band="learned", frame_size="training",
+                                       radiometry="frame").fit(X, y)
+    assert sampler.frame_shape_ == (480, 640)
+    out = sampler.transform(Xs)
+    assert out[0].image.shape == (480, 640)
+    assert out[0].payload["frame_scale"] == (2.0, 2.0)
+    assert sampler.transform(X)[0].payload["frame_scale"] == (1.0, 1.0)
+    # the keypoints of the sign are found where the full-size frame has them
+    a, b = _keypoint_set(sampler.transform(X)), _keypoint_set(out)
+    assert len(a & b) >= 0.6 * len(a)
+
+
+def test_another_aspect_ratio_is_refused(tours):
+    plain = tours[0]
+    X, y, _ = to_xy([plain])
+    sampler = IntensityKeypointSampler(frame_size="training").fit(X, y)
+    odd = FrameSequence.from_array(np.zeros((2, 240, 400), np.uint8))
+    with pytest.raises(InputFormatError, match=r"400x240 frame.*640x480"):
+        sampler.transform(odd)
+    mixed = FrameSequence([*X[:1], *odd[:1]])
+    with pytest.raises(InputFormatError, match="several sizes"):
+        IntensityKeypointSampler(frame_size="training").fit(mixed)
+
+
+def test_canonical_sampler_survives_a_skops_round_trip(tours, tmp_path):
+    plain, other, _ = tours
+    X, y, _ = to_xy([plain])
+    Xo, _, _ = to_xy([other])
+    est = IntensityKeypointSampler(band="learned", radiometry="frame",
+                                   frame_size="training").fit(X, y)
+    back = load_model(save_model(est, tmp_path / "m.skops"))
+    assert back.frame_shape_ == est.frame_shape_
+    assert _keypoint_set(back.transform(Xo)) == _keypoint_set(est.transform(Xo))
+
+
+def test_min_contrast_moves_the_low_end_toward_the_background(tours):
+    X, y, _ = to_xy([tours[0]])
+    full = IntensityKeypointSampler(band="learned", radiometry="frame").fit(X, y)
+    half = IntensityKeypointSampler(band="learned", radiometry="frame",
+                                    min_contrast=0.5).fit(X, y)
+    assert half.high_ == full.high_
+    assert half.low_ == pytest.approx(
+        full.ref_level_ + 0.5 * (full.low_ - full.ref_level_), abs=1e-5)
+
+
+def test_record_stage_checks_of_the_canonical_sampler(tours):
+    X, y, _ = to_xy([tours[0]])
+    est = IntensityKeypointSampler(band="learned", radiometry="frame",
+                                   frame_size="training")
+    for name, check in record_stage_checks(est, X[:3], y[:3]):
+        check()
+        assert name.startswith("check_")
+
+
+def test_detections_on_a_smaller_frame_are_in_its_own_pixels(tours):
+    plain, _, small = tours
+    X, y, _ = to_xy([plain])
+    Xs, ys, _ = to_xy([small])
+    model = make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+    out = model.predict(Xs)
+    dets = [r.payload["detections"] for r in out if len(r.payload["detections"])]
+    assert dets, "the sign is found on the 320x240 frames"
+    for r in out:
+        for det in r.payload["detections"]:
+            # inside the 320x240 frame, on the sign's ground truth box
+            gt = ys[r.frame - 1]
+            assert len(gt)
+            cx, cy = det[0] + det[2] / 2, det[1] + det[3] / 2
+            inside = ((gt[:, 0] - 2 <= cx) & (cx <= gt[:, 0] + gt[:, 2] + 2)
+                      & (gt[:, 1] - 2 <= cy) & (cy <= gt[:, 1] + gt[:, 3] + 2))
+            assert inside.any(), (det, gt)
+        for line in cluster_lines(r):
+            left = float(line.split(",")[2])
+            assert left < 320
