@@ -125,7 +125,14 @@ def main(argv=None):
     ap.add_argument("--conditions", nargs="*", default=None,
                     help="evaluate on these conditions only")
     ap.add_argument("--methods", nargs="*", default=None, choices=list(METHODS))
+    ap.add_argument("--set", nargs="*", default=[], metavar="STEP__PARAM=VALUE",
+                    help="override parameters of 'ours' (Python literals)")
     args = ap.parse_args(argv)
+    if args.set:
+        import ast  # noqa: PLC0415
+
+        METHODS["ours"] = {k: ast.literal_eval(v) for k, v in
+                           (item.split("=", 1) for item in args.set)}
     if args.seeds == "tuning":
         train_seed, test_seeds = TUNING_TRAIN_SEED, TUNING_TEST_SEEDS
     else:

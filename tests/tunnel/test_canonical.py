@@ -8,6 +8,7 @@ from tunnelsense import FrameSequence, to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import cluster_lines, load_model, save_model
+from tunnelsense.metrics import indicator_scores
 from tunnelsense.tunnel import IntensityKeypointSampler, make_indicator_pipeline
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
 from tunnelsense.utils import record_stage_checks
@@ -134,3 +135,7 @@ def test_detections_on_a_smaller_frame_are_in_its_own_pixels(tours):
         for line in cluster_lines(r):
             left = float(line.split(",")[2])
             assert left < 320
+    # and the clusters are scored in the frame's own pixels too
+    scores = indicator_scores(out, ys)["trajectory"]
+    assert scores["detected"] == scores["indicators"] >= 1
+    assert scores["false_alarms"] == 0
