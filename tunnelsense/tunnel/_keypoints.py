@@ -61,6 +61,15 @@ def _check_depth(image, index, record, expected, band=None):
     )
 
 
+def _beyond_tolerance(spread, ref_spread, tolerance):
+    """The frame's spread as the gain correction sees it: the ratio to the training
+    frames' spread shrunk toward 1 by ``tolerance`` (in log units), so a camera whose
+    frames vary as the training camera's do is not rescaled frame by frame."""
+    lg = np.log(spread / ref_spread)
+    lg = np.sign(lg) * max(abs(lg) - tolerance, 0.0)
+    return float(ref_spread * np.exp(lg))
+
+
 def _one_shape(records):
     """The one ``(height, width)`` of the frames (``frame_size="training"``)."""
     shapes = set()
@@ -159,6 +168,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         min_contrast * (low_learned - level)``, so that signs seen with down to
         ``min_contrast`` times the training contrast above their background (warmer
         air, another emissivity) are still sampled.  1 keeps the learned band.
+    gain_tolerance : "learned" or float, default="learned"
+        With ``radiometry="frame"``: a frame's gain (its spread against the training
+        frames') is corrected only by what exceeds this, in log units.
+        ``"learned"``: the 90th percentile of the training frames' own variation
+        (``gain_tolerance_``); 0 corrects every frame fully.
 
     Attributes
     ----------
@@ -168,6 +182,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         Number of frames seen by ``fit``.
     ref_level_, ref_spread_ : float
         The training frames' background level and spread (``radiometry="frame"``).
+    gain_tolerance_ : float
+        How much (log ratio, 90th percentile) the training frames' spreads vary about
+        ``ref_spread_`` with the scene: a frame's gain is corrected only by what
+        exceeds it, so the training camera's own frames are not rescaled by the
+        scene's changes (``radiometry="frame"``).
     frame_shape_ : (int, int)
         ``(height, width)`` of the training frames (``frame_size="training"``).
     pixel_dtype_ : str
@@ -220,6 +239,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         "radiometry": [StrOptions({"raw", "frame"})],
         "frame_size": [StrOptions({"native", "training"})],
         "min_contrast": [Interval(numbers.Real, 0, 1, closed="right")],
+        "gain_tolerance": [StrOptions({"learned"}),
+                           Interval(numbers.Real, 0, None, closed="left")],
     }
 
     _payload_reads = ()
@@ -240,6 +261,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         radiometry="raw",
         frame_size="native",
         min_contrast=1.0,
+        gain_tolerance="learned",
     ):
         self.low = low
         self.high = high
@@ -253,6 +275,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self.radiometry = radiometry
         self.frame_size = frame_size
         self.min_contrast = min_contrast
+        self.gain_tolerance = gain_tolerance
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -280,7 +303,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
-        for name in ("ref_level_", "ref_spread_", "frame_shape_"):
+        for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_"):
             if hasattr(self, name):
                 delattr(self, name)
         if self.frame_size == "training":
@@ -292,6 +315,12 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             ]).reshape(-1, 2)
             self.ref_level_, self.ref_spread_ = (
                 float(v) for v in np.median(levels, axis=0)
+            )
+            # the spread of one camera's frames varies with the scene (lamps,
+            # vehicles, lining): a gain within that variation is left alone
+            self.gain_tolerance_ = (
+                float(np.percentile(np.abs(np.log(levels[:, 1] / self.ref_spread_)), 90))
+                if self.gain_tolerance == "learned" else float(self.gain_tolerance)
             )
         if self.band == "learned":
             require_boxes(
@@ -399,6 +428,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             scale = (float(sx), float(sy))
         if getattr(self, "ref_level_", None) is not None:
             level, spread = background_levels(image)
+            spread = _beyond_tolerance(spread, self.ref_spread_,
+                                       getattr(self, "gain_tolerance_", 0.0))
             image = normalize_frame(image, level, spread, self.ref_level_,
                                     self.ref_spread_)
         return image, scale
