@@ -46,7 +46,7 @@ def test_gain_and_offset_leave_the_keypoints(tours):
     plain, other, _ = tours
     X, y, _ = to_xy([plain])
     Xo, _, _ = to_xy([other])
-    kw = dict(band="learned", radiometry="frame")
+    kw = dict(band="learned", radiometry="frame", gain_tolerance=0.0)
     sampler = IntensityKeypointSampler(**kw).fit(X, y)
     a, b = _keypoint_set(sampler.transform(X)), _keypoint_set(sampler.transform(Xo))
     assert len(a) > 100
@@ -55,6 +55,29 @@ def test_gain_and_offset_leave_the_keypoints(tours):
     raw = IntensityKeypointSampler(band="learned").fit(X, y)
     a, b = _keypoint_set(raw.transform(X)), _keypoint_set(raw.transform(Xo))
     assert len(a & b) < 0.5 * len(a | b)
+
+
+def test_gain_within_the_training_variation_is_left_alone(tours):
+    """The learned tolerance: the training camera's frames keep their gain (their
+    level alone is matched), a gain beyond it is corrected by the excess."""
+    plain, other, _ = tours
+    X, y, _ = to_xy([plain])
+    sampler = IntensityKeypointSampler(band="learned", radiometry="frame").fit(X, y)
+    assert 0 < sampler.gain_tolerance_ < 0.5
+    for r_in, r_out in zip(X, sampler.transform(X), strict=True):
+        level, spread = background_levels(r_in.image)
+        g = np.exp(abs(np.log(spread / sampler.ref_spread_)))
+        if np.log(g) <= sampler.gain_tolerance_:
+            shift = sampler.ref_level_ - level
+            diff = r_out.image.astype(float) - r_in.image - shift
+            inside = (r_in.image > 5) & (r_in.image < 250)
+            assert np.abs(diff[inside]).max() <= 0.51
+    # a frame of gain 0.7 is brought to within the tolerance of the training gain
+    Xo, _, _ = to_xy([other])
+    out = sampler.transform(Xo)
+    for r_in, r_out in zip(Xo[:5], out[:5], strict=True):
+        ratio = background_levels(r_out.image)[1] / sampler.ref_spread_
+        assert abs(np.log(ratio)) <= sampler.gain_tolerance_ + 0.05
 
 
 def test_a_smaller_frame_is_resampled_to_the_training_size(tours):
