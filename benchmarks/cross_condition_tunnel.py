@@ -78,8 +78,7 @@ CONDITIONS = {
 #: and size), for the before/after table
 METHODS = {
     "paper": dict(preset="paper"),
-    "before": dict(keypoints__radiometry="raw", keypoints__frame_size="native",
-                   keypoints__min_contrast=1.0),
+    "before": dict(keypoints__radiometry="raw", keypoints__frame_size="native"),
     "ours": {},
 }
 
