@@ -27,16 +27,21 @@ PIPELINE_DEFAULTS = {
     # training tours (robust estimate), not the paper's camera's outcome [160, 190]:
     # a camera with another gain puts its indicators elsewhere
     "keypoints__band": "learned",
-    # every frame in the training frames' radiometry (background level and spread)
-    # and size before anything else: a unit's gain and offset, an automatic gain
-    # control and a 320x240 sensor of the same field of view change nothing the
-    # later stages see but rounding and sharpness
-    "keypoints__radiometry": "frame",
+    # a frame of another size (same aspect ratio: a 320x240 sensor with the
+    # training camera's field of view) is resampled to the training frames' size
+    # before the first stage, so every length in pixels of every stage keeps its
+    # meaning; detections are mapped back.  Frames of the training size are
+    # untouched.
     "keypoints__frame_size": "training",
-    # a frame's gain is corrected by what exceeds 8 % (log units): about two thirds
-    # of the median frame-to-frame variation of the background spread of one camera
-    # (chosen on the tuning tours; the learned median, 10 % there, left a gain of
-    # 1.3 less corrected)
+    # canonical radiometry (each frame mapped to the training frames' background
+    # level and spread) is an option, keypoints__radiometry="frame": it undoes a
+    # unit's gain and offset and an automatic gain control, but one frame's
+    # background spread also follows the scene (a near truck raises it by up to
+    # 60 %), and in heavy traffic it cost indicators and added a false alarm
+    # (docs/validation.md); when it is switched on, a frame's gain is corrected by
+    # what exceeds 8 % (log units), about two thirds of one camera's median
+    # frame-to-frame variation (chosen on the tuning tours)
+    "keypoints__radiometry": "raw",
     "keypoints__gain_tolerance": 0.08,
     # the cluster rectangle is the in-band region around the keypoints, not the
     # grid-quantized rectangle of the keypoints: stable centre and scale
