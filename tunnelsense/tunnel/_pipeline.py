@@ -110,7 +110,11 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     (``appearance__features="invariant"``, ``appearance__augment=2``), and the
     quadratic path criterion of the motion check (``motion__criterion="quadratic"``),
     which keep the detector working on another camera and in a curving tunnel
-    (``docs/validation.md``).
+    (``docs/validation.md``); frames of another size with the training frames'
+    aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
+    detections are mapped back, another aspect ratio is refused).  Canonical
+    radiometry, for units of other gains and offsets or with automatic gain control,
+    is ``keypoints__radiometry="frame"``.
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),
