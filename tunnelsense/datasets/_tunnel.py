@@ -102,8 +102,10 @@ def make_tunnel_tour(
         of 800-4000 m curving either way, lamps every 8-20 m, signs 0.4-0.6 m x
         0.8-1.2 m at 2.2-3.5 m, speeds from 50-90 km/h up to 10-40 km/h more,
         2-25 vehicles per km, 0-50 % trucks, a change of grade with probability
-        0.5: vertical radius 3-30 km, sag or crest); the draw depends on the seed only
-        and ``**overrides`` replace drawn values.
+        0.5: vertical radius 3-30 km, sag or crest; and, each with probability 0.5,
+        a 320x240 sensor of the same field of view, warm air of 0-40 grey levels and
+        automatic gain control); the draw depends on the seed only and
+        ``**overrides`` replace drawn values.
     random_state : int, RandomState instance or None, default=None
         Seed; the same seed gives byte-identical images and ground truth.
     name : str, default=None
@@ -129,7 +131,16 @@ def make_tunnel_tour(
         the sign's width and height in metres); ``vertical_curve_radius_m`` (inf:
         a constant grade, which changes nothing in the image as the camera tilts
         with the road; signed: > 0 a sag, the road ahead rising by ``s^2 / 2R`` at
-        ``s`` metres, < 0 a crest; at least 500 m).
+        ``s`` metres, < 0 a crest; at least 500 m); ``sensor_scale`` (1: image size
+        and focal length times this, the same field of view: 0.5 gives the
+        640x480 scene on a 320x240 sensor); ``ambient_warming`` (0 grey levels:
+        warmer air raises the lining and the road, and the warm road patches behind
+        vehicles, by this; lit signs, lamps and engines keep their level, so about
+        37 halves a sign's contrast to the wall); ``agc`` (False: automatic gain
+        control, mapping each frame's 1st and 99.5th percentiles to grey levels 92
+        and 240 with time constant ``agc_time_s``, 0.5 s, so a near lamp or a hot
+        truck lowers the gain of every pixel; ``info`` then holds
+        ``agc_gain_min`` and ``agc_gain_max``).
 
     Returns
     -------
