@@ -9,7 +9,12 @@ from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import cluster_lines, load_model, save_model
 from tunnelsense.metrics import indicator_scores
-from tunnelsense.tunnel import IntensityKeypointSampler, make_indicator_pipeline
+from tunnelsense.tunnel import (
+    IntensityKeypointSampler,
+    KMeansHistogramVerifier,
+    make_indicator_pipeline,
+)
+from tunnelsense.tunnel._verification import contrast_copy
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
 from tunnelsense.utils import record_stage_checks
 
@@ -162,3 +167,41 @@ def test_detections_on_a_smaller_frame_are_in_its_own_pixels(tours):
     scores = indicator_scores(out, ys)["trajectory"]
     assert scores["detected"] == scores["indicators"] >= 1
     assert scores["false_alarms"] == 0
+
+
+def test_contrast_copy_scales_the_contrast_about_the_background():
+    rng = np.random.default_rng(1)
+    img = np.clip(rng.normal(100, 4, (60, 80)), 0, 255).astype(np.uint8)
+    img[10:30, 20:30] = 180
+    level, _ = background_levels(img)
+    half = contrast_copy(img, 0.5).astype(float)
+    assert half[20, 25] == pytest.approx(level + 0.5 * (180 - level), abs=0.51)
+    assert np.array_equal(contrast_copy(img, 1.0), img)
+
+
+def test_verifier_contrast_augmentation_trains_on_both_copies(tours):
+    X, y, _ = to_xy([tours[0]])
+    Z = IntensityKeypointSampler(band="learned", min_contrast=0.5).fit_transform(X, y)
+    kw = dict(context_size=None, n_negative_clusters=40, random_state=0)
+    plain = KMeansHistogramVerifier(**kw).fit(Z, y)
+    aug = KMeansHistogramVerifier(augment_contrast=(0.5, 0.6), **kw).fit(Z, y)
+    assert (aug.n_positive_, aug.n_negative_) == (2 * plain.n_positive_,
+                                                  2 * plain.n_negative_)
+    # a frame at 0.55 of its contrast: the augmented verifier keeps more of the
+    # sign's keypoints than the plain one
+    low = FrameSequence([r.__class__(r.tour, r.frame, contrast_copy(r.image, 0.55),
+                                     r.payload) for r in Z])
+
+    def kept_on_signs(v):
+        out = v.transform(low)
+        n = 0
+        for r, b in zip(out, y, strict=True):
+            kp = r.payload["keypoints"]
+            for left, top, w, h in np.asarray(b).reshape(-1, 4):
+                n += int(((kp[:, 1] >= left) & (kp[:, 1] < left + w)
+                          & (kp[:, 0] >= top) & (kp[:, 0] < top + h)).sum())
+        return n
+
+    assert kept_on_signs(aug) > kept_on_signs(plain)
+    with pytest.raises(ValueError, match="augment_contrast"):
+        KMeansHistogramVerifier(augment_contrast=(0.0, 1.0), **kw).fit(Z, y)
