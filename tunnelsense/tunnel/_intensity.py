@@ -11,7 +11,7 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["background_levels", "indicator_band", "normalize_frame", "resample_frame",
+__all__ = ["background_levels", "beyond_tolerance", "indicator_band", "normalize_frame", "resample_frame",
            "sample_keypoints"]
 
 
@@ -254,3 +254,12 @@ def resample_frame(image, shape):
     grow = shape[0] * shape[1] > h * w
     return cv2.resize(image, (int(shape[1]), int(shape[0])),
                       interpolation=cv2.INTER_LINEAR if grow else cv2.INTER_AREA)
+
+
+def beyond_tolerance(spread, ref_spread, tolerance):
+    """The frame's spread as the gain correction sees it: the ratio to the training
+    frames' spread shrunk toward 1 by ``tolerance`` (in log units), so a camera whose
+    frames vary as the training camera's do is not rescaled frame by frame."""
+    lg = np.log(spread / ref_spread)
+    lg = np.sign(lg) * max(abs(lg) - tolerance, 0.0)
+    return float(ref_spread * np.exp(lg))

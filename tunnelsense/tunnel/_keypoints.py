@@ -27,9 +27,10 @@ from tunnelsense._payload import (
 )
 from tunnelsense._records import FrameRecord, FrameSequence, check_frames, decode_once
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.tunnel._common import require_boxes
+from tunnelsense.tunnel._common import one_frame_shape, require_boxes
 from tunnelsense.tunnel._intensity import (
     background_levels,
+    beyond_tolerance,
     indicator_band,
     normalize_frame,
     resample_frame,
@@ -59,31 +60,6 @@ def _check_depth(image, index, record, expected, band=None):
         "(the camera's gain decides); fit the detector on frames of this depth, or "
         "convert the frames to the fitted depth yourself"
     )
-
-
-def _beyond_tolerance(spread, ref_spread, tolerance):
-    """The frame's spread as the gain correction sees it: the ratio to the training
-    frames' spread shrunk toward 1 by ``tolerance`` (in log units), so a camera whose
-    frames vary as the training camera's do is not rescaled frame by frame."""
-    lg = np.log(spread / ref_spread)
-    lg = np.sign(lg) * max(abs(lg) - tolerance, 0.0)
-    return float(ref_spread * np.exp(lg))
-
-
-def _one_shape(records):
-    """The one ``(height, width)`` of the frames (``frame_size="training"``)."""
-    shapes = set()
-    for r in records:
-        shape = getattr(r.source, "shape", None)
-        shapes.add(tuple(shape[:2]) if shape is not None and len(shape) == 2
-                   else r.image.shape[:2])
-    if len(shapes) > 1:
-        raise InputFormatError(
-            f"the training frames have several sizes ({sorted(shapes)}); with "
-            "frame_size='training' they must have one, the size every length in "
-            "pixels refers to"
-        )
-    return tuple(int(v) for v in shapes.pop())
 
 
 def _pixel_dtype(records) -> str:
@@ -307,7 +283,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             if hasattr(self, name):
                 delattr(self, name)
         if self.frame_size == "training":
-            self.frame_shape_ = _one_shape(records)
+            self.frame_shape_ = one_frame_shape(records)
         if self.radiometry == "frame":
             levels = np.array([
                 background_levels(check_image(r.image, where(r, i)))
@@ -429,7 +405,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             scale = (float(sx), float(sy))
         if getattr(self, "ref_level_", None) is not None:
             level, spread = background_levels(image)
-            spread = _beyond_tolerance(spread, self.ref_spread_,
+            spread = beyond_tolerance(spread, self.ref_spread_,
                                        getattr(self, "gain_tolerance_", 0.0))
             image = normalize_frame(image, level, spread, self.ref_level_,
                                     self.ref_spread_)
