@@ -205,3 +205,23 @@ def test_verifier_contrast_augmentation_trains_on_both_copies(tours):
     assert kept_on_signs(aug) > kept_on_signs(plain)
     with pytest.raises(ValueError, match="augment_contrast"):
         KMeansHistogramVerifier(augment_contrast=(0.0, 1.0), **kw).fit(Z, y)
+
+
+def test_detect_to_files_on_a_smaller_tour_writes_its_own_pixels(tours, tmp_path):
+    from tunnelsense.io import read_mot_results, write_tour  # noqa: PLC0415
+    from tunnelsense.tunnel import detect_to_files  # noqa: PLC0415
+
+    plain, _, small = tours
+    X, y, _ = to_xy([plain])
+    model = make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+    src = write_tour(small, tmp_path / "small")
+    out = tmp_path / "res.txt"
+    detect_to_files(model, src, out, draw=tmp_path / "pics")
+    res = read_mot_results(out)
+    assert len(res)
+    assert (res["bb_left"] + res["bb_width"]).max() <= 320 + 1
+    assert (res["bb_top"] + res["bb_height"]).max() <= 240 + 1
+    import cv2  # noqa: PLC0415
+
+    pic = cv2.imread(str(sorted((tmp_path / "pics").glob("*.png"))[0]))
+    assert pic.shape[:2] == (240, 320)  # drawn on the frame itself

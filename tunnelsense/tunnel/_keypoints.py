@@ -25,7 +25,13 @@ from tunnelsense._payload import (
     check_image,
     where,
 )
-from tunnelsense._records import FrameRecord, FrameSequence, check_frames, decode_once
+from tunnelsense._records import (
+    DecodedImage,
+    FrameRecord,
+    FrameSequence,
+    check_frames,
+    decode_once,
+)
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel._common import one_frame_shape, require_boxes
 from tunnelsense.tunnel._intensity import (
@@ -382,7 +388,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 FRAME_SCALE: (1.0, 1.0) if scale is None else scale,
             }
             if image is not raw:  # the later stages read the canonical frame
-                r = FrameRecord(r.tour, r.frame, image, r.payload)
+                # a frame from a file keeps its file as origin, so a stage that
+                # releases the image can decode the frame (its own pixels) again
+                source = (DecodedImage(r.source.origin, image)
+                          if isinstance(r.source, DecodedImage) else image)
+                r = FrameRecord(r.tour, r.frame, source, r.payload)
             out.append(r.evolve(**extra))
         return FrameSequence(out)
 
