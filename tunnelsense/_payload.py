@@ -63,6 +63,9 @@ __all__ = [
 KEYPOINTS = "keypoints"
 #: ``(low, high)``: the sampler's intensity band.
 KEYPOINT_BAND = "keypoint_band"
+#: ``(sx, sy)``: how much the sampler resampled the frame to the training frames' size
+#: ((1, 1) when it did not; the detections are mapped back to the frame's own pixels)
+FRAME_SCALE = "frame_scale"
 #: (n, 3) int32: every keypoint the sampler found (before verification).
 SAMPLED_KEYPOINTS = "sampled_keypoints"
 #: (n,) intp: the cluster of every keypoint.
@@ -115,6 +118,7 @@ FINISHED_OBJECTS = "finished_objects"
 MADE_BY = {
     KEYPOINTS: "IntensityKeypointSampler",
     KEYPOINT_BAND: "IntensityKeypointSampler",
+    FRAME_SCALE: "IntensityKeypointSampler",
     SAMPLED_KEYPOINTS: "KMeansHistogramVerifier",
     CLUSTER_LABELS: "MSTClusterer",
     CLUSTER_BOXES: "MSTClusterer",

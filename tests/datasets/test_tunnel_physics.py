@@ -121,7 +121,10 @@ def test_randomized_scenario_draws_within_ranges_and_by_seed():
     c = make_tunnel_tour(3, scenario="randomized", random_state=10)
     assert np.array_equal(_images(a), _images(b)) and a.info == b.info
     assert a.info["focal_length_px"] != c.info["focal_length_px"]
-    assert a.info["focal_length_px"] == pytest.approx(_randomized(9)["focal_length_px"])
+    # the focal length of the sensor drawn (a 320x240 one has half of it)
+    drawn = _randomized(9)
+    assert a.info["focal_length_px"] == pytest.approx(
+        drawn["focal_length_px"] * drawn["sensor_scale"])
     # an override replaces the drawn value
     d = make_tunnel_tour(1, scenario="randomized", random_state=9, noise_sigma=1.0)
     assert d.info["noise_sigma"] == 1.0

@@ -20,7 +20,7 @@ from sklearn.utils import check_random_state
 
 from tunnelsense._records import MOT_GT_COLUMNS, Tour
 from tunnelsense.datasets._odometry import TourKinematics, with_kinematics
-from tunnelsense.datasets._tunnel_camera import _Background, _Camera
+from tunnelsense.datasets._tunnel_camera import _Agc, _Background, _Camera
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
     _draw_lamp,
@@ -101,8 +101,10 @@ def make_tunnel_tour(
         of 800-4000 m curving either way, lamps every 8-20 m, signs 0.4-0.6 m x
         0.8-1.2 m at 2.2-3.5 m, speeds from 50-90 km/h up to 10-40 km/h more,
         2-25 vehicles per km, 0-50 % trucks, a change of grade with probability
-        0.5: vertical radius 3-30 km, sag or crest); the draw depends on the seed only
-        and ``**overrides`` replace drawn values.
+        0.5: vertical radius 3-30 km, sag or crest; and, each with probability 0.5,
+        a 320x240 sensor of the same field of view, warm air of 0-40 grey levels and
+        automatic gain control); the draw depends on the seed only and
+        ``**overrides`` replace drawn values.
     random_state : int, RandomState instance or None, default=None
         Seed; the same seed gives byte-identical images and ground truth.
     name : str, default=None
@@ -128,7 +130,16 @@ def make_tunnel_tour(
         the sign's width and height in metres); ``vertical_curve_radius_m`` (inf:
         a constant grade, which changes nothing in the image as the camera tilts
         with the road; signed: > 0 a sag, the road ahead rising by ``s^2 / 2R`` at
-        ``s`` metres, < 0 a crest; at least 500 m).
+        ``s`` metres, < 0 a crest; at least 500 m); ``sensor_scale`` (1: image size
+        and focal length times this, the same field of view: 0.5 gives the
+        640x480 scene on a 320x240 sensor); ``ambient_warming`` (0 grey levels:
+        warmer air raises the lining and the road, and the warm road patches behind
+        vehicles, by this; lit signs, lamps and engines keep their level, so about
+        37 halves a sign's contrast to the wall); ``agc`` (False: automatic gain
+        control, mapping each frame's 1st and 99.5th percentiles to grey levels 92
+        and 240 with time constant ``agc_time_s``, 0.5 s, so a near lamp or a hot
+        truck lowers the gain of every pixel; ``info`` then holds
+        ``agc_gain_min`` and ``agc_gain_max``).
 
     Returns
     -------
@@ -221,6 +232,8 @@ def make_tunnel_tour(
     fpn += (3.0 - 3.0 * r2).astype(np.float32)  # slight vignetting
     noise_pick = rng.integers(0, [2, pad + 1, pad + 1], size=(n_frames, 3))
 
+    warming = p["ambient_warming"]
+    agc = _Agc(fps, p["agc_time_s"]) if p["agc"] else None
     images = np.empty((n_frames, H, W), dtype=np.uint8)
     rows = []
     for f in range(n_frames):
@@ -228,6 +241,8 @@ def make_tunnel_tour(
         sc = float(s_ego[f])
         half = bg.render(sc, pose)
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
+        if warming:  # lining and road follow the air; signs, lamps, engines do not
+            img += np.float32(warming)
         drawn = []  # (depth, class, id, box, occluder?)
         todo = []
         lo, hi = np.searchsorted(indicators, [sc + _Z_NEAR, sc + _Z_FAR])
@@ -259,7 +274,7 @@ def make_tunnel_tour(
                 oid = lamp_ids[row, k]
             else:
                 veh = vehicles[key]
-                sbox = _draw_shadow(img, cam, pose, veh, f, ds)
+                sbox = _draw_shadow(img, cam, pose, veh, f, ds, warming)
                 if sbox is not None:
                     drawn.append((sbox[4], SHADOW, shadow_ids[key], sbox, False))
                 box = _draw_vehicle(img, cam, pose, veh, f, ds)
@@ -272,6 +287,8 @@ def make_tunnel_tour(
         j, di, dj = noise_pick[f]
         img += bank[j, di : di + H, dj : dj + W]
         img += fpn
+        if agc is not None:
+            agc.apply(img)
         np.clip(img, 0, 255, out=img)
         np.rint(img, out=img)
         images[f] = img
@@ -322,6 +339,16 @@ def make_tunnel_tour(
         "indicator_tall_m": float(p["indicator_size_m"][1]),
         "indicator_height_m": float(p["indicator_height_m"]),
     }
+    # the sensor and air factors, named only when in use (a default tour's info and
+    # its seqinfo.ini are as they were)
+    if p["sensor_scale"] != 1.0:
+        info["sensor_scale"] = float(p["sensor_scale"])
+    if warming:
+        info["ambient_warming"] = float(warming)
+    if agc is not None:
+        info["agc"] = True
+        info["agc_gain_min"] = round(float(min(agc.gains)), 6)
+        info["agc_gain_max"] = round(float(max(agc.gains)), 6)
     tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
     # where the camera was (positions, odometry, indicator map): no random draws here
     kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)

@@ -203,3 +203,34 @@ class _Background:
         z1 = np.where((z1 > 0) & (disc >= 0), z1, np.inf)
         z2 = np.where((z2 > 0) & (disc >= 0), z2, np.inf)
         return np.minimum(z1, z2)
+
+
+class _Agc:
+    """A camera's automatic gain control, reacting to hot objects in view.
+
+    It maps the frame's 1st and 99.5th percentiles (on a 1-in-8 grid, before the
+    8-bit clip) to ``levels`` (what a default frame shows), following a change with
+    time constant ``tau`` s: a hot truck or a near lamp raises the upper percentile
+    and the gain drops, a cooler view raises it; every grey level moves, frame by
+    frame.
+    """
+
+    def __init__(self, fps, tau, levels=(92.0, 240.0)):
+        self.alpha = 1.0 - math.exp(-1.0 / (fps * tau))
+        self.levels = levels
+        self.gain, self.offset = None, None
+        self.gains = []
+
+    def apply(self, img):
+        lo, hi = np.percentile(img[4::8, 4::8], [1.0, 99.5])
+        hi = max(float(hi), float(lo) + 1.0)
+        g = (self.levels[1] - self.levels[0]) / (hi - lo)
+        o = self.levels[0] - g * float(lo)
+        if self.gain is None:  # the camera starts settled
+            self.gain, self.offset = g, o
+        else:
+            self.gain += self.alpha * (g - self.gain)
+            self.offset += self.alpha * (o - self.offset)
+        self.gains.append(self.gain)
+        img *= np.float32(self.gain)
+        img += np.float32(self.offset)

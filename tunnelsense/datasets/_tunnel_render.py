@@ -184,8 +184,9 @@ def _draw_lamp(img, glass, housing, look):
     )
 
 
-def _draw_shadow(img, cam, pose, veh, f, ds):
-    """The warm road patch under and behind a vehicle (class 4)."""
+def _draw_shadow(img, cam, pose, veh, f, ds, warming=0.0):
+    """The warm road patch under and behind a vehicle (class 4), on a road
+    ``warming`` grey levels warmer than usual (warm air)."""
     half = veh["width"] / 2 - 0.1
     x = veh["x"][f]
     d = np.array([x - half, x + half, x - half, x + half])
@@ -198,6 +199,8 @@ def _draw_shadow(img, cam, pose, veh, f, ds):
     hgt = v1 - v0
     # warmest next to the vehicle, fading toward the camera
     shadow = veh["I"]["shadow"]
+    if warming:
+        shadow = shadow + warming
     soft = math.hypot(_SIG, 0.08 * (u1 - u0))  # heat spreads: soft edges
     _paint(img, u0, u1, v0, v0 + 0.5 * hgt, shadow, 0.9, soft)
     _paint(img, u0, u1, v0 + 0.5 * hgt, v1, shadow - 12, 0.5, soft)

@@ -38,6 +38,10 @@ _DEFAULTS = {
     "fpn_sigma": 0.8,  # column fixed-pattern noise (the pixel part is half of it)
     "indicator_size_m": (0.45, 1.0),  # sign width, height
     "vertical_curve_radius_m": math.inf,  # change of grade: > 0 sag, < 0 crest
+    "sensor_scale": 1.0,  # image size and focal length times this: same field of view
+    "ambient_warming": 0.0,  # grey levels the air-warmed surfaces (lining, road) gain
+    "agc": False,  # automatic gain control on the scene's radiance percentiles
+    "agc_time_s": 0.5,  # its time constant
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -62,6 +66,11 @@ RANDOMIZED_RANGES = {
     "traffic_per_km": (2.0, 25.0),
     "truck_fraction": (0.0, 0.5),
     "vertical_curve_radius_m": (3000.0, 30000.0),  # |radius|; none with prob. 0.5
+    # the sensor and the air, drawn from a stream of their own (the draws above do
+    # not move): each a factor with probability 0.5
+    "sensor_scale": (0.5, 1.0),  # a 320x240 sensor of the same field of view, or not
+    "ambient_warming": (0.0, 40.0),
+    "agc": (False, True),
 }
 
 
@@ -82,6 +91,12 @@ def _randomized(seed):
     out["speed_kmh"] = (low, low + u("speed_span_kmh"))
     vertical = u("vertical_curve_radius_m") * (1.0 if rng.random() < 0.5 else -1.0)
     out["vertical_curve_radius_m"] = math.inf if rng.random() < 0.5 else vertical
+    # sensor and air factors: a stream of their own, so the draws above are unchanged
+    rng2 = np.random.default_rng([int(seed), 7927])
+    scale, warm, agc = rng2.random(3), rng2.uniform(*r["ambient_warming"]), rng2.random()
+    out["sensor_scale"] = r["sensor_scale"][0] if scale[0] < 0.5 else 1.0
+    out["ambient_warming"] = float(warm) if scale[1] < 0.5 else 0.0
+    out["agc"] = bool(agc < 0.5)
     return out
 
 _SCENARIOS = {
@@ -239,6 +254,19 @@ def _resolve_params(scenario, overrides, seed=0):
             f"image_shape must be a pair of ints (height, width) >= 16; got {shape!r}"
         )
     p["image_shape"] = (int(shape[0]), int(shape[1]))
+    p["sensor_scale"] = _check_range("sensor_scale", p["sensor_scale"], 0.1, 4.0)
+    if p["sensor_scale"] != 1.0:  # same field of view: fewer, larger pixels
+        k = p["sensor_scale"]
+        p["image_shape"] = tuple(max(int(round(n * k)), 16) for n in p["image_shape"])
+        p["focal_length_px"] = p["focal_length_px"] * k
+    p["ambient_warming"] = _check_range(
+        "ambient_warming", p["ambient_warming"], -100.0, 150.0
+    )
+    if not isinstance(p["agc"], bool | np.bool_):
+        raise TypeError(f"agc must be True or False; got {p['agc']!r}")
+    p["agc"] = bool(p["agc"])
+    p["agc_time_s"] = _check_range("agc_time_s", p["agc_time_s"], 0.0, 60.0,
+                                   closed_lo=False)
     return p
 
 

@@ -192,7 +192,11 @@ def cluster_lines(record) -> list[str]:
     ['2,5,1.0,2.0,3.0,4.0,True,False']
     """
     p = record.payload
-    boxes = np.asarray(p["cluster_boxes"], np.float64).reshape(-1, 4).tolist()
+    boxes = np.asarray(p["cluster_boxes"], np.float64).reshape(-1, 4)
+    scale = p.get("frame_scale")
+    if scale is not None and tuple(scale) != (1.0, 1.0):  # the detector resampled the frame: back to its own pixels
+        boxes = boxes / np.array([scale[0], scale[1], scale[0], scale[1]])
+    boxes = boxes.tolist()
     return [
         f"{record.frame},{t},{b[0]!r},{b[1]!r},{b[2]!r},{b[3]!r},{bool(i)},{bool(tp)}"
         for b, t, i, tp in zip(

@@ -84,6 +84,10 @@ def hypotheses_from_records(records) -> pd.DataFrame:
                 "score the output of the indicator pipeline's predict"
             )
         b = np.asarray(p["cluster_boxes"], dtype=np.float64).reshape(-1, 4)
+        scale = p.get("frame_scale")
+        if scale is not None and tuple(scale) != (1.0, 1.0):
+            # the detector resampled the frame: back to the frame's own pixels
+            b = b / np.array([scale[0], scale[1], scale[0], scale[1]])
         if len(b) == 0:
             continue
         tours += [r.tour] * len(b)

@@ -9,6 +9,7 @@ import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._payload import inside_boxes
+from tunnelsense.exceptions import InputFormatError
 from tunnelsense._records import (
     FrameRecord,
     FrameSequence,
@@ -22,6 +23,7 @@ __all__ = [
     "bin_lut",
     "check_intensity_range",
     "is_record_input",
+    "one_frame_shape",
     "points_in_boxes",
     "require_boxes",
 ]
@@ -223,3 +225,19 @@ def _bin_lut(dtype, bins, lo, hi, binning):
     lower.flags.writeable = False
     weight.flags.writeable = False
     return lower, weight
+
+
+def one_frame_shape(records):
+    """The one ``(height, width)`` of the frames (``frame_size="training"``)."""
+    shapes = set()
+    for r in records:
+        shape = getattr(r.source, "shape", None)
+        shapes.add(tuple(shape[:2]) if shape is not None and len(shape) == 2
+                   else r.image.shape[:2])
+    if len(shapes) > 1:
+        raise InputFormatError(
+            f"the training frames have several sizes ({sorted(shapes)}); with "
+            "frame_size='training' they must have one, the size every length in "
+            "pixels refers to"
+        )
+    return tuple(int(v) for v in shapes.pop())

@@ -377,7 +377,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     if drawing:
         if draw is not None:
             Path(draw).mkdir(parents=True, exist_ok=True)
-        pictures = draw_detections(_with_images(released, images))
+        pictures = draw_detections(_in_own_pixels(_with_images(released, images)))
     else:
         pictures = ((r, None) for r in released)
     facts = {"frames": 0, "detections": 0, "resumed_lines": results.resumed_lines,
@@ -418,4 +418,21 @@ def _keep_images(frames, images):
 def _with_images(records, images):
     for r in records:
         image = images.pop(r.frame, None)
-        yield r if image is None else FrameRecord(r.tour, r.frame, image, r.payload)
+        if image is None:
+            yield r
+            continue
+        yield FrameRecord(r.tour, r.frame, image, r.payload)
+
+
+def _in_own_pixels(records):
+    """Records to draw: the frame's own image (decoded again from its file, or kept)
+    with the cluster rectangles mapped back from the detector's pixels when the
+    detector resampled the frame (``payload["frame_scale"]``)."""
+    for r in records:
+        sx, sy = r.payload.get("frame_scale", (1.0, 1.0))
+        if (sx, sy) == (1.0, 1.0):
+            yield r
+            continue
+        boxes = np.asarray(r.payload["cluster_boxes"], np.float64).reshape(-1, 4)
+        yield FrameRecord(r.tour, r.frame, r.source, {
+            **r.payload, "cluster_boxes": boxes / np.array([sx, sy, sx, sy])})

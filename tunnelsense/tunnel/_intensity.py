@@ -11,7 +11,8 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["indicator_band", "sample_keypoints"]
+__all__ = ["background_levels", "beyond_tolerance", "indicator_band", "normalize_frame", "resample_frame",
+           "sample_keypoints"]
 
 
 def sample_keypoints(
@@ -176,3 +177,89 @@ def _grouped_median_mad(counts):
         mid = (lo + hi) / 2
         lo, hi = (mid, hi) if mass_within(mid) < 0.5 else (lo, mid)
     return float(median), (lo + hi) / 2
+
+
+def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0)):
+    """A frame's robust background level and spread: the grey levels of the scene, not
+    of its noise.
+
+    The frame is averaged over a ``cells`` grid (``cv2.INTER_AREA``), which leaves the
+    walls, road and arch and removes the sensor noise; the level is the median of the
+    cells and the spread the distance between their 10th and 90th percentiles.  Small
+    hot or bright objects (lamps, signs, exhausts) hold too few cells to move either.
+    An affine change of grey levels ``g * I + o`` (a unit's gain and offset, an
+    automatic gain control) changes them to ``g * level + o`` and ``g * spread``.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+    cells : (int, int), default=(60, 80)
+        Rows and columns of the averaging grid (at most the image's).
+    quantiles : (float, float, float), default=(10, 50, 90)
+        Percentiles giving the low end, the level and the high end.
+
+    Returns
+    -------
+    level, spread : float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.tile(np.linspace(80, 120, 64), (48, 1)).astype(np.uint8)
+    >>> a = background_levels(img)
+    >>> b = background_levels((1.25 * img + 10).astype(np.uint8))
+    >>> [round(v, 1) for v in a], [round(v, 1) for v in b]
+    ([99.5, 33.0], [134.0, 42.0])
+    """
+    import cv2  # noqa: PLC0415
+
+    h, w = image.shape
+    ch, cw = min(cells[0], h), min(cells[1], w)
+    small = cv2.resize(image.astype(np.float32), (cw, ch), interpolation=cv2.INTER_AREA)
+    lo, mid, hi = np.percentile(small, quantiles)
+    return float(mid), float(max(hi - lo, 1e-3))
+
+
+def normalize_frame(image, level, spread, ref_level, ref_spread):
+    """The frame's grey levels mapped affinely so that its background ``(level,
+    spread)`` becomes ``(ref_level, ref_spread)``: ``I' = ref_level + (I - level) *
+    ref_spread / spread``, rounded and clipped to the image's type.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.array([[90, 100, 110, 175]], np.uint8)
+    >>> normalize_frame(img, 100.0, 20.0, 100.0, 10.0)
+    array([[ 95, 100, 105, 138]], dtype=uint8)
+    """
+    import cv2  # noqa: PLC0415
+
+    g = ref_spread / spread
+    info = np.iinfo(image.dtype)
+    if image.dtype == np.uint8:
+        lut = np.clip(np.rint(ref_level + (np.arange(256) - level) * g), 0, 255)
+        return cv2.LUT(image, lut.astype(np.uint8))
+    out = np.rint(ref_level + (image.astype(np.float64) - level) * g)
+    return np.clip(out, info.min, info.max).astype(image.dtype)
+
+
+def resample_frame(image, shape):
+    """The frame resampled to ``shape`` ``(height, width)``: linear interpolation when
+    it grows, area averaging when it shrinks."""
+    import cv2  # noqa: PLC0415
+
+    h, w = image.shape
+    if (h, w) == tuple(shape):
+        return image
+    grow = shape[0] * shape[1] > h * w
+    return cv2.resize(image, (int(shape[1]), int(shape[0])),
+                      interpolation=cv2.INTER_LINEAR if grow else cv2.INTER_AREA)
+
+
+def beyond_tolerance(spread, ref_spread, tolerance):
+    """The frame's spread as the gain correction sees it: the ratio to the training
+    frames' spread shrunk toward 1 by ``tolerance`` (in log units), so a camera whose
+    frames vary as the training camera's do is not rescaled frame by frame."""
+    lg = np.log(spread / ref_spread)
+    lg = np.sign(lg) * max(abs(lg) - tolerance, 0.0)
+    return float(ref_spread * np.exp(lg))

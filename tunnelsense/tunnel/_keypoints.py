@@ -17,11 +17,30 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
-from tunnelsense._payload import KEYPOINT_BAND, KEYPOINTS, check_image, where
-from tunnelsense._records import FrameSequence, check_frames, decode_once
+from tunnelsense._payload import (
+    FRAME_SCALE,
+    KEYPOINT_BAND,
+    KEYPOINTS,
+    check_image,
+    where,
+)
+from tunnelsense._records import (
+    DecodedImage,
+    FrameRecord,
+    FrameSequence,
+    check_frames,
+    decode_once,
+)
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.tunnel._common import require_boxes
-from tunnelsense.tunnel._intensity import indicator_band, sample_keypoints
+from tunnelsense.tunnel._common import one_frame_shape, require_boxes
+from tunnelsense.tunnel._intensity import (
+    background_levels,
+    beyond_tolerance,
+    indicator_band,
+    normalize_frame,
+    resample_frame,
+    sample_keypoints,
+)
 from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
@@ -111,6 +130,31 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         Row of the first grid point.
     col_offset : int, default=0
         Column of the first grid point.
+    radiometry : {"raw", "frame"}, default="raw"
+        ``"raw"``: the paper's, grey levels as the camera gives them.  ``"frame"``:
+        every frame's grey levels are first mapped affinely so that its background
+        level and spread (:func:`~tunnelsense.tunnel._intensity.background_levels`:
+        median and 10-90 % spread of the noise-free scene) equal those of the
+        training frames; the band is learned and applied on such frames, and the
+        later stages read them.  A unit's gain and offset, or an automatic gain
+        control acting frame by frame, then change nothing but rounding.
+    frame_size : {"native", "training"}, default="native"
+        ``"training"``: a frame of another size than the training frames (the same
+        aspect ratio within 2 %) is resampled to their size first, so that every
+        length in pixels of every stage (grid, patches, MST cut, box limits, motion
+        tolerances) keeps its meaning; the detections are mapped back to the frame's
+        own pixels by :class:`PCCVerifier`.  A frame of another aspect ratio is
+        refused.  ``"native"``: frames are used as they come.
+    min_contrast : float, default=1.0
+        A learned band's lower end moved toward the background level: ``low = level +
+        min_contrast * (low_learned - level)``, so that signs seen with down to
+        ``min_contrast`` times the training contrast above their background (warmer
+        air, another emissivity) are still sampled.  1 keeps the learned band.
+    gain_tolerance : "learned" or float, default="learned"
+        With ``radiometry="frame"``: a frame's gain (its spread against the training
+        frames') is corrected only by what exceeds this, in log units.
+        ``"learned"``: the median of the training frames' own variation
+        (``gain_tolerance_``); 0 corrects every frame fully.
 
     Attributes
     ----------
@@ -118,6 +162,15 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         The band in use (``low``/``high``, or the learned one).
     n_frames_fit_ : int
         Number of frames seen by ``fit``.
+    ref_level_, ref_spread_ : float
+        The training frames' background level and spread (``radiometry="frame"``).
+    gain_tolerance_ : float
+        How much (median absolute log ratio) the training frames' spreads vary about
+        ``ref_spread_`` with the scene: a frame's gain is corrected only by what
+        exceeds it, so the training camera's own frames are not rescaled by the
+        scene's changes (``radiometry="frame"``).
+    frame_shape_ : (int, int)
+        ``(height, width)`` of the training frames (``frame_size="training"``).
     pixel_dtype_ : str
         The pixel type of the frames ``fit`` saw (``"uint8"`` or ``"uint16"``): the
         units of the band.  A plain string, so it is saved with the model.
@@ -165,10 +218,15 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         "col_stride": [Interval(numbers.Integral, 1, None, closed="left")],
         "row_offset": [Interval(numbers.Integral, 0, None, closed="left")],
         "col_offset": [Interval(numbers.Integral, 0, None, closed="left")],
+        "radiometry": [StrOptions({"raw", "frame"})],
+        "frame_size": [StrOptions({"native", "training"})],
+        "min_contrast": [Interval(numbers.Real, 0, 1, closed="right")],
+        "gain_tolerance": [StrOptions({"learned"}),
+                           Interval(numbers.Real, 0, None, closed="left")],
     }
 
     _payload_reads = ()
-    _payload_adds = (KEYPOINTS, KEYPOINT_BAND)
+    _payload_adds = (KEYPOINTS, KEYPOINT_BAND, FRAME_SCALE)
 
     def __init__(
         self,
@@ -182,6 +240,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         col_stride=6,
         row_offset=0,
         col_offset=0,
+        radiometry="raw",
+        frame_size="native",
+        min_contrast=1.0,
+        gain_tolerance="learned",
     ):
         self.low = low
         self.high = high
@@ -192,6 +254,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self.col_stride = col_stride
         self.row_offset = row_offset
         self.col_offset = col_offset
+        self.radiometry = radiometry
+        self.frame_size = frame_size
+        self.min_contrast = min_contrast
+        self.gain_tolerance = gain_tolerance
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -219,18 +285,44 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
+        for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_"):
+            if hasattr(self, name):
+                delattr(self, name)
+        if self.frame_size == "training":
+            self.frame_shape_ = one_frame_shape(records)
+        if self.radiometry == "frame":
+            levels = np.array([
+                background_levels(check_image(r.image, where(r, i)))
+                for i, r in enumerate(records)
+            ]).reshape(-1, 2)
+            self.ref_level_, self.ref_spread_ = (
+                float(v) for v in np.median(levels, axis=0)
+            )
+            # the spread of one camera's frames varies with the scene (lamps,
+            # vehicles, lining; about 12 % from frame to frame): a gain within its
+            # typical variation is left alone
+            self.gain_tolerance_ = (
+                float(np.median(np.abs(np.log(levels[:, 1] / self.ref_spread_))))
+                if self.gain_tolerance == "learned" else float(self.gain_tolerance)
+            )
         if self.band == "learned":
             require_boxes(
                 boxes, "IntensityKeypointSampler(band='learned')", "to learn the band from"
             )
             images = [
-                _check_depth(check_image(r.image, where(r, i)), i, r, self.pixel_dtype_)
+                self._canonical(_check_depth(
+                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r)[0]
                 for i, r in enumerate(records) if len(boxes[i])
             ]
-            self.low_, self.high_ = indicator_band(
+            low, high = indicator_band(
                 images, [b for b in boxes if len(b)], self.n_sigma,
                 estimator=self.band_estimator,
             )
+            if self.min_contrast < 1.0:
+                level = (self.ref_level_ if self.radiometry == "frame" else
+                         float(np.median([background_levels(im)[0] for im in images])))
+                low = round(level + self.min_contrast * (low - level), 6)
+            self.low_, self.high_ = low, high
         else:
             if self.low > self.high:
                 raise ValueError(
@@ -288,10 +380,43 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             image = check_image(r.image, where(r, i))
             if fitted is not None:
                 _check_depth(image, i, r, fitted, band)
-            out.append(
-                r.evolve(**{
-                    KEYPOINTS: sample_keypoints(image, self.low_, self.high_, **kw),
-                    KEYPOINT_BAND: band,
-                })
-            )
+            raw = image
+            image, scale = self._canonical(image, i, r)
+            extra = {
+                KEYPOINTS: sample_keypoints(image, self.low_, self.high_, **kw),
+                KEYPOINT_BAND: band,
+                FRAME_SCALE: (1.0, 1.0) if scale is None else scale,
+            }
+            if image is not raw:  # the later stages read the canonical frame
+                # a frame from a file keeps its file as origin, so a stage that
+                # releases the image can decode the frame (its own pixels) again
+                source = (DecodedImage(r.source.origin, image)
+                          if isinstance(r.source, DecodedImage) else image)
+                r = FrameRecord(r.tour, r.frame, source, r.payload)
+            out.append(r.evolve(**extra))
         return FrameSequence(out)
+
+    def _canonical(self, image, index, record):
+        """The frame in the training frames' size and radiometry, and the scale
+        ``(sx, sy)`` applied (None when the size is kept)."""
+        scale = None
+        shape = getattr(self, "frame_shape_", None)
+        if shape is not None and image.shape != tuple(shape):
+            h, w = image.shape
+            sy, sx = shape[0] / h, shape[1] / w
+            if abs(sx / sy - 1.0) > 0.02:
+                raise InputFormatError(
+                    f"{where(record, index)}: a {w}x{h} frame, but the detector was "
+                    f"fitted on {shape[1]}x{shape[0]} frames and serves other sizes of "
+                    "the same aspect ratio only (it resamples them to the training "
+                    "size); fit it on frames of this camera"
+                )
+            image = resample_frame(image, shape)
+            scale = (float(sx), float(sy))
+        if getattr(self, "ref_level_", None) is not None:
+            level, spread = background_levels(image)
+            spread = beyond_tolerance(spread, self.ref_spread_,
+                                       getattr(self, "gain_tolerance_", 0.0))
+            image = normalize_frame(image, level, spread, self.ref_level_,
+                                    self.ref_spread_)
+        return image, scale

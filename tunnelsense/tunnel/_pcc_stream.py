@@ -15,6 +15,7 @@ import numpy as np
 from tunnelsense._payload import (
     APPEARANCE,
     DETECTIONS,
+    FRAME_SCALE,
     INDICATOR,
     MOTION_R,
     TRACK_IDS,
@@ -174,9 +175,13 @@ class _Frame:
 
     def results(self):
         keep = self.positive
+        boxes = self.boxes[keep]
+        scale = self.tag.payload.get(FRAME_SCALE)
+        if scale is not None and tuple(scale) != (1.0, 1.0):  # back to the frame's own pixels
+            boxes = boxes / np.array([scale[0], scale[1], scale[0], scale[1]])
         det = np.column_stack(
             [
-                self.boxes[keep],
+                boxes,
                 self.tracks[keep].astype(np.float64),
                 self.fraction[keep],
             ]

@@ -27,6 +27,22 @@ PIPELINE_DEFAULTS = {
     # training tours (robust estimate), not the paper's camera's outcome [160, 190]:
     # a camera with another gain puts its indicators elsewhere
     "keypoints__band": "learned",
+    # a frame of another size (same aspect ratio: a 320x240 sensor with the
+    # training camera's field of view) is resampled to the training frames' size
+    # before the first stage, so every length in pixels of every stage keeps its
+    # meaning; detections are mapped back.  Frames of the training size are
+    # untouched.
+    "keypoints__frame_size": "training",
+    # canonical radiometry (each frame mapped to the training frames' background
+    # level and spread) is an option, keypoints__radiometry="frame": it undoes a
+    # unit's gain and offset and an automatic gain control, but one frame's
+    # background spread also follows the scene (a near truck raises it by up to
+    # 60 %), and in heavy traffic it cost indicators and added a false alarm
+    # (docs/validation.md); when it is switched on, a frame's gain is corrected by
+    # what exceeds 8 % (log units), about two thirds of one camera's median
+    # frame-to-frame variation (chosen on the tuning tours)
+    "keypoints__radiometry": "raw",
+    "keypoints__gain_tolerance": 0.08,
     # the cluster rectangle is the in-band region around the keypoints, not the
     # grid-quantized rectangle of the keypoints: stable centre and scale
     "clusters__box": "region",
@@ -57,6 +73,9 @@ PIPELINE_DEFAULTS = {
 #: bridging 3 frames, a straight-line Pearson r, and the verifier's paper settings.
 PAPER_SETTINGS = {
     "keypoints__band": "fixed",
+    "keypoints__radiometry": "raw",
+    "keypoints__frame_size": "native",
+    "keypoints__gain_tolerance": "learned",
     "verifier__context_size": None,
     "verifier__max_distance": 0.14,
     "verifier__margin": None,
@@ -91,7 +110,11 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     (``appearance__features="invariant"``, ``appearance__augment=2``), and the
     quadratic path criterion of the motion check (``motion__criterion="quadratic"``),
     which keep the detector working on another camera and in a curving tunnel
-    (``docs/validation.md``).
+    (``docs/validation.md``); frames of another size with the training frames'
+    aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
+    detections are mapped back, another aspect ratio is refused).  Canonical
+    radiometry, for units of other gains and offsets or with automatic gain control,
+    is ``keypoints__radiometry="frame"``.
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
+from sklearn.utils import check_random_state
 
 from tunnelsense._payload import (
     KEYPOINTS,
@@ -26,6 +27,7 @@ from tunnelsense.tunnel._common import (
     require_boxes,
 )
 from tunnelsense.tunnel._descriptors import keypoint_descriptors, patch_histograms
+from tunnelsense.tunnel._intensity import background_levels, normalize_frame
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
     fit_kmeans,
@@ -36,12 +38,30 @@ from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = [
     "KMeansHistogramVerifier",
+    "contrast_copy",
     "fit_kmeans",
     "keypoint_descriptors",
     "patch_histograms",
     "rank_positive_centers",
     "verify_histograms",
 ]
+
+
+def contrast_copy(image, factor):
+    """The frame with its contrast about its background level scaled by ``factor``:
+    ``I' = level + factor * (I - level)`` (``level`` from
+    :func:`~tunnelsense.tunnel._intensity.background_levels`), rounded and clipped.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((60, 80), 100, np.uint8)
+    >>> img[10:30, 10:20] = 180
+    >>> int(contrast_copy(img, 0.5)[15, 15])
+    140
+    """
+    level, _ = background_levels(image)
+    return normalize_frame(image, level, 1.0, level, float(factor))
 
 
 class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
@@ -118,6 +138,12 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         Seeds k-means (initialisation and batches).
     n_jobs : int or None, default=None
         Threads of k-means (``None``: one).
+    augment_contrast : (float, float) or None, default=None
+        Training-time augmentation (frame records): every training frame is also
+        described with its contrast about its background level scaled by a factor
+        drawn uniformly from this range (:func:`contrast_copy`), at the same
+        keypoints, so that a sign seen with less contrast (warmer air) or through
+        another gain is verified.  ``None``: the paper's training set.
 
     Attributes
     ----------
@@ -176,6 +202,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         "bins": [Interval(numbers.Integral, 1, None, closed="left")],
         "intensity_range": [tuple, list, None],
         "binning": [StrOptions({"hard", "linear"})],
+        "augment_contrast": [tuple, list, None],
     }
     _tabular_methods = ("predict", "distances")
     _payload_reads = (KEYPOINTS,)
@@ -201,6 +228,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         pos_label=1,
         random_state=None,
         n_jobs=None,
+        augment_contrast=None,
     ):
         self.patch_size = patch_size
         self.context_size = context_size
@@ -219,6 +247,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         self.pos_label = pos_label
         self.random_state = random_state
         self.n_jobs = n_jobs
+        self.augment_contrast = augment_contrast
 
     def _check_settings(self):
         for name in ("patch_size", "context_size"):
@@ -235,17 +264,23 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 )
         check_intensity_range(self.intensity_range)
 
-    def _frame_histograms(self, records):
-        """Yield (record, keypoints, descriptors) per frame."""
+    def _frame_histograms(self, records, rng=None):
+        """Yield (record, keypoints, descriptors) per frame; with ``rng``, the
+        descriptors of a contrast-augmented copy of the frame are stacked below."""
         for i, r in enumerate(records):
             kp = keypoints_of(r, i, "KMeansHistogramVerifier")
             image = frame_image(r, i)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
-            H = keypoint_descriptors(
-                image, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
-                context_size=self.context_size, context_weight=self.context_weight,
-                bins=self.bins, lut=lut,
-            )
+            images = [image]
+            if rng is not None:
+                images.append(contrast_copy(image, rng.uniform(*self.augment_contrast)))
+            H = np.concatenate([
+                keypoint_descriptors(
+                    im, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
+                    context_size=self.context_size, context_weight=self.context_weight,
+                    bins=self.bins, lut=lut,
+                ) for im in images
+            ])
             yield r, kp, H
 
     @property
@@ -257,9 +292,22 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         self._check_settings()
         records, boxes = check_frames(X, y)
         require_boxes(boxes, "KMeansHistogramVerifier", "that label keypoints positive")
+        rng = None
+        if self.augment_contrast is not None:
+            lo, hi = self.augment_contrast
+            if not 0 < lo <= hi:
+                raise ValueError(
+                    "augment_contrast must be a pair (low, high) with 0 < low <= high; "
+                    f"got {self.augment_contrast!r}"
+                )
+            rng = np.random.default_rng(
+                check_random_state(self.random_state).randint(0, 2**31 - 1))
         pos, neg = [], []
-        for (_, kp, H), b in zip(self._frame_histograms(records), boxes, strict=True):
+        frames = zip(self._frame_histograms(records, rng), boxes, strict=True)
+        for (_, kp, H), b in frames:
             inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
+            if len(kp):  # the augmented copy's rows follow the frame's
+                inside = np.tile(inside, len(H) // len(kp))
             pos.append(H[inside])
             neg.append(H[~inside])
         empty = np.empty((0, self._n_descriptor), np.float32)
