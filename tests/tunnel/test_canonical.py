@@ -14,8 +14,8 @@ from tunnelsense.tunnel import (
     KMeansHistogramVerifier,
     make_indicator_pipeline,
 )
-from tunnelsense.tunnel._verification import contrast_copy
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
+from tunnelsense.tunnel._verification import contrast_copy
 from tunnelsense.utils import record_stage_checks
 
 QUIET = dict(first_indicator_m=40.0, lateral_jitter_m=0.0, pitch_jitter_deg=0.0,

@@ -9,7 +9,6 @@ import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense._payload import inside_boxes
-from tunnelsense.exceptions import InputFormatError
 from tunnelsense._records import (
     FrameRecord,
     FrameSequence,
@@ -17,6 +16,7 @@ from tunnelsense._records import (
     ScanSequence,
     check_frames,
 )
+from tunnelsense.exceptions import InputFormatError
 
 __all__ = [
     "FrameModeMixin",
