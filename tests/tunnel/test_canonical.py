@@ -80,7 +80,7 @@ def test_gain_within_the_training_variation_is_left_alone(tours):
     # a frame of gain 0.7 is brought to within the tolerance of the training gain
     Xo, _, _ = to_xy([other])
     out = sampler.transform(Xo)
-    for r_in, r_out in zip(Xo[:5], out[:5], strict=True):
+    for _r_in, r_out in zip(Xo[:5], out[:5], strict=True):
         ratio = background_levels(r_out.image)[1] / sampler.ref_spread_
         assert abs(np.log(ratio)) <= sampler.gain_tolerance_ + 0.05
 
@@ -143,11 +143,19 @@ def test_record_stage_checks_of_the_canonical_sampler(tours):
         assert name.startswith("check_")
 
 
-def test_detections_on_a_smaller_frame_are_in_its_own_pixels(tours):
-    plain, _, small = tours
-    X, y, _ = to_xy([plain])
+@pytest.fixture(scope="module")
+def full_size_model():
+    """A detector fitted on a 150-frame tour of the 640 x 480 camera: fitted on 40
+    frames alone, whether the sign is then found on the small frames depends on the
+    k-means seed (1 of 4 seeds missed it)."""
+    X, y, _ = to_xy([make_tunnel_tour(150, random_state=4, **QUIET)])
+    return make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+
+
+def test_detections_on_a_smaller_frame_are_in_its_own_pixels(tours, full_size_model):
+    _, _, small = tours
     Xs, ys, _ = to_xy([small])
-    model = make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+    model = full_size_model
     out = model.predict(Xs)
     dets = [r.payload["detections"] for r in out if len(r.payload["detections"])]
     assert dets, "the sign is found on the 320x240 frames"
@@ -207,13 +215,13 @@ def test_verifier_contrast_augmentation_trains_on_both_copies(tours):
         KMeansHistogramVerifier(augment_contrast=(0.0, 1.0), **kw).fit(Z, y)
 
 
-def test_detect_to_files_on_a_smaller_tour_writes_its_own_pixels(tours, tmp_path):
+def test_detect_to_files_on_a_smaller_tour_writes_its_own_pixels(tours, full_size_model,
+                                                                 tmp_path):
     from tunnelsense.io import read_mot_results, write_tour  # noqa: PLC0415
     from tunnelsense.tunnel import detect_to_files  # noqa: PLC0415
 
-    plain, _, small = tours
-    X, y, _ = to_xy([plain])
-    model = make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+    _, _, small = tours
+    model = full_size_model
     src = write_tour(small, tmp_path / "small")
     out = tmp_path / "res.txt"
     detect_to_files(model, src, out, draw=tmp_path / "pics")

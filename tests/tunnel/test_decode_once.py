@@ -30,9 +30,9 @@ def decodes(monkeypatch):
     counts = Counter()
     read = images.read_image
 
-    def counting(path):
+    def counting(path, **kwargs):
         counts[str(path)] += 1
-        return read(path)
+        return read(path, **kwargs)
 
     monkeypatch.setattr(images, "read_image", counting)
     return counts

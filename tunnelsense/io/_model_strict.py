@@ -249,6 +249,17 @@ def _check_keypoints(est):
         return "pixel_dtype_ must name a numeric NumPy dtype"
     if not (_finite(est.low_) and _finite(est.high_) and est.low_ <= est.high_):
         return "low_ and high_ must be finite with low_ <= high_"
+    if est.frame_size == "training":
+        shape = est.frame_shape_
+        if not (isinstance(shape, tuple | list) and len(shape) == 2
+                and all(_int(v, 1) and v <= 65535 for v in shape)):
+            return "frame_shape_ must be (height, width), positive integers"
+    if est.radiometry == "frame":
+        if not (_finite(est.ref_level_) and _finite(est.ref_spread_)
+                and est.ref_spread_ > 0):
+            return "ref_level_ and ref_spread_ must be finite with ref_spread_ > 0"
+        if not (_finite(est.gain_tolerance_) and est.gain_tolerance_ >= 0):
+            return "gain_tolerance_ must be finite and >= 0"
     return None
 
 
@@ -335,8 +346,12 @@ _FIT_CHECKS = ("_check_settings", "_check_range", "_check_region_params")
 
 #: Per class: its fitted attributes (documented in its docstring) and their check.
 _FITTED = {
-    "IntensityKeypointSampler": (("pixel_dtype_", "low_", "high_", "n_frames_fit_"),
-                                 lambda e: _check_frames_fit(e) or _check_keypoints(e)),
+    "IntensityKeypointSampler": (
+        lambda e: ("pixel_dtype_", "low_", "high_", "n_frames_fit_",
+                   *(("frame_shape_",) if e.frame_size == "training" else ()),
+                   *(("ref_level_", "ref_spread_", "gain_tolerance_")
+                     if e.radiometry == "frame" else ())),
+        lambda e: _check_frames_fit(e) or _check_keypoints(e)),
     "KMeansHistogramVerifier": (
         ("positive_centers_", "negative_centers_", "center_scores_", "centers_",
          "n_centers_", "quantum_", "n_positive_", "n_negative_",
@@ -357,6 +372,8 @@ def _check_step(path, where, est):
     name = type(est).__name__
     params = set(type(est)._get_param_names())
     fitted, check = _FITTED[name]
+    if callable(fitted):  # the attributes a fit sets follow some parameters
+        fitted = fitted(est) if params <= set(vars(est)) else ()
     found = set(vars(est))
     if not found & set(fitted) and params <= found:
         raise UntrustedModelError(f"{path}: {where} ({name}) is not fitted; refusing "
