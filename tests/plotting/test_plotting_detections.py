@@ -20,9 +20,11 @@ def test_pictures_carry_a_legend_and_the_frame_number():
     (_, eight), = draw_detections([_record(8, image)])
     changed = np.argwhere((seven != plain).any(axis=2))
     rows, cols = changed.max(axis=0)
-    assert changed.size and rows < 70 and cols < 130  # top left corner only
+    # the top of the picture only (OpenCV's text widths differ between releases:
+    # 130 px with 5.0, 140 px with 4.8)
+    assert changed.size and rows < 70 and cols < 150
     for key in DRAW_COLOURS:  # a key for every colour
-        assert (seven[:70, :130] == DRAW_COLOURS[key]).all(axis=2).any(), key
+        assert (seven[:70, :150] == DRAW_COLOURS[key]).all(axis=2).any(), key
     assert (seven[:14] != eight[:14]).any()  # the frame number differs
     assert (seven[14:] == eight[14:]).all()
     assert (plain[85:90, 98:110] == DRAW_COLOURS["appearance_positive"]).all(axis=2).any()

@@ -16,6 +16,11 @@ import pandas as pd
 from tunnelsense._records import MOT_GT_COLUMNS
 from tunnelsense.exceptions import InputFormatError
 
+#: Read floats back exactly as written: pandas 3 does by default (and deprecates the
+#: argument), pandas 2's C parser only when asked.
+ROUND_TRIP = ({} if int(pd.__version__.split(".")[0]) >= 3
+              else {"float_precision": "round_trip"})
+
 __all__ = ["LineNumbers", "read_mot_gt", "read_table", "write_mot_gt"]
 
 _INT_COLUMNS = {"frame", "id", "class"}
@@ -106,6 +111,7 @@ def _parse_fast(numbered, columns):
             dtype=np.float64,
             skip_blank_lines=True,
             skipinitialspace=True,
+            **ROUND_TRIP,
         )
     except (ValueError, pd.errors.ParserError):
         return None

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io._tables import ROUND_TRIP
 
 __all__ = [
     "ESTIMATE_COLUMNS",
@@ -167,7 +168,7 @@ def _read(path, what):
     if not path.is_file():
         raise FileNotFoundError(f"{path}: {what} file not found")
     try:
-        return pd.read_csv(path, encoding="utf-8")
+        return pd.read_csv(path, encoding="utf-8", **ROUND_TRIP)
     except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputFormatError(f"{path}: not a CSV {what} table ({exc})") from None
 
