@@ -53,6 +53,7 @@ _PARAMS = {
     "passing_per_min": (4.0, 0.0, 60.0),
     "passing_van_fraction": (0.15, 0.0, 1.0),
     "passing_motorbike_fraction": (0.1, 0.0, 1.0),
+    "passing_long_fraction": (0.0, 0.0, 1.0),
     "pedestrians_per_100m": (2.0, 0.0, 100.0),
     "bins_per_100m": (0.5, 0.0, 50.0),
     "bollard_rows_per_100m": (0.3, 0.0, 20.0),

@@ -12,8 +12,16 @@ __all__ = ["layout", "passing"]
 
 
 def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
-    """Body dimensions of a car, small car, van or motorbike (metres; side profile
-    knots); ``van_height`` the range of a van's roof height."""
+    """Body dimensions of a car, small car, van, long low vehicle or motorbike (metres;
+    side profile knots); ``van_height`` the range of a van's roof height."""
+    if kind == "long":  # a flatbed lorry, car transporter or trailer: long and low
+        L, H = rng.uniform(8.0, 12.0), rng.uniform(1.4, 1.6)
+        top_f = [0.0, 0.02, 0.05, 0.95, 1.0]
+        top_h = [0.9, H - 0.2, H, H, H - 0.2]
+        return {"kind": kind, "length": L, "width": rng.uniform(2.0, 2.3),
+                "top_f": top_f, "top_h": top_h, "belt": H - 0.15, "glass_f": (0.0, 0.0),
+                "tumble": 0.03, "wheel_radius": 0.45, "axles": (1.5, L - 1.5),
+                "clearance": 0.35, "overhang_bottom": 0.45, "corner": 0.1}
     if kind == "motorbike":
         return {"kind": kind, "length": rng.uniform(1.9, 2.2), "width": rng.uniform(0.7, 0.85),
                 "rider": rider}
@@ -48,13 +56,15 @@ def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
     }
 
 
-def _vehicle_kind(rng, van, motorbike, small=0.0):
+def _vehicle_kind(rng, van, motorbike, small=0.0, long=0.0):
     u = rng.random()
     if u < van:
         return "van"
     if u < van + motorbike:
         return "motorbike"
-    return "small" if u < van + motorbike + small else "car"
+    if u < van + motorbike + small:
+        return "small"
+    return "long" if u >= 1.0 - long else "car"
 
 
 def layout(p, x_lo, x_hi, t_of_x, rng):
@@ -239,7 +249,8 @@ def passing(p, stamps, v_ego, rng):
         t += rng.exponential(1.0 / rate)
         if t > stamps[-1] + 1.0:
             break
-        kind = _vehicle_kind(rng, p["passing_van_fraction"], p["passing_motorbike_fraction"])
+        kind = _vehicle_kind(rng, p["passing_van_fraction"], p["passing_motorbike_fraction"],
+                             long=p["passing_long_fraction"])
         o = _new_vehicle(rng, kind, rider=True)
         # relative speed of at least 3.5 m/s, both ways; slower ones still move (>= 2.5 m/s)
         rel = rng.uniform(3.5, 8.0)

@@ -147,6 +147,7 @@ _PROFILES = {
     "car": _car_boxes,
     "van": _car_boxes,
     "small": _car_boxes,
+    "long": _car_boxes,
     "motorbike": _motorbike_boxes,
     "pedestrian": _pedestrian_boxes,
     "bollard": _post_boxes,

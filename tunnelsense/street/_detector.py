@@ -145,9 +145,14 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
     min_roof_height : float, default=0.5
         Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
-    max_hidden_fraction : float, default=0.95
-        Largest fraction of an object's scans whose lower part something nearer hides
-        (beyond: a vehicle's piece seen past a passing one); 1 switches it off.
+    beam_occlusion : bool, default=True
+        Occlusion from the geometry of each beam (beyond the paper): a cluster whose
+        lower part something nearer hides (the beam just below it ends on the
+        occluder) shows only what the beams passing over the occluder reach, so its
+        mean depth says little; it links with the cluster of the neighbouring scan
+        whose depth extent holds it (see ``docs/street.md``).
+        A parked vehicle seen past a passing one keeps that evidence instead of
+        becoming a separate piece.  False: the paper's link by mean depth only.
 
     Attributes
     ----------
@@ -203,7 +208,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
         "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "max_hidden_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
+        "beam_occlusion": ["boolean"],
     }
 
     def __init__(
@@ -233,7 +238,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_car_length=2.4,
         min_raised_fraction=0.2,
         min_roof_height=0.5,
-        max_hidden_fraction=0.95,
+        beam_occlusion=True,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -260,7 +265,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_car_length = min_car_length
         self.min_raised_fraction = min_raised_fraction
         self.min_roof_height = min_roof_height
-        self.max_hidden_fraction = max_hidden_fraction
+        self.beam_occlusion = beam_occlusion
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tunnelsense.street._clustering import concat
+from tunnelsense.street._clustering import concat, seen_past
 
 __all__ = [
     "ObjectProfiles",
@@ -35,6 +35,9 @@ RAISED_FLAG = 0b0100
 HIDDEN_FLAG = 0b1000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
+#: Lowest height (m) of the points that give a cluster's near side: above kerbs,
+#: sidewalks and the road edge of a cambered road, on a vehicle's flank.
+SIDE_HEIGHT = 0.3
 
 
 def depth_region(depth, edges):
@@ -94,10 +97,17 @@ class ObjectProfiles:
         Mean depth, top height and number of points of every intra-cluster.
     flags : ndarray of shape (n_clusters,) of int8, default=None
         Cross-section evidence bits of every intra-cluster (``BODY_FLAGS``).
+    span : ndarray of shape (n_clusters, 3), default=None
+        Nearest and farthest depth of every intra-cluster's body (NaN: none) and
+        the depth its occluder stands at (see
+        :func:`~tunnelsense.street._clustering.seen_past`); with
+        ``flags``, gives every object's first and last scan's extent and whether it
+        was seen past an occluder (``start_seen``, ``end_seen``, see :func:`bridged`).
     """
 
-    def __init__(self, objects, position, depth, top, n_points, flags=None):
+    def __init__(self, objects, position, depth, top, n_points, flags=None, span=None):
         self.position = position
+        self.start_seen = self.end_seen = None
         self.n = n = int(objects.max()) + 1 if len(objects) else 0
         self.scan_flags_ = np.empty(0, dtype=np.int8)
         if n == 0:
@@ -130,6 +140,24 @@ class ObjectProfiles:
         self.depth = np.bincount(objects, weights=n_points * depth, minlength=n) / (
             np.maximum(self.n_points, 1))
         self.top = np.maximum.reduceat(self.scan_top, first_row)
+        if span is not None and flags is not None:
+            with np.errstate(invalid="ignore"):
+                lo = np.fmin.reduceat(span[order, 0], starts)
+                hi = np.fmax.reduceat(span[order, 1], starts)
+                occ = np.fmax.reduceat(span[order, 2], starts)
+            hidden = (self.scan_flags_ & HIDDEN_FLAG) > 0
+            ext = np.column_stack([lo, hi, occ])
+            self.start_seen = (ext[first_row], hidden[first_row])
+            self.end_seen = (ext[last_row], hidden[last_row])
+
+    def seen(self, a, b):
+        """The ``seen`` and ``tops`` arguments of :func:`bridged` for ``a`` ending
+        before ``b``."""
+        if self.start_seen is None:
+            return {}
+        return dict(seen=(self.end_seen[0][a], self.end_seen[1][a],
+                          self.start_seen[0][b], self.start_seen[1][b]),
+                    tops=(self.top[a], self.top[b]))
 
     def profile(self, o):
         """Scan positions and top heights of object ``o``'s scans."""
@@ -142,14 +170,23 @@ class ObjectProfiles:
 
 
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
-            merge_gap, occlusion_margin, bridge_occluded):
+            merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
+            horizon=None, step=None, tops=None):
     """The merge rule for a fragment starting after another one ends.
 
     The first ends before scan ``after``, the second starts at scan ``before``.
     They join when the first's last and the second's first mean depths differ by less
     than ``link_distance`` and the gap between them (``cum[before] - cum[after]``
-    metres) is at most ``merge_gap``, or (``bridge_occluded``) every scan of the gap
-    shows something at least ``occlusion_margin`` nearer.
+    metres) is at most ``merge_gap``, or (``bridge_occluded``, and the two ``alike``:
+    both show a body above kerb height or neither does) every scan of the gap shows
+    something at least ``occlusion_margin`` nearer.  With ``seen`` (the first's last
+    and the second's first scan: ``(span and occluder, hidden)`` each, see
+    :func:`~tunnelsense.street._clustering.seen_past`), an end seen only past an
+    occluder may instead lie within the other end's depth extent.  With ``horizon``
+    (its depth grid ``step``, see :func:`~tunnelsense.street._geometry.horizon`) and
+    ``tops`` (the top heights of the two fragments), a gap scan is hidden only where
+    no beam passes the fragments' depth below both tops (two roofs with a gap the
+    beams see into are two vehicles): behind is not hidden.
 
     Examples
     --------
@@ -165,12 +202,20 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     >>> bridged(5.0, 5.2, 2, 4, cum, near, **rule)
     False
     """
-    if not abs(end_depth - start_depth) < link_distance:
+    if not abs(end_depth - start_depth) < link_distance and not (
+            seen is not None and seen_past(
+                np.array([0]), np.array([1]), np.array([seen[0][:2], seen[2][:2]]),
+                np.array([seen[1], seen[3]]), link_distance,
+                np.array([seen[0][2], seen[2][2]]))[0]):
         return False
     if cum[before] - cum[after] <= merge_gap:
         return True
-    hidden = near[after:before] < min(end_depth, start_depth) - occlusion_margin
-    return bool(bridge_occluded and np.all(hidden))
+    depth = min(end_depth, start_depth)
+    hidden = near[after:before] < depth - occlusion_margin
+    if horizon is not None and tops is not None:
+        j = min(max(int(np.ceil(depth / step)), 1), horizon.shape[1]) - 1
+        hidden = hidden & (horizon[after:before, j] >= min(tops))
+    return bool(bridge_occluded and alike and np.all(hidden))
 
 
 def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
@@ -179,7 +224,8 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans and
     the same region when they overlap in time over at least half of the shorter one
     (the paper's rule), or when ``b`` starts after ``a`` ends and :func:`bridged`
-    joins them; fragments starting more than ``reach`` metres apart never join.
+    joins them (``alike`` when both or neither rise above ``SIDE_HEIGHT``);
+    fragments starting more than ``reach`` metres apart never join.
     ``rule`` holds the keywords of :func:`bridged`.
 
     Parameters
@@ -215,6 +261,7 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     [0, 0, 2]
     """
     first, last = prof.first, prof.last
+    body = prof.top >= SIDE_HEIGHT  # a kerb or sidewalk is never bridged to a body
     stretch = np.cumsum(~follows) - 1
     parent = np.arange(prof.n)
 
@@ -238,8 +285,13 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
                 join = overlap >= 0.5 * shorter
             else:
                 lo, hi = (a, b) if last[a] < first[b] else (b, a)
-                join = bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
-                               first[hi], cum, near, **rule)
+                # never across another fragment of the region lying in the gap
+                between = ((region == region[a]) & (first > last[lo])
+                           & (last < first[hi]) & body)
+                join = not (rule.get("horizon") is not None and between.any()) and (
+                    bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
+                            first[hi], cum, near, alike=body[a] == body[b],
+                            **prof.seen(lo, hi), **rule))
             if join:
                 ra, rb = find(a), find(b)
                 if ra != rb:
@@ -247,7 +299,33 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     return np.array([find(i) for i in range(prof.n)], dtype=np.int64)
 
 
-def split_profile(top, step, *, min_length=2.0, ratio=0.6):
+def _fill_hidden(top, band):
+    """Hidden (NaN) runs of a height profile: a gap (0) where the seen profile falls
+    into them and rises out of them (a vehicle's profile has one hump), else the
+    lower of their seen neighbours; and which scans may not be a split point."""
+    top = top.copy()
+    unknown = np.isnan(top)
+    if not unknown.any():
+        return top, unknown
+    known = np.flatnonzero(~unknown)
+    if not len(known):
+        return np.zeros_like(top), np.ones(len(top), dtype=bool)
+    edges = np.flatnonzero(np.diff(concat(0, unknown.astype(np.int8), 0)))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        left, right = top[:a][~unknown[:a]], top[b:][~unknown[b:]]
+        if len(left) and len(right):
+            falls = left[-1] < left.max() - band
+            rises = right[0] < right.max() - band
+            if falls and rises:
+                top[a:b] = 0.0
+                unknown[a:b] = False
+                continue
+        top[a:b] = min(left[-1] if len(left) else np.inf,
+                       right[0] if len(right) else np.inf)
+    return top, unknown
+
+
+def split_profile(top, step, *, min_length=2.0, ratio=0.6, band=0.15):
     """Where to split an object whose height profile has two humps.
 
     Two vehicles parked nose to tail and merged into one object show, along the track,
@@ -262,13 +340,18 @@ def split_profile(top, step, *, min_length=2.0, ratio=0.6):
     Parameters
     ----------
     top : ndarray of shape (n_scans,)
-        Top height (m) of the object in each of its scans (NaN where not seen).
+        Top height (m) of the object in each of its scans (NaN where hidden: a
+        hidden run is a gap where the seen profile falls into it and rises out of it
+        by more than ``band``, else never the split point).
     step : float
         Distance (m) travelled between two scans.
     min_length : float, default=2.0
         Shortest part (m) a split may leave.
     ratio : float, default=0.6
         Largest valley-to-peak ratio that splits.
+    band : float, default=0.15
+        How far (m) below its side's peak a profile must fall into a hidden run for
+        that run to be a gap.
 
     Returns
     -------
@@ -285,8 +368,8 @@ def split_profile(top, step, *, min_length=2.0, ratio=0.6):
     >>> split_profile(car, step=0.6)
     []
     """
-    top = np.asarray(top, dtype=np.float64)
-    top = np.where(np.isnan(top), 0.0, top)
+    top = raw = np.asarray(top, dtype=np.float64)
+    top, unknown = _fill_hidden(top, band)
     n = len(top)
     k = max(int(np.ceil(min_length / max(step, 1e-9))), 1)
     if n < 2 * k + 1:
@@ -296,7 +379,7 @@ def split_profile(top, step, *, min_length=2.0, ratio=0.6):
     idx = np.arange(k, n - k)
     peak = np.minimum(left[idx - 1], right[idx + 1])
     with np.errstate(invalid="ignore", divide="ignore"):
-        score = np.where(peak > 0, top[idx] / peak, np.inf)
+        score = np.where((peak > 0) & ~unknown[idx], top[idx] / peak, np.inf)
     j = int(np.argmin(score))
     if not score[j] <= ratio:
         return []
@@ -304,16 +387,23 @@ def split_profile(top, step, *, min_length=2.0, ratio=0.6):
     # the valley scan goes with its higher neighbour (a bumper with its own body)
     start = cut + 1 if top[cut - 1] > top[cut + 1] else cut
     start = min(max(start, k), n - k)
-    a = split_profile(top[:start], step, min_length=min_length, ratio=ratio)
-    b = split_profile(top[start:], step, min_length=min_length, ratio=ratio)
+    a = split_profile(raw[:start], step, min_length=min_length, ratio=ratio, band=band)
+    b = split_profile(raw[start:], step, min_length=min_length, ratio=ratio, band=band)
     return [*a, start, *(start + c for c in b)]
 
 
-def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance):
+def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
+                  horizon=None, step=None):
     """Split objects with a two-hump height profile; the new object of every cluster.
 
     Scans of an object's span where it has no cluster count as height 0 (a gap
-    between two vehicles), unless something nearer hid it (then unknown).
+    between two vehicles), unless something nearer hid it (then unknown).  With
+    ``horizon`` (per scan, the lowest height at which the beams passing every
+    ``step`` metres of depth cross it, see
+    :func:`~tunnelsense.street._geometry.horizon`), such a scan is unknown only
+    where no beam passes the object's depth below the seen tops on either side: a
+    beam ending on a nearer object says nothing, one passing over the object's place
+    shows the gap.
     ``objects`` and ``prof.position`` are per intra-cluster, as in ``prof``.
     """
     new = objects.copy()
@@ -325,7 +415,14 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance)
             continue
         top = np.zeros(span)
         seen, seen_top = prof.profile(o)
-        top[near[first:last + 1] < prof.depth[o] - link_distance] = np.nan
+        if horizon is None:
+            top[near[first:last + 1] < prof.depth[o] - link_distance] = np.nan
+        else:  # hidden where the beams pass above the seen tops on either side
+            j = min(max(int(np.ceil(prof.depth[o] / step)), 1), horizon.shape[1]) - 1
+            k = np.searchsorted(seen - first, np.arange(span))
+            side = np.maximum(seen_top[np.maximum(k - 1, 0)],
+                              seen_top[np.minimum(k, len(seen) - 1)])
+            top[horizon[first:last + 1, j] >= side] = np.nan
         top[seen - first] = seen_top
         cuts = split_profile(top, (cum[last + 1] - cum[first]) / span,
                              min_length=min_length, ratio=ratio)
@@ -370,7 +467,7 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
-               min_raised_fraction=0.0, max_hidden_fraction=1.0):
+               min_raised_fraction=0.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -380,10 +477,7 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
     the hidden part) it can only be a motorbike: a body raised above the road between
     its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
-    wheelie bins and people stand on the ground).  Whose lower part is hidden by
-    something nearer in more than ``max_hidden_fraction`` of its scans, it is taken
-    for a piece of a vehicle seen past an occluder (a vehicle hidden over nearly its
-    whole length is lost too).
+    wheelie bins and people stand on the ground).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -401,8 +495,6 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
-    if float(np.mean((flags & HIDDEN_FLAG) > 0)) > max_hidden_fraction:
-        return False
     if vehicle and length + hidden_length < min_car_length:
         vehicle = float(np.mean((flags & RAISED_FLAG) > 0)) >= min_raised_fraction
     return bool(vehicle and body >= min_body_fraction)

@@ -13,13 +13,10 @@ import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
+from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT
 from tunnelsense.street._sections import section_evidence
 
 __all__ = ["SIDE_HEIGHT", "ScanWindow"]
-
-#: Lowest height (m) of the points that give a cluster's near side: above kerbs,
-#: sidewalks and the road edge of a cambered road, on a vehicle's flank.
-SIDE_HEIGHT = 0.3
 
 
 class ScanWindow:
@@ -54,6 +51,7 @@ class ScanWindow:
         self.near = np.empty(0)  # mean depth of the nearest cluster
         self.cum = np.zeros(1)  # cum[p]: metres from the run's start to scan p
         self.tilt = np.empty(0)
+        self.horizon = np.empty((0, 0))  # per scan and depth: see ``horizon``
         self.n_clusters = np.empty(0, np.int64)
         self.first_cluster = np.empty(0, np.int64)  # absolute number of its first
         # per held cluster
@@ -64,6 +62,8 @@ class ScanWindow:
         self.n_points = np.empty(0)
         self.flags = np.empty(0, np.int8)
         self.side = np.empty(0)  # nearest depth (near side) of every cluster
+        self.far = np.empty(0)  # farthest depth of every cluster's body (NaN: none)
+        self.occluder = np.empty(0)  # depth the beam below every cluster ends at
         self.object_id = np.empty(0, np.int64)  # 0 not final, -1 final without id
         self.links = (np.empty(0, np.int64), np.empty(0, np.int64))
 
@@ -136,6 +136,15 @@ class ScanWindow:
         side = np.full(k, np.inf)  # near side of the body (above kerb and sidewalk)
         body = y >= SIDE_HEIGHT
         np.minimum.at(side, cluster[body], x[body])
+        far = np.full(k, -np.inf)
+        np.maximum.at(far, cluster[body], x[body])
+        far[~np.isfinite(side)] = np.nan
+        # what the beam just below every cluster's lowest point ends on (its occluder)
+        lowest = np.lexsort((roi.beam, cluster))
+        lowest = lowest[concat(True, cluster[lowest][1:] != cluster[lowest][:-1])[
+            :len(lowest)]]
+        occluder = np.full(k, np.nan)
+        occluder[cluster[lowest]] = roi.below[lowest, 0]
         roof, wall, raised, hidden = section_evidence(
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
@@ -147,10 +156,19 @@ class ScanWindow:
         # inter-scan links: the previous scan's clusters against the block's
         first_new = self.cluster_base + len(self.position)
         n_prev = int(self.n_clusters[-1]) if len(self.n_clusters) else 0
+        old = slice(len(self.depth) - n_prev, len(self.depth))
+        occlusion = {}
+        if est.beam_occlusion:  # clusters seen past an occluder (lower part hidden)
+            span = np.column_stack([concat(self.side[old], side),
+                                    concat(self.far[old], far)])
+            span[~np.isfinite(span[:, 0])] = np.nan
+            occlusion = dict(span=span, hidden=concat(
+                (self.flags[old] & HIDDEN_FLAG) > 0, hidden),
+                occluder=concat(self.occluder[old], occluder))
         earlier, later = link_pairs(
             concat(np.zeros(n_prev, np.int64), position + 1),
-            concat(self.depth[len(self.depth) - n_prev:], depth),
-            concat(False, follows), est.link_distance)
+            concat(self.depth[old], depth),
+            concat(False, follows), est.link_distance, **occlusion)
         absolute = concat(np.arange(first_new - n_prev, first_new),
                          first_new + np.arange(k))
         # append to the window
@@ -163,6 +181,8 @@ class ScanWindow:
         self.near = concat(self.near, near)
         self.cum = concat(self.cum, np.cumsum(concat(self.cum[-1], step))[1:])
         self.tilt = concat(self.tilt, roi.tilt)
+        self.horizon = (roi.horizon if not len(self.horizon)
+                        else np.concatenate([self.horizon, roi.horizon]))
         self.n_clusters = concat(self.n_clusters, n_clusters)
         self.first_cluster = concat(self.first_cluster, first_new + start)
         self.position = concat(self.position, self.n_seen + position)
@@ -171,6 +191,8 @@ class ScanWindow:
         self.n_points = concat(self.n_points, n_points.astype(np.float64))
         self.flags = concat(self.flags, flags)
         self.side = concat(self.side, side)
+        self.far = concat(self.far, far)
+        self.occluder = concat(self.occluder, occluder)
         self.object_id = concat(self.object_id, np.zeros(k, np.int64))
         self.links = (concat(self.links[0], absolute[earlier]),
                       concat(self.links[1], absolute[later]))
@@ -181,7 +203,7 @@ class ScanWindow:
         self.base += d
         del self.records[:d]
         del self.payload[:d]
-        for name in ("scans", "follows", "near", "cum", "tilt", "n_clusters",
+        for name in ("scans", "follows", "near", "cum", "tilt", "horizon", "n_clusters",
                      "first_cluster"):
             setattr(self, name, getattr(self, name)[d:])
         dropped = (int(self.first_cluster[0]) - self.cluster_base
@@ -189,7 +211,7 @@ class ScanWindow:
         if dropped > 0:
             self.cluster_base += dropped
             for name in ("position", "depth", "top", "n_points", "flags", "side",
-                         "object_id"):
+                         "far", "occluder", "object_id"):
                 setattr(self, name, getattr(self, name)[dropped:])
             keep = self.links[0] >= self.cluster_base
             self.links = (self.links[0][keep], self.links[1][keep])
