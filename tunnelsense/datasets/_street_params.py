@@ -33,6 +33,7 @@ _PARAMS = {
     "range_noise": (0.01, 0.0, 0.2),
     "range_noise_per_m": (0.0025, 0.0, 0.05),
     "dropout_rate": (0.003, 0.0, 0.5),
+    "rain_echo_rate": (0.0, 0.0, 0.2),
     "kerb_depth": (6.45, 5.0, 7.5),
     "kerb_height": (0.13, 0.0, 0.3),
     "camber_drop": (0.04, 0.0, 0.1),
@@ -42,6 +43,8 @@ _PARAMS = {
     "touching_fraction": (0.0, 0.0, 1.0),
     "van_fraction": (0.1, 0.0, 1.0),
     "motorbike_fraction": (0.05, 0.0, 1.0),
+    "motorbike_across_fraction": (0.0, 0.0, 1.0),
+    "motorbike_footway_fraction": (0.0, 0.0, 1.0),
     "boundary_fraction": (0.0, 0.0, 1.0),
     "boundary_row_fraction": (0.0, 0.0, 1.0),
     "row_gap_min_m": (0.3, 0.0, 5.0),
@@ -155,6 +158,10 @@ _DRAWN = {
         "bin_rows_per_100m": (0.0, 1.5),
         "communal_bins_per_100m": (0.0, 0.5),
         "bollard_rows_per_100m": (0.0, 1.0),
+        "rain_echo_rate": (0.0, 0.03),
+        "motorbike_across_fraction": (0.0, 0.6),
+        "motorbike_footway_fraction": (0.0, 0.5),
+        "passing_long_fraction": (0.0, 0.2),
     },
 }
 
