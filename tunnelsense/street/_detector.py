@@ -153,6 +153,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         whose depth extent holds it (see ``docs/street.md``).
         A parked vehicle seen past a passing one keeps that evidence instead of
         becoming a separate piece.  False: the paper's link by mean depth only.
+    spray_beams : int, default=2
+        Echoes from raindrops and spray (beyond the paper): a run of at most this
+        many consecutive beams whose beams just below and above both pass farther
+        (to the surface behind it, or nowhere within range) is dropped before
+        clustering; it builds no object and hides nothing.  0: keep every return.
 
     Attributes
     ----------
@@ -209,6 +214,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
         "beam_occlusion": ["boolean"],
+        "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
     }
 
     def __init__(
@@ -239,6 +245,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_raised_fraction=0.2,
         min_roof_height=0.5,
         beam_occlusion=True,
+        spray_beams=2,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -266,6 +273,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_raised_fraction = min_raised_fraction
         self.min_roof_height = min_roof_height
         self.beam_occlusion = beam_occlusion
+        self.spray_beams = spray_beams
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -112,6 +112,7 @@ class RoiPoints(NamedTuple):
     below: np.ndarray  #: (n, 2) the return of the next beam down (NaN: none)
     tilt: np.ndarray  #: (n_scans,) the tilt used for every scan (rad)
     horizon: np.ndarray  #: (n_scans, n_depths) see :func:`horizon`
+    sensor: np.ndarray  #: (n_scans,) height of the sensor in the restored frame
 
 
 def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10.0,
@@ -170,7 +171,7 @@ def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10
     passes = np.isfinite(far_depth)
     return RoiPoints(scan, beam, points, above, below, tilt, horizon(
         np.where(passes, far_depth, depth), np.where(passes, far_height, height),
-        sensor))
+        sensor), sensor)
 
 
 def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):

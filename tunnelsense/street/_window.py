@@ -19,6 +19,49 @@ from tunnelsense.street._sections import section_evidence
 __all__ = ["SIDE_HEIGHT", "ScanWindow"]
 
 
+def spray(scan, beam, points, above, below, max_beams, cut, sensor=None):
+    """Which region-of-interest points are echoes from raindrops or spray.
+
+    A drop returns one beam, seldom two, and the beams around it pass on to the
+    surface behind it: a run of at most ``max_beams`` consecutive beams (each
+    within ``cut`` of the next) whose beams just below and just above both pass
+    farther (no return, or a return more than ``cut`` farther from the sensor,
+    at height ``sensor[scan]`` above the origin, than the run) is an echo,
+    not an object.  Anything real spans more beams, or has a neighbour beam ending
+    on it or in front of it (a roof edge seen over a passing vehicle).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._window import spray
+    >>> pts = np.array([[1.2, 1.0], [5.0, 0.5], [5.0, 0.6], [5.0, 0.7]])
+    >>> beam = np.array([10, 20, 21, 22])
+    >>> above = np.array([[6.0, 0.4], [5.0, 0.6], [5.0, 0.7], [np.nan, np.nan]])
+    >>> below = np.array([[np.nan, np.nan], [5.0, 0.4], [5.0, 0.5], [5.0, 0.6]])
+    >>> spray(np.zeros(4, int), beam, pts, above, below, 2, 0.6).tolist()
+    [True, False, False, False]
+    """
+    n = len(scan)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    gap = np.hypot(*(points[1:] - points[:-1]).T)
+    link = (scan[1:] == scan[:-1]) & (beam[1:] == beam[:-1] + 1) & (gap <= cut)
+    start = concat(True, ~link)
+    chain = np.cumsum(start) - 1
+    first = np.flatnonzero(start)
+    last = concat(first[1:], n) - 1
+    h = np.zeros(n) if sensor is None else sensor[scan]
+
+    def rng(p):
+        return np.hypot(p[:, 0], p[:, 1] - h)
+
+    far = np.maximum.reduceat(rng(points), first)
+    with np.errstate(invalid="ignore"):
+        past = ((~(rng(below)[first] <= far + cut))
+                & (~(rng(above)[last] <= far + cut)))
+    return (past & (last - first + 1 <= max_beams))[chain]
+
+
 class ScanWindow:
     """The held scans of one run and their intra-clusters.
 
@@ -119,9 +162,15 @@ class ScanWindow:
         roi = roi_points(ranges, self.geometry, self.history,
                          tilt_compensation=est.tilt_compensation, max_tilt=est.max_tilt,
                          min_height=est.min_height, max_height=est.max_height)
-        x, y = roi.points[:, 0], roi.points[:, 1]
+        if est.spray_beams:  # echoes from raindrops and spray build nothing
+            keep = ~spray(roi.scan, roi.beam, roi.points, roi.above, roi.below,
+                          est.spray_beams, est.cut, roi.sensor)
+            roi = roi._replace(scan=roi.scan[keep], beam=roi.beam[keep],
+                               points=roi.points[keep], above=roi.above[keep],
+                               below=roi.below[keep])
         # intra-scan clusters, numbered over the block
         local = single_linkage(roi.points, est.cut, groups=roi.scan)
+        x, y = roi.points[:, 0], roi.points[:, 1]
         n = len(block)
         n_clusters = np.zeros(n, dtype=np.int64)
         np.maximum.at(n_clusters, roi.scan, local + 1)
