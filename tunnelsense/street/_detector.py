@@ -158,6 +158,21 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         many consecutive beams whose beams just below and above both pass farther
         (to the surface behind it, or nowhere within range) is dropped before
         clustering; it builds no object and hides nothing.  0: keep every return.
+    min_across_length : float or None, default=0.5
+        Shortest motorbike parked at right angles to the kerb (m along the street;
+        handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
+        shorter than ``min_length`` but not than this, seen whole, is such a
+        motorbike when a body raised between wheels
+        (its wheels at both ends of its depth, the road between them) shows in at
+        least ``min_across_raised`` of its scans; wheelie bins, posts and people
+        stand on the ground.  None: objects shorter than ``min_length`` are never
+        vehicles.
+    min_across_raised : float, default=0.3
+        See ``min_across_length``.
+    min_across_top : float, default=1.05
+        Lowest top (m) of a motorbike across the kerb (handlebars and screen,
+        1.05-1.4 m); the bonnet or boot of a car, broken off its body by a
+        pedestrian or a post in front, stays lower.
 
     Attributes
     ----------
@@ -215,6 +230,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
         "beam_occlusion": ["boolean"],
         "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
+        "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
+        "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
+        "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
     }
 
     def __init__(
@@ -246,6 +264,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_roof_height=0.5,
         beam_occlusion=True,
         spray_beams=2,
+        min_across_length=0.5,
+        min_across_raised=0.3,
+        min_across_top=1.05,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -274,6 +295,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_roof_height = min_roof_height
         self.beam_occlusion = beam_occlusion
         self.spray_beams = spray_beams
+        self.min_across_length = min_across_length
+        self.min_across_raised = min_across_raised
+        self.min_across_top = min_across_top
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -169,6 +169,20 @@ class ObjectProfiles:
         return self.scan_flags_[self.rows[o]:self.rows[o + 1]]
 
 
+def _held(seen, link_distance, short):
+    """Whether one end's extent holds the other's: seen past an occluder (see
+    :func:`~tunnelsense.street._clustering.seen_past`), or across a short gap (the
+    ends of one object seen from another side: a motorbike across the kerb, whose
+    screen alone shows at its sides)."""
+    span = np.array([seen[0][:2], seen[2][:2]])
+    one, two = np.array([0]), np.array([1])
+    if seen_past(one, two, span, np.array([seen[1], seen[3]]), link_distance,
+                 np.array([seen[0][2], seen[2][2]]))[0]:
+        return True
+    return bool(short and seen_past(one, two, span, np.ones(2, dtype=bool),
+                                    link_distance)[0])
+
+
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
             merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
             horizon=None, step=None, tops=None):
@@ -182,7 +196,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     something at least ``occlusion_margin`` nearer.  With ``seen`` (the first's last
     and the second's first scan: ``(span and occluder, hidden)`` each, see
     :func:`~tunnelsense.street._clustering.seen_past`), an end seen only past an
-    occluder may instead lie within the other end's depth extent.  With ``horizon``
+    occluder (or, across a gap of at most ``merge_gap``, either end) may instead
+    lie within the other end's depth extent.  With ``horizon``
     (its depth grid ``step``, see :func:`~tunnelsense.street._geometry.horizon`) and
     ``tops`` (the top heights of the two fragments), a gap scan is hidden only where
     no beam passes the fragments' depth below both tops (two roofs with a gap the
@@ -202,13 +217,11 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     >>> bridged(5.0, 5.2, 2, 4, cum, near, **rule)
     False
     """
+    short = cum[before] - cum[after] <= merge_gap
     if not abs(end_depth - start_depth) < link_distance and not (
-            seen is not None and seen_past(
-                np.array([0]), np.array([1]), np.array([seen[0][:2], seen[2][:2]]),
-                np.array([seen[1], seen[3]]), link_distance,
-                np.array([seen[0][2], seen[2][2]]))[0]):
+            seen is not None and _held(seen, link_distance, short)):
         return False
-    if cum[before] - cum[after] <= merge_gap:
+    if short:
         return True
     depth = min(end_depth, start_depth)
     hidden = near[after:before] < depth - occlusion_margin
@@ -467,7 +480,8 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
-               min_raised_fraction=0.0):
+               min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
+               top=np.inf, min_across_top=0.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -477,7 +491,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
     the hidden part) it can only be a motorbike: a body raised above the road between
     its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
-    wheelie bins and people stand on the ground).
+    wheelie bins and people stand on the ground).  Shorter than ``min_length`` but
+    at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
+    motorbike at right angles to the kerb when at least ``min_across_raised`` of its
+    scans show a body raised between wheels and its ``top`` reaches
+    ``min_across_top`` (handlebars and screen; ``None``: never).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -495,8 +513,13 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
+    raised = float(np.mean((flags & RAISED_FLAG) > 0))
     if vehicle and length + hidden_length < min_car_length:
-        vehicle = float(np.mean((flags & RAISED_FLAG) > 0)) >= min_raised_fraction
+        vehicle = raised >= min_raised_fraction
+    elif (not vehicle and min_across_length is not None and hidden_length == 0
+          and min_across_length <= length < min_length and top >= min_across_top
+          and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
+        vehicle = raised >= min_across_raised  # a motorbike across the kerb
     return bool(vehicle and body >= min_body_fraction)
 
 

@@ -299,13 +299,18 @@ class _RunState(ScanWindow):
                                             self.cap)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
+            region = int(depth_region(region_depth[o], est.region_edges_))
+            parked = est.labels_[region] == "parked"  # motorbikes across park
             vehicle = is_vehicle(
                 prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
                 self.near, min_length=est.min_length, max_length=est.max_length,
                 link_distance=est.link_distance,
                 min_body_fraction=est.min_body_fraction,
                 min_car_length=est.min_car_length,
-                min_raised_fraction=est.min_raised_fraction)
+                min_raised_fraction=est.min_raised_fraction,
+                min_across_length=est.min_across_length if parked else None,
+                min_across_raised=est.min_across_raised, top=float(prof.top[o]),
+                min_across_top=est.min_across_top)
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
@@ -313,7 +318,7 @@ class _RunState(ScanWindow):
                 "extend": bool(est.occluded_length is not None and vehicle
                                and hidden_length > 0 and inside),
                 "vehicle": vehicle,
-                "region": int(depth_region(region_depth[o], est.region_edges_)),
+                "region": region,
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
                 "clusters": (clusters[objects == o] if prof.n > 1 else clusters)
