@@ -135,7 +135,12 @@ def test_single_point_scan():
     out = ScanClusterer(spray_beams=0).fit(X).transform(X)
     assert [len(o.payload["points"]) for o in out] == [0, 1, 0]
     assert out[1].payload["clusters"].tolist() == [0]
-    # with every beam around it passing on, it is taken for a raindrop
+    # among dropouts (NaN says nothing) it stays; with every beam around it passing
+    # on (nothing within range), it is taken for a raindrop
+    out = ScanClusterer().fit(X).transform(X)
+    assert [len(o.payload["points"]) for o in out] == [0, 1, 0]
+    r[np.isnan(r)] = np.inf
+    X = scans(r)
     out = ScanClusterer().fit(X).transform(X)
     assert [len(o.payload["points"]) for o in out] == [0, 0, 0]
 

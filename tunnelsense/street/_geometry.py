@@ -113,6 +113,9 @@ class RoiPoints(NamedTuple):
     tilt: np.ndarray  #: (n_scans,) the tilt used for every scan (rad)
     horizon: np.ndarray  #: (n_scans, n_depths) see :func:`horizon`
     sensor: np.ndarray  #: (n_scans,) height of the sensor in the restored frame
+    #: (n, 2) whether the beam just above / below returned nothing within range
+    #: (it passes everything; a dropout, NaN, says nothing)
+    passes: np.ndarray
 
 
 def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10.0,
@@ -169,9 +172,11 @@ def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10
     sensor = restore_points(np.zeros((len(r), 1)), angles[:1], geometry.mount_height,
                             tilt, offset)[1][:, 0]
     passes = np.isfinite(far_depth)
+    beyond = np.column_stack([passes[scan, up] & (beam + 1 < n_beams),
+                              passes[scan, down] & (beam > 0)])
     return RoiPoints(scan, beam, points, above, below, tilt, horizon(
         np.where(passes, far_depth, depth), np.where(passes, far_height, height),
-        sensor), sensor)
+        sensor), sensor, beyond)
 
 
 def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):

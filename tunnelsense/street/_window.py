@@ -19,14 +19,17 @@ from tunnelsense.street._sections import section_evidence
 __all__ = ["SIDE_HEIGHT", "ScanWindow"]
 
 
-def spray(scan, beam, points, above, below, max_beams, cut, sensor=None):
+def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=None):
     """Which region-of-interest points are echoes from raindrops or spray.
 
     A drop returns one beam, seldom two, and the beams around it pass on to the
     surface behind it: a run of at most ``max_beams`` consecutive beams (each
     within ``cut`` of the next) whose beams just below and just above both pass
-    farther (no return, or a return more than ``cut`` farther from the sensor,
-    at height ``sensor[scan]`` above the origin, than the run) is an echo,
+    farther (nothing within range, ``passes`` (n, 2) for the beams above and
+    below, or a return more than ``cut`` farther from the sensor, at height
+    ``sensor[scan]`` above the origin, than the run; a dropout says nothing, so
+    one of the two must pass and the other pass or drop out; without ``passes``
+    every missing return passes) is an echo,
     not an object.  Anything real spans more beams, or has a neighbour beam ending
     on it or in front of it (a roof edge seen over a passing vehicle).
 
@@ -57,8 +60,14 @@ def spray(scan, beam, points, above, below, max_beams, cut, sensor=None):
 
     far = np.maximum.reduceat(rng(points), first)
     with np.errstate(invalid="ignore"):
-        past = ((~(rng(below)[first] <= far + cut))
-                & (~(rng(above)[last] <= far + cut)))
+        if passes is None:
+            past = ((~(rng(below)[first] <= far + cut))
+                    & (~(rng(above)[last] <= far + cut)))
+        else:  # one side passes; the other passes too or dropped out
+            down = passes[first, 1] | (rng(below)[first] > far + cut)
+            up = passes[last, 0] | (rng(above)[last] > far + cut)
+            past = ((down | np.isnan(below[first, 0]))
+                    & (up | np.isnan(above[last, 0])) & (down | up))
     return (past & (last - first + 1 <= max_beams))[chain]
 
 
@@ -164,10 +173,10 @@ class ScanWindow:
                          min_height=est.min_height, max_height=est.max_height)
         if est.spray_beams:  # echoes from raindrops and spray build nothing
             keep = ~spray(roi.scan, roi.beam, roi.points, roi.above, roi.below,
-                          est.spray_beams, est.cut, roi.sensor)
+                          est.spray_beams, est.cut, roi.sensor, roi.passes)
             roi = roi._replace(scan=roi.scan[keep], beam=roi.beam[keep],
                                points=roi.points[keep], above=roi.above[keep],
-                               below=roi.below[keep])
+                               below=roi.below[keep], passes=roi.passes[keep])
         # intra-scan clusters, numbered over the block
         local = single_linkage(roi.points, est.cut, groups=roi.scan)
         x, y = roi.points[:, 0], roi.points[:, 1]
