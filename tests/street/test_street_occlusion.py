@@ -9,11 +9,12 @@ upper bodies.  Behind is not hidden: those cars are counted.
 import functools
 
 import numpy as np
+from _street_scenes import make_run, sedan
 
 from tunnelsense import Run
 from tunnelsense.datasets._street import _simulate
 from tunnelsense.metrics import street_scores
-from tunnelsense.street import make_parking_pipeline
+from tunnelsense.street import ScanClusterer, make_parking_pipeline
 
 BEHIND = dict(passing_long_fraction=1.0, passing_van_fraction=0.0,
               passing_motorbike_fraction=0.0, passing_per_min=12.0,
@@ -82,3 +83,20 @@ def test_parked_cars_seen_over_a_passing_roof_are_found():
         assert scores["precision"] >= 0.9
     assert total >= 10
     assert found / total >= 0.8
+
+
+def test_two_cars_hidden_over_a_longer_stretch_than_a_car_stay_two():
+    speed = 11.0
+    # a tall vehicle close to the sensor hides 8 m: the front of the first car and
+    # the back of the second are seen, a whole car could stand in between
+    boxes = [dict(s0=2.0, s1=6.4, depth=4.6, top=sedan),
+             dict(s0=7.4, s1=11.8, depth=4.6, top=sedan),
+             dict(s0=3.2, s1=11.0, depth=1.5, top=2.6, width=1.8)]
+    run = make_run(boxes, ["parked", "parked", None], n_scans=130, speed=speed)
+    det = ScanClusterer(speed=speed).fit(run.scans).detect(run.scans)
+    s = street_scores(run.gt, det)["parked"]
+    assert s["tp"] == 2 and s["fp"] == 0
+    # bridging that gap takes them for one vehicle
+    det = ScanClusterer(speed=speed, occluded_length=20.0).fit(run.scans).detect(
+        run.scans)
+    assert street_scores(run.gt, det)["parked"]["tp"] < 2

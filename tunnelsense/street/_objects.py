@@ -185,7 +185,7 @@ def _held(seen, link_distance, short):
 
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
             merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
-            horizon=None, step=None, tops=None):
+            horizon=None, step=None, tops=None, bridge_gap=None):
     """The merge rule for a fragment starting after another one ends.
 
     The first ends before scan ``after``, the second starts at scan ``before``.
@@ -201,7 +201,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     (its depth grid ``step``, see :func:`~tunnelsense.street._geometry.horizon`) and
     ``tops`` (the top heights of the two fragments), a gap scan is hidden only where
     no beam passes the fragments' depth below both tops (two roofs with a gap the
-    beams see into are two vehicles): behind is not hidden.
+    beams see into are two vehicles): behind is not hidden.  A hidden gap longer
+    than ``bridge_gap`` metres (a whole vehicle may stand in it) is never bridged.
 
     Examples
     --------
@@ -223,6 +224,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
         return False
     if short:
         return True
+    if bridge_gap is not None and cum[before] - cum[after] > bridge_gap:
+        return False
     depth = min(end_depth, start_depth)
     hidden = near[after:before] < depth - occlusion_margin
     if horizon is not None and tops is not None:
@@ -231,7 +234,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     return bool(bridge_occluded and alike and np.all(hidden))
 
 
-def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
+def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None,
+                    **rule):
     """Three-region merging: union-find root of every fragment (object-cluster).
 
     Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans and
@@ -239,7 +243,9 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     (the paper's rule), or when ``b`` starts after ``a`` ends and :func:`bridged`
     joins them (``alike`` when both or neither rise above ``SIDE_HEIGHT``);
     fragments starting more than ``reach`` metres apart never join.
-    ``rule`` holds the keywords of :func:`bridged`.
+    ``rule`` holds the keywords of :func:`bridged`; its ``bridge_gap`` applies in
+    the regions where ``gap_regions`` (one bool per region) is True only (those
+    of vehicles: a wall or hedge is one object across any hidden gap).
 
     Parameters
     ----------
@@ -301,10 +307,13 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
                 # never across another fragment of the region lying in the gap
                 between = ((region == region[a]) & (first > last[lo])
                            & (last < first[hi]) & body)
+                gap = dict(rule)
+                if gap_regions is not None and not gap_regions[region[a]]:
+                    gap["bridge_gap"] = None
                 join = not (rule.get("horizon") is not None and between.any()) and (
                     bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
                             first[hi], cum, near, alike=body[a] == body[b],
-                            **prof.seen(lo, hi), **rule))
+                            **prof.seen(lo, hi), **gap))
             if join:
                 ra, rb = find(a), find(b)
                 if ra != rb:

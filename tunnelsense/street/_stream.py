@@ -189,7 +189,8 @@ class _RunState(ScanWindow):
             region = depth_region(self._region_depth(fragment, pending, prof),
                                   est.region_edges_)
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
-                                   reach=self.reach, **self.rule, **self._horizon())
+                                   reach=self.reach, **self.rule, **self._horizon(),
+                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)))
             final = np.ones(prof.n, dtype=bool)
             np.logical_and.at(final, root, self._final_fragments(prof, root, ended))
             if check and est.max_pending_length is not None:
@@ -207,7 +208,8 @@ class _RunState(ScanWindow):
         """The window's beam horizon for :func:`bridged` (none for the paper's)."""
         if not self.est.beam_occlusion:
             return {}
-        return dict(horizon=self.horizon, step=HORIZON_STEP)
+        return dict(horizon=self.horizon, step=HORIZON_STEP,
+                    bridge_gap=self.est.occluded_length)
 
     def _region_depth(self, objects, clusters, prof):
         """The depth that decides every object's region: the mean depth, or (``"near"``)
@@ -261,7 +263,8 @@ class _RunState(ScanWindow):
             for a in np.flatnonzero(candidates):
                 blocked[a] = fb <= last[a] or bridged(
                     prof.end_depth[a], prof.start_depth[b], last[a] + 1, fb, cum, near,
-                    **prof.seen(a, b), **self.rule, **self._horizon())
+                    **prof.seen(a, b), **self.rule,
+                    **dict(self._horizon(), bridge_gap=None))
         # enough scans after the object-cluster to see whether its end is hidden
         last_of_root = np.full(prof.n, -1, dtype=np.int64)
         np.maximum.at(last_of_root, root, last)
