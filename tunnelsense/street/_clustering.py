@@ -295,9 +295,13 @@ def seen_past(earlier, later, span, hidden, link_distance, occluder=None):
     --------
     >>> import numpy as np
     >>> from tunnelsense.street._clustering import seen_past
-    >>> span = np.array([[5.1, 6.1], [4.4, 6.2], [6.4, 6.5]])  # bonnet past a car,
-    >>> hidden = np.array([True, False, True])                  # the whole car, kerb
-    >>> seen_past(np.array([0, 2]), np.array([1, 1]), span, hidden, 0.5).tolist()
+    >>> # a bonnet seen past a passing car (at 2 m), the whole parked car in the next
+    >>> # scan, and a hedge top seen over that parked car (hidden by it, at 5 m)
+    >>> span = np.array([[5.1, 6.1], [4.4, 6.2], [6.3, 6.6]])
+    >>> hidden = np.array([True, False, True])
+    >>> occluder = np.array([2.0, np.nan, 5.0])
+    >>> seen_past(np.array([0, 2]), np.array([1, 1]), span, hidden, 0.5,
+    ...           occluder).tolist()
     [True, False]
     """
     a, b = span[earlier], span[later]
