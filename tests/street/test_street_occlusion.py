@@ -72,7 +72,7 @@ def test_parked_cars_seen_over_a_passing_roof_are_found():
         model = make_parking_pipeline().fit(run.scans)
         det = model[-1].detect(run.scans)
         parked = det[det["label"] == "parked"]
-        for car_id, scans, _, _ in covered(sim):
+        for _, scans, _, _ in covered(sim):
             total += 1
             inter = (np.minimum(parked["last_scan"], scans[-1])
                      - np.maximum(parked["first_scan"], scans[0]) + 1).clip(lower=0)

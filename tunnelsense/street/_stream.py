@@ -39,6 +39,7 @@ from tunnelsense.street._clustering import (
     expand_ranges,
     first_appearance,
 )
+from tunnelsense.street._geometry import HORIZON_STEP
 from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
@@ -50,7 +51,6 @@ from tunnelsense.street._objects import (
     near_side,
     split_objects,
 )
-from tunnelsense.street._geometry import HORIZON_STEP
 from tunnelsense.street._window import ScanWindow
 
 __all__ = ["ScanStream"]
