@@ -49,8 +49,8 @@ from tunnelsense.street._objects import (
     is_vehicle,
     merge_fragments,
     near_side,
-    split_objects,
 )
+from tunnelsense.street._splitting import split_objects
 from tunnelsense.street._window import ScanWindow
 
 __all__ = ["ScanStream"]
