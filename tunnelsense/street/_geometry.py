@@ -215,12 +215,19 @@ def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):
     [[1.67, 1.46, 0.94]]
     """
     n_depths = int(np.ceil(8.2 / step)) if n_depths is None else n_depths
+    n_scans = depth.shape[0]
     grid = step * np.arange(1, n_depths + 1)
-    out = np.full((depth.shape[0], n_depths), np.inf)
+    # a beam crosses depth d at sensor - d * slope: the lowest crossing at d is that
+    # of the steepest beam passing d.  Bucket every beam by how many grid depths it
+    # passes, then take the running maximum of the slopes from the far end.
+    ok = np.isfinite(depth) & np.isfinite(height) & (depth > 0)
+    scan, beam = np.nonzero(ok)
+    x, h = depth[scan, beam], height[scan, beam]
+    slope = (sensor[scan] - h) / x
+    passed = np.clip(np.ceil(x / step - 1.0), 0, n_depths).astype(np.int64)
+    steepest = np.full((n_scans, n_depths + 1), -np.inf)
+    np.maximum.at(steepest, (scan, passed), slope)
+    steepest = np.maximum.accumulate(steepest[:, ::-1], axis=1)[:, ::-1]
+    m = steepest[:, 1:]
     with np.errstate(invalid="ignore"):
-        for j, d in enumerate(grid):
-            past = depth > d
-            z = sensor[:, None] + (height - sensor[:, None]) * (d / np.where(
-                past, depth, 1.0))
-            out[:, j] = np.min(np.where(past, z, np.inf), axis=1)
-    return out
+        return np.where(np.isfinite(m), sensor[:, None] - grid[None, :] * m, np.inf)
