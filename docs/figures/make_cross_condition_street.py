@@ -30,21 +30,21 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import machine, output_path  # noqa: E402
 
+# the conditions, seeds and the paper's settings are the table script's, beside this one
+from cross_condition_street_table import (  # noqa: E402
+    CONDITIONS,
+    FIT_SEED,
+    PAPER,
+)
+from cross_condition_street_table import (
+    EVALUATION_SEEDS as TEST_SEEDS,
+)
+
 from tunnelsense.datasets import make_street_scans  # noqa: E402
 from tunnelsense.metrics import street_scores  # noqa: E402
 from tunnelsense.street import train_detector  # noqa: E402
 
-#: Condition name -> simulator scenario of :func:`~tunnelsense.datasets.make_street_scans`.
-CONDITIONS = {"plain": "sparse", "nose-to-tail": "dense", "rolled": "tilted",
-              "hard": "hard", "randomized": "randomized"}
-#: The paper's plain method: no merge splitting, no body evidence, no occlusion
-#: handling, regions by mean depth, no length prior for short vehicles.
-PAPER = {"split_merged": False, "min_body_fraction": 0.0, "occluded_length": None,
-         "bridge_occluded": False, "region_depth": "mean", "min_car_length": 0.0,
-         "max_hidden_fraction": 1.0}
 METHODS = {"the paper's method": PAPER, "default": {}}
-FIT_SEED = 6001
-TEST_SEEDS = (7001, 7002, 7003)
 
 
 def scores(n_scans):
@@ -53,9 +53,10 @@ def scores(n_scans):
     pipeline = train_detector([fit])[0]
     defaults = {k: v for k, v in pipeline.get_params().items() if k.startswith("cluster__")}
     out = {m: np.zeros((len(CONDITIONS), 3), int) for m in METHODS}
-    for j, scenario in enumerate(CONDITIONS.values()):
+    for j, (scenario, overrides) in enumerate(CONDITIONS.values()):
         for seed in TEST_SEEDS:
-            run = make_street_scans(n_scans, scenario=scenario, random_state=seed)
+            run = make_street_scans(n_scans, scenario=scenario, random_state=seed,
+                                    **overrides)
             for method, params in METHODS.items():
                 pipeline.set_params(**defaults)
                 pipeline.set_params(**{f"cluster__{k}": v for k, v in params.items()})

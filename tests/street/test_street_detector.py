@@ -132,9 +132,17 @@ def test_single_point_scan():
     r = np.full((3, 241), np.nan)
     r[1, 150] = 4.0  # one return at -5 deg: 1.65 m above the road, 4 m away
     X = scans(r)
-    out = ScanClusterer().fit(X).transform(X)
+    out = ScanClusterer(spray_beams=0).fit(X).transform(X)
     assert [len(o.payload["points"]) for o in out] == [0, 1, 0]
     assert out[1].payload["clusters"].tolist() == [0]
+    # among dropouts (NaN says nothing) it stays; with every beam around it passing
+    # on (nothing within range), it is taken for a raindrop
+    out = ScanClusterer().fit(X).transform(X)
+    assert [len(o.payload["points"]) for o in out] == [0, 1, 0]
+    r[np.isnan(r)] = np.inf
+    X = scans(r)
+    out = ScanClusterer().fit(X).transform(X)
+    assert [len(o.payload["points"]) for o in out] == [0, 0, 0]
 
 
 def test_mismatched_angle_count_raises():

@@ -22,7 +22,13 @@ from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run
 from tunnelsense.datasets._street_params import STREET_SCENARIOS, resolve_params
 from tunnelsense.datasets._street_render import ray_cast
 from tunnelsense.datasets._street_scene import layout, passing
-from tunnelsense.datasets._street_sensor import MAX_RANGE, ego, measure, sensor_pitch
+from tunnelsense.datasets._street_sensor import (
+    MAX_RANGE,
+    ego,
+    measure,
+    rain,
+    sensor_pitch,
+)
 
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
 
@@ -100,6 +106,7 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
                                        pitch)
     theta = angles[None, :] + roll[:, None]
     ranges = measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)
+    ranges, hit = rain(p, ranges, hit, seed)
 
     # ground truth: vehicles the scanner sees (in at least 3 scans, between 0.1 m and
     # 2 m above the road), over the scans their body crosses the plane
@@ -203,7 +210,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
     * pedestrians (standing at the kerb, walking along the road edge or the sidewalk),
       rubbish bins and bollards; hedges, trees and lamp poles beyond 6.6 m;
     * range noise (1-3 cm), dropouts (NaN; frequent on glass), millimetre steps, and
-      8.191 m for every beam whose target lies beyond 8.0 m or nowhere.
+      8.191 m for every beam whose target lies beyond 8.0 m or nowhere; with
+      ``rain_echo_rate``, echoes from raindrops and spray 0.3-3 m away on single
+      beams of single scans.
 
     Parameters
     ----------
@@ -236,7 +245,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         the scan plane leaning along the street; positive leans it forward) and
         ``pitch_drift_deg`` (amplitude of its slow drift), ``angle_min_deg``,
         ``angle_max_deg``, ``angle_increment_deg``, ``range_noise`` (m, at 0 m),
-        ``range_noise_per_m``, ``dropout_rate``, ``kerb_depth`` (m), ``kerb_height``,
+        ``range_noise_per_m``, ``dropout_rate``, ``rain_echo_rate`` (of the beams,
+        an echo from a raindrop 0.3-3 m away, nearer than the target),
+        ``kerb_depth`` (m), ``kerb_height``,
         ``camber_drop`` (m the road falls from the vehicle to the kerb),
         ``cross_fall`` (plane slope of the road towards the kerb, m per m; 0.02 is
         2 %), ``parked_cluster_size`` (mean cars nose-to-tail), ``parked_gap_m``
@@ -244,10 +255,16 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         (m between vehicles of a row), ``touching_fraction`` (of the gaps in a row),
         ``touching_gap_m`` (largest gap of touching bumpers, m), ``van_fraction``,
         ``van_height_min`` and ``van_height_max`` (m), ``small_car_fraction`` (city
-        cars 2.5-3.4 m long), ``motorbike_fraction``, ``boundary_fraction`` (of the
+        cars 2.5-3.4 m long), ``motorbike_fraction``, ``motorbike_across_fraction``
+        (of the parked motorbikes, at right angles to the kerb: 1.9-2.2 m deep
+        across the street, 0.7-0.85 m along it, a screen at 1.1-1.35 m),
+        ``motorbike_footway_fraction`` (of those, with the rear half on the
+        footway behind the kerb step), ``boundary_fraction`` (of the
         vehicles, near a region boundary), ``boundary_row_fraction`` (of the rows,
         whole at 4.0-4.3 m or 6.2-6.6 m), ``passing_per_min``,
         ``passing_van_fraction``, ``passing_motorbike_fraction``,
+        ``passing_long_fraction`` (flatbed lorries and car transporters, 8-12 m long,
+        1.4-1.6 m high),
         ``pedestrians_per_100m``, ``pedestrian_groups_per_100m`` (2-5 people),
         ``kerb_walkers_per_100m`` (walking along the parked rows at 4.0-4.3 m),
         ``bins_per_100m``, ``bin_rows_per_100m`` (1-4 wheelie bins),

@@ -12,8 +12,16 @@ __all__ = ["layout", "passing"]
 
 
 def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
-    """Body dimensions of a car, small car, van or motorbike (metres; side profile
-    knots); ``van_height`` the range of a van's roof height."""
+    """Body dimensions of a car, small car, van, long low vehicle or motorbike (metres;
+    side profile knots); ``van_height`` the range of a van's roof height."""
+    if kind == "long":  # a flatbed lorry, car transporter or trailer: long and low
+        L, H = rng.uniform(8.0, 12.0), rng.uniform(1.4, 1.6)
+        top_f = [0.0, 0.02, 0.05, 0.95, 1.0]
+        top_h = [0.9, H - 0.2, H, H, H - 0.2]
+        return {"kind": kind, "length": L, "width": rng.uniform(2.0, 2.3),
+                "top_f": top_f, "top_h": top_h, "belt": H - 0.15, "glass_f": (0.0, 0.0),
+                "tumble": 0.03, "wheel_radius": 0.45, "axles": (1.5, L - 1.5),
+                "clearance": 0.35, "overhang_bottom": 0.45, "corner": 0.1}
     if kind == "motorbike":
         return {"kind": kind, "length": rng.uniform(1.9, 2.2), "width": rng.uniform(0.7, 0.85),
                 "rider": rider}
@@ -48,13 +56,30 @@ def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
     }
 
 
-def _vehicle_kind(rng, van, motorbike, small=0.0):
+def _across(o, p, rng):
+    """Turn a parked motorbike at right angles to the kerb: 0.7-0.85 m along the
+    street, 1.9-2.2 m deep across it, a screen at 1.1-1.35 m; with the rear half on
+    the footway behind the kerb step (``motorbike_footway_fraction``), else on the
+    road at the kerb.  Returns where it stands and its near depth."""
+    kerb = p["kerb_depth"]
+    deep = o["length"]
+    o.update(length=o["width"], width=deep, across=True,
+             screen=rng.uniform(1.1, 1.35), rear_out=rng.random() < 0.3,
+             kerb=kerb, kerb_height=p["kerb_height"])
+    if p["motorbike_footway_fraction"] > 0 and rng.random() < p["motorbike_footway_fraction"]:
+        return "across-footway", kerb - deep * rng.uniform(0.4, 0.6)
+    return "across-kerb", kerb - rng.uniform(0.05, 0.3) - deep
+
+
+def _vehicle_kind(rng, van, motorbike, small=0.0, long=0.0):
     u = rng.random()
     if u < van:
         return "van"
     if u < van + motorbike:
         return "motorbike"
-    return "small" if u < van + motorbike + small else "car"
+    if u < van + motorbike + small:
+        return "small"
+    return "long" if u >= 1.0 - long else "car"
 
 
 def layout(p, x_lo, x_hi, t_of_x, rng):
@@ -92,6 +117,9 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
                     where, y_near, base = "boundary-far", rng.uniform(6.0, 6.15), kh / 2
             else:
                 y_near = kerb - rng.uniform(0.1, 0.35) - W
+            if (kind == "motorbike" and row is None and p["motorbike_across_fraction"] > 0
+                    and rng.random() < p["motorbike_across_fraction"]):
+                where, y_near = _across(o, p, rng)
             o.update(label="parked", x0=x, speed=0.0, facing=1.0 if rng.random() < 0.9 else -1.0,
                      depth_near=y_near, base=base, where=where)
             objects.append(o)
@@ -239,7 +267,8 @@ def passing(p, stamps, v_ego, rng):
         t += rng.exponential(1.0 / rate)
         if t > stamps[-1] + 1.0:
             break
-        kind = _vehicle_kind(rng, p["passing_van_fraction"], p["passing_motorbike_fraction"])
+        kind = _vehicle_kind(rng, p["passing_van_fraction"], p["passing_motorbike_fraction"],
+                             long=p["passing_long_fraction"])
         o = _new_vehicle(rng, kind, rider=True)
         # relative speed of at least 3.5 m/s, both ways; slower ones still move (>= 2.5 m/s)
         rel = rng.uniform(3.5, 8.0)

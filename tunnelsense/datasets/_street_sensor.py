@@ -14,15 +14,17 @@ from tunnelsense.datasets._street_shapes import FOLIAGE as _FOLIAGE
 from tunnelsense.datasets._street_shapes import GLASS as _GLASS
 from tunnelsense.datasets._street_shapes import TYRE as _TYRE
 
-__all__ = ["HIT_KERB", "HIT_NONE", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT", "ego",
-           "measure", "sensor_pitch"]
+__all__ = ["HIT_KERB", "HIT_NONE", "HIT_RAIN", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT",
+           "ego", "measure", "rain", "sensor_pitch"]
 
 #: Range the paper's sensor reports for no return or an object beyond 8.0 m (m).
 MAX_RANGE = 8.191
 #: Farthest range the sensor measures (m).
 MEASURE_LIMIT = 8.0
 # codes of what a beam hit, besides object indices (>= 0)
-HIT_NONE, HIT_ROAD, HIT_KERB = -1, -2, -3
+HIT_NONE, HIT_ROAD, HIT_KERB, HIT_RAIN = -1, -2, -3, -4
+#: Nearest and farthest range (m) of an echo from a raindrop or spray.
+RAIN_RANGE = (0.3, 3.0)
 
 
 def _smooth(rng, t, periods, amplitude):
@@ -90,3 +92,19 @@ def measure(p, rng_true, hit, material, cos, sin, rng):
     dropped = finite & (extra < p_drop) & ~foliage
     out = np.where(dropped, np.nan, out)
     return out
+
+
+def rain(p, ranges, hit, seed):
+    """Echoes from raindrops and spray: a fraction ``rain_echo_rate`` of the beams
+    returns from a drop between 0.3 and 3 m, nearer than what it would have hit
+    (each drop is one beam of one scan).  Its own random stream (nothing is drawn
+    without rain, so that the rest of a run does not change with it); ``hit`` of
+    those beams becomes ``HIT_RAIN``."""
+    if not p["rain_echo_rate"]:
+        return ranges, hit
+    rng = np.random.default_rng([seed, 2])
+    echo = rng.random(ranges.shape) < p["rain_echo_rate"]
+    r = np.round(rng.uniform(*RAIN_RANGE, ranges.shape) * 1000.0) / 1000.0
+    with np.errstate(invalid="ignore"):
+        echo &= ~(ranges <= r)  # nearer than the target (or the target is missing)
+    return np.where(echo, r, ranges), np.where(echo, HIT_RAIN, hit)

@@ -74,7 +74,32 @@ def _car_boxes(o, s):
     return boxes
 
 
+def _motorbike_across_boxes(o, s, kerb, kerb_height):
+    """A motorbike at right angles to the kerb, cut along its length: wheels at both
+    ends of its depth, the engine and seat between them, the screen and handlebars
+    across its whole width; parts beyond the kerb stand on the footway."""
+    n = len(s)
+    boxes = _empty_boxes(n)
+    W, D, dn, zb = o["length"], o["width"], o["depth_near"], o["base"]
+    c = np.abs(s - W / 2)  # from the bike's centre line along the street
+
+    def q(a, b):  # depth interval from the front (or the rear, turned round)
+        return (dn + D - b, dn + D - a) if o["rear_out"] else (dn + a, dn + b)
+
+    parts = [(0, q(0.05, 0.65), c < 0.07, 0.0, 0.6, _TYRE),
+             (1, q(D - 0.65, D - 0.05), c < 0.07, 0.0, 0.6, _TYRE),
+             (2, q(0.55, D - 0.5), c < 0.2, 0.3, 0.9, _BODY),
+             (3, q(0.6, D - 0.25), c < 0.15, 0.75, 0.9, _BODY),
+             (4, q(0.35, 0.6), c < W / 2, 0.8, o["screen"], _BODY)]
+    for j, (y0, y1), on, z0, z1, material in parts:
+        step = kerb_height if (y0 + y1) / 2 > kerb else 0.0
+        _set(boxes, j, on, y0, y1, zb + step + z0, zb + step + z1, material)
+    return boxes
+
+
 def _motorbike_boxes(o, s):
+    if o.get("across"):
+        return _motorbike_across_boxes(o, s, o["kerb"], o["kerb_height"])
     n = len(s)
     boxes = _empty_boxes(n)
     L, yc, zb, R = o["length"], o["depth_near"] + o["width"] / 2, o["base"], 0.3
@@ -147,6 +172,7 @@ _PROFILES = {
     "car": _car_boxes,
     "van": _car_boxes,
     "small": _car_boxes,
+    "long": _car_boxes,
     "motorbike": _motorbike_boxes,
     "pedestrian": _pedestrian_boxes,
     "bollard": _post_boxes,

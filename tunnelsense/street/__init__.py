@@ -3,6 +3,9 @@
 Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Panoramic
 Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
 user guide: :doc:`/street`.
+The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
+clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``),
+the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``).
 """
 
 # The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
@@ -11,7 +14,6 @@ user guide: :doc:`/street`.
 
 from tunnelsense.street._clustering import link_scans, single_linkage
 from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer
-from tunnelsense.street._objects import split_profile
 from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
 from tunnelsense.street._restoration import (
     compensate_tilt,
@@ -33,6 +35,7 @@ from tunnelsense.street._run import (
     write_objects,
 )
 from tunnelsense.street._sections import section_evidence
+from tunnelsense.street._splitting import split_profile
 
 __all__ = [
     "OBJECT_COLUMNS",

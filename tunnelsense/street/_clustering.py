@@ -33,6 +33,7 @@ __all__ = [
     "first_appearance",
     "link_pairs",
     "link_scans",
+    "seen_past",
     "single_linkage",
 ]
 
@@ -258,10 +259,69 @@ def single_linkage(points, cut=0.6, *, groups=None):
     return _single_linkage_groups(pts[:, 0].copy(), pts[:, 1].copy(), g, float(cut))
 
 
-def link_pairs(position, mean_depth, follows, link_distance=0.5):
+def seen_past(earlier, later, span, hidden, link_distance, occluder=None):
+    """Whether a cluster seen only past a nearer occluder belongs with its neighbour.
+
+    A beam that ends on a nearer object says nothing about what lies behind it: a
+    cluster whose lower part is hidden (``hidden``: the beam just below it returned
+    from something nearer) shows only the part of its object that the beams passing
+    over the occluder reach, so its mean depth is biased away from the sensor.  It
+    links with a cluster of the neighbouring scan when every point of it lies within
+    that cluster's depth extent, widened by ``link_distance``: the beams reaching it
+    end where the other scan sees a body.
+
+    Parameters
+    ----------
+    earlier, later : ndarray of int
+        Candidate pairs of clusters of consecutive scans.
+    span : ndarray of shape (n_clusters, 2)
+        Nearest and farthest depth (m) of every cluster's body (its points above
+        kerb height; NaN where it has none: a kerb or the sidewalk never links so).
+    hidden : ndarray of shape (n_clusters,) of bool
+        Whether the cluster's lower part is hidden.
+    link_distance : float
+        The inter-scan link distance (m).
+    occluder : ndarray of shape (n_clusters,), default=None
+        Depth (m) at which the beam just below every cluster ends; when given, the
+        occluder must stand ``link_distance`` nearer than the other cluster's near
+        side (something behind a vehicle, hidden by that very vehicle, is not
+        part of it).
+
+    Returns
+    -------
+    link : ndarray of bool, one per pair
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import seen_past
+    >>> # a bonnet seen past a passing car (at 2 m), the whole parked car in the next
+    >>> # scan, and a hedge top seen over that parked car (hidden by it, at 5 m)
+    >>> span = np.array([[5.1, 6.1], [4.4, 6.2], [6.3, 6.6]])
+    >>> hidden = np.array([True, False, True])
+    >>> occluder = np.array([2.0, np.nan, 5.0])
+    >>> seen_past(np.array([0, 2]), np.array([1, 1]), span, hidden, 0.5,
+    ...           occluder).tolist()
+    [True, False]
+    """
+    a, b = span[earlier], span[later]
+    with np.errstate(invalid="ignore"):
+        a_in_b = (a[:, 0] >= b[:, 0] - link_distance) & (a[:, 1] <= b[:, 1] + link_distance)
+        b_in_a = (b[:, 0] >= a[:, 0] - link_distance) & (b[:, 1] <= a[:, 1] + link_distance)
+        if occluder is not None:
+            a_in_b &= occluder[earlier] < b[:, 0] - link_distance
+            b_in_a &= occluder[later] < a[:, 0] - link_distance
+    return (hidden[earlier] & a_in_b) | (hidden[later] & b_in_a)
+
+
+def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
+               hidden=None, occluder=None):
     """Inter-scan links: the pairs of intra-clusters of consecutive scans that link.
 
     Parameters are those of :func:`link_scans`; ``position`` must be non-decreasing.
+    With ``span`` and ``hidden`` (see :func:`seen_past`), a cluster seen only past
+    a nearer occluder also links with the cluster of the neighbouring scan whose
+    depth extent holds it.
 
     Returns
     -------
@@ -287,6 +347,8 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5):
     n_prev = np.where(np.asarray(follows, dtype=bool), prev_count, 0)[pos]
     earlier, later = expand_ranges(prev_start[pos], n_prev)
     close = np.abs(depth[earlier] - depth[later]) < link_distance
+    if span is not None and hidden is not None:
+        close |= seen_past(earlier, later, span, hidden, link_distance, occluder)
     return earlier[close], later[close]
 
 

@@ -145,9 +145,34 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
     min_roof_height : float, default=0.5
         Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
-    max_hidden_fraction : float, default=0.95
-        Largest fraction of an object's scans whose lower part something nearer hides
-        (beyond: a vehicle's piece seen past a passing one); 1 switches it off.
+    beam_occlusion : bool, default=True
+        Occlusion from the geometry of each beam (beyond the paper): a cluster whose
+        lower part something nearer hides (the beam just below it ends on the
+        occluder) shows only what the beams passing over the occluder reach, so its
+        mean depth says little; it links with the cluster of the neighbouring scan
+        whose depth extent holds it (see ``docs/street.md``).
+        A parked vehicle seen past a passing one keeps that evidence instead of
+        becoming a separate piece.  False: the paper's link by mean depth only.
+    spray_beams : int, default=2
+        Echoes from raindrops and spray (beyond the paper): a run of at most this
+        many consecutive beams whose beams just below and above both pass farther
+        (to the surface behind it, or nowhere within range) is dropped before
+        clustering; it builds no object and hides nothing.  0: keep every return.
+    min_across_length : float or None, default=0.5
+        Shortest motorbike parked at right angles to the kerb (m along the street;
+        handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
+        shorter than ``min_length`` but not than this, seen whole, is such a
+        motorbike when a body raised between wheels
+        (its wheels at both ends of its depth, the road between them) shows in at
+        least ``min_across_raised`` of its scans; wheelie bins, posts and people
+        stand on the ground.  None: objects shorter than ``min_length`` are never
+        vehicles.
+    min_across_raised : float, default=0.3
+        See ``min_across_length``.
+    min_across_top : float, default=1.05
+        Lowest top (m) of a motorbike across the kerb (handlebars and screen,
+        1.05-1.4 m); the bonnet or boot of a car, broken off its body by a
+        pedestrian or a post in front, stays lower.
 
     Attributes
     ----------
@@ -203,7 +228,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
         "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "max_hidden_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
+        "beam_occlusion": ["boolean"],
+        "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
+        "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
+        "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
+        "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
     }
 
     def __init__(
@@ -233,7 +262,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_car_length=2.4,
         min_raised_fraction=0.2,
         min_roof_height=0.5,
-        max_hidden_fraction=0.95,
+        beam_occlusion=True,
+        spray_beams=2,
+        min_across_length=0.5,
+        min_across_raised=0.3,
+        min_across_top=1.05,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -260,7 +293,11 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_car_length = min_car_length
         self.min_raised_fraction = min_raised_fraction
         self.min_roof_height = min_roof_height
-        self.max_hidden_fraction = max_hidden_fraction
+        self.beam_occlusion = beam_occlusion
+        self.spray_beams = spray_beams
+        self.min_across_length = min_across_length
+        self.min_across_raised = min_across_raised
+        self.min_across_top = min_across_top
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

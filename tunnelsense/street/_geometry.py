@@ -25,7 +25,9 @@ from tunnelsense.street._roi import roi_mask
 __all__ = [
     "DEFAULT_SCAN_PERIOD",
     "DEFAULT_SPEED",
+    "HORIZON_STEP",
     "History",
+    "horizon",
     "RoiPoints",
     "roi_points",
     "running_median",
@@ -36,6 +38,8 @@ __all__ = [
 DEFAULT_SPEED = 40 / 3.6
 #: Scan period (s) assumed when the stamps do not give one yet (75 scans/s).
 DEFAULT_SCAN_PERIOD = 1 / 75
+#: Depth step (m) of the grid on which :func:`horizon` is kept.
+HORIZON_STEP = 0.25
 #: Scans over which the scan period, the ego speed and the fallback tilt are medians.
 HISTORY = 151
 
@@ -107,6 +111,11 @@ class RoiPoints(NamedTuple):
     above: np.ndarray  #: (n, 2) the return of the next beam up (NaN: none)
     below: np.ndarray  #: (n, 2) the return of the next beam down (NaN: none)
     tilt: np.ndarray  #: (n_scans,) the tilt used for every scan (rad)
+    horizon: np.ndarray  #: (n_scans, n_depths) see :func:`horizon`
+    sensor: np.ndarray  #: (n_scans,) height of the sensor in the restored frame
+    #: (n, 2) whether the beam just above / below returned nothing within range
+    #: (it passes everything; a dropout, NaN, says nothing)
+    passes: np.ndarray
 
 
 def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10.0,
@@ -154,4 +163,71 @@ def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10
     below = np.column_stack([depth[scan, down], height[scan, down]])
     below[beam == 0] = np.nan
     points = np.column_stack([depth[scan, beam], height[scan, beam]])
-    return RoiPoints(scan, beam, points, above, below, tilt)
+    # beams with nothing within range (not dropouts) pass everything up to range_max
+    offset = offset if tilt_compensation else None
+    with np.errstate(invalid="ignore"):
+        far = np.where(ranges >= geometry.range_max, geometry.range_max, np.nan)
+    far_depth, far_height = restore_points(far, angles, geometry.mount_height, tilt,
+                                           offset)
+    sensor = restore_points(np.zeros((len(r), 1)), angles[:1], geometry.mount_height,
+                            tilt, offset)[1][:, 0]
+    passes = np.isfinite(far_depth)
+    beyond = np.column_stack([passes[scan, up] & (beam + 1 < n_beams),
+                              passes[scan, down] & (beam > 0)])
+    return RoiPoints(scan, beam, points, above, below, tilt, horizon(
+        np.where(passes, far_depth, depth), np.where(passes, far_height, height),
+        sensor), sensor, beyond)
+
+
+def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):
+    """Per scan, how low the beams that pass a depth cross it: what they rule out.
+
+    A beam that ends on a nearer object says nothing about what lies behind it; a
+    beam that returns from beyond depth ``d`` proves that nothing stands at ``d``
+    higher than where its line crosses ``d``.  For every scan and every depth
+    ``d = step, 2 step, ...`` this is the lowest crossing height of the beams
+    returning from beyond ``d`` (+inf where none does: ``d`` is hidden).
+
+    Parameters
+    ----------
+    depth, height : ndarray of shape (n_scans, n_beams)
+        Restored returns (NaN: dropout; a beam with nothing within range counts as
+        returning from its farthest range).
+    sensor : ndarray of shape (n_scans,)
+        Height of the sensor (m) in the same frame.
+    step : float, default=HORIZON_STEP
+        Depth step (m) of the grid.
+    n_depths : int, default=None
+        Grid size; ``ceil(8.2 / step)`` when None.
+
+    Returns
+    -------
+    bound : ndarray of shape (n_scans, n_depths)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import horizon
+    >>> # a beam ending on a roof at 3 m (1.5 m high), another one over it onto the
+    >>> # road at 12 m: at 5 m, nothing rises above 1.46 m
+    >>> horizon(np.array([[12.0, 3.0]]), np.array([[0.0, 1.5]]), np.array([2.5]),
+    ...         step=2.5, n_depths=3).round(2).tolist()
+    [[1.67, 1.46, 0.94]]
+    """
+    n_depths = int(np.ceil(8.2 / step)) if n_depths is None else n_depths
+    n_scans = depth.shape[0]
+    grid = step * np.arange(1, n_depths + 1)
+    # a beam crosses depth d at sensor - d * slope: the lowest crossing at d is that
+    # of the steepest beam passing d.  Bucket every beam by how many grid depths it
+    # passes, then take the running maximum of the slopes from the far end.
+    ok = np.isfinite(depth) & np.isfinite(height) & (depth > 0)
+    scan, beam = np.nonzero(ok)
+    x, h = depth[scan, beam], height[scan, beam]
+    slope = (sensor[scan] - h) / x
+    passed = np.clip(np.ceil(x / step - 1.0), 0, n_depths).astype(np.int64)
+    steepest = np.full((n_scans, n_depths + 1), -np.inf)
+    np.maximum.at(steepest, (scan, passed), slope)
+    steepest = np.maximum.accumulate(steepest[:, ::-1], axis=1)[:, ::-1]
+    m = steepest[:, 1:]
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(m), sensor[:, None] - grid[None, :] * m, np.inf)

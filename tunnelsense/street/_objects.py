@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tunnelsense.street._clustering import concat
+from tunnelsense.street._clustering import concat, seen_past
 
 __all__ = [
     "ObjectProfiles",
@@ -23,8 +23,6 @@ __all__ = [
     "is_vehicle",
     "merge_fragments",
     "near_side",
-    "split_objects",
-    "split_profile",
 ]
 
 #: Bits of the per-cluster evidence flags that show a vehicle body: roof, wall, raised.
@@ -35,6 +33,9 @@ RAISED_FLAG = 0b0100
 HIDDEN_FLAG = 0b1000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
+#: Lowest height (m) of the points that give a cluster's near side: above kerbs,
+#: sidewalks and the road edge of a cambered road, on a vehicle's flank.
+SIDE_HEIGHT = 0.3
 
 
 def depth_region(depth, edges):
@@ -94,10 +95,17 @@ class ObjectProfiles:
         Mean depth, top height and number of points of every intra-cluster.
     flags : ndarray of shape (n_clusters,) of int8, default=None
         Cross-section evidence bits of every intra-cluster (``BODY_FLAGS``).
+    span : ndarray of shape (n_clusters, 3), default=None
+        Nearest and farthest depth of every intra-cluster's body (NaN: none) and
+        the depth its occluder stands at (see
+        :func:`~tunnelsense.street._clustering.seen_past`); with
+        ``flags``, gives every object's first and last scan's extent and whether it
+        was seen past an occluder (``start_seen``, ``end_seen``, see :func:`bridged`).
     """
 
-    def __init__(self, objects, position, depth, top, n_points, flags=None):
+    def __init__(self, objects, position, depth, top, n_points, flags=None, span=None):
         self.position = position
+        self.start_seen = self.end_seen = None
         self.n = n = int(objects.max()) + 1 if len(objects) else 0
         self.scan_flags_ = np.empty(0, dtype=np.int8)
         if n == 0:
@@ -130,6 +138,24 @@ class ObjectProfiles:
         self.depth = np.bincount(objects, weights=n_points * depth, minlength=n) / (
             np.maximum(self.n_points, 1))
         self.top = np.maximum.reduceat(self.scan_top, first_row)
+        if span is not None and flags is not None:
+            with np.errstate(invalid="ignore"):
+                lo = np.fmin.reduceat(span[order, 0], starts)
+                hi = np.fmax.reduceat(span[order, 1], starts)
+                occ = np.fmax.reduceat(span[order, 2], starts)
+            hidden = (self.scan_flags_ & HIDDEN_FLAG) > 0
+            ext = np.column_stack([lo, hi, occ])
+            self.start_seen = (ext[first_row], hidden[first_row])
+            self.end_seen = (ext[last_row], hidden[last_row])
+
+    def seen(self, a, b):
+        """The ``seen`` and ``tops`` arguments of :func:`bridged` for ``a`` ending
+        before ``b``."""
+        if self.start_seen is None:
+            return {}
+        return dict(seen=(self.end_seen[0][a], self.end_seen[1][a],
+                          self.start_seen[0][b], self.start_seen[1][b]),
+                    tops=(self.top[a], self.top[b]))
 
     def profile(self, o):
         """Scan positions and top heights of object ``o``'s scans."""
@@ -141,15 +167,40 @@ class ObjectProfiles:
         return self.scan_flags_[self.rows[o]:self.rows[o + 1]]
 
 
+def _held(seen, link_distance, short):
+    """Whether one end's extent holds the other's: seen past an occluder (see
+    :func:`~tunnelsense.street._clustering.seen_past`), or across a short gap (the
+    ends of one object seen from another side: a motorbike across the kerb, whose
+    screen alone shows at its sides)."""
+    span = np.array([seen[0][:2], seen[2][:2]])
+    one, two = np.array([0]), np.array([1])
+    if seen_past(one, two, span, np.array([seen[1], seen[3]]), link_distance,
+                 np.array([seen[0][2], seen[2][2]]))[0]:
+        return True
+    return bool(short and seen_past(one, two, span, np.ones(2, dtype=bool),
+                                    link_distance)[0])
+
+
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
-            merge_gap, occlusion_margin, bridge_occluded):
+            merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
+            horizon=None, step=None, tops=None, bridge_gap=None):
     """The merge rule for a fragment starting after another one ends.
 
     The first ends before scan ``after``, the second starts at scan ``before``.
     They join when the first's last and the second's first mean depths differ by less
     than ``link_distance`` and the gap between them (``cum[before] - cum[after]``
-    metres) is at most ``merge_gap``, or (``bridge_occluded``) every scan of the gap
-    shows something at least ``occlusion_margin`` nearer.
+    metres) is at most ``merge_gap``, or (``bridge_occluded``, and the two ``alike``:
+    both show a body above kerb height or neither does) every scan of the gap shows
+    something at least ``occlusion_margin`` nearer.  With ``seen`` (the first's last
+    and the second's first scan: ``(span and occluder, hidden)`` each, see
+    :func:`~tunnelsense.street._clustering.seen_past`), an end seen only past an
+    occluder (or, across a gap of at most ``merge_gap``, either end) may instead
+    lie within the other end's depth extent.  With ``horizon``
+    (its depth grid ``step``, see :func:`~tunnelsense.street._geometry.horizon`) and
+    ``tops`` (the top heights of the two fragments), a gap scan is hidden only where
+    no beam passes the fragments' depth below both tops (two roofs with a gap the
+    beams see into are two vehicles): behind is not hidden.  A hidden gap longer
+    than ``bridge_gap`` metres (a whole vehicle may stand in it) is never bridged.
 
     Examples
     --------
@@ -165,22 +216,34 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     >>> bridged(5.0, 5.2, 2, 4, cum, near, **rule)
     False
     """
-    if not abs(end_depth - start_depth) < link_distance:
+    short = cum[before] - cum[after] <= merge_gap
+    if not abs(end_depth - start_depth) < link_distance and not (
+            seen is not None and _held(seen, link_distance, short)):
         return False
-    if cum[before] - cum[after] <= merge_gap:
+    if short:
         return True
-    hidden = near[after:before] < min(end_depth, start_depth) - occlusion_margin
-    return bool(bridge_occluded and np.all(hidden))
+    if bridge_gap is not None and cum[before] - cum[after] > bridge_gap:
+        return False
+    depth = min(end_depth, start_depth)
+    hidden = near[after:before] < depth - occlusion_margin
+    if horizon is not None and tops is not None:
+        j = min(max(int(np.ceil(depth / step)), 1), horizon.shape[1]) - 1
+        hidden = hidden & (horizon[after:before, j] >= min(tops))
+    return bool(bridge_occluded and alike and np.all(hidden))
 
 
-def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
+def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None,
+                    **rule):
     """Three-region merging: union-find root of every fragment (object-cluster).
 
     Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans and
     the same region when they overlap in time over at least half of the shorter one
     (the paper's rule), or when ``b`` starts after ``a`` ends and :func:`bridged`
-    joins them; fragments starting more than ``reach`` metres apart never join.
-    ``rule`` holds the keywords of :func:`bridged`.
+    joins them (``alike`` when both or neither rise above ``SIDE_HEIGHT``);
+    fragments starting more than ``reach`` metres apart never join.
+    ``rule`` holds the keywords of :func:`bridged`; its ``bridge_gap`` applies in
+    the regions where ``gap_regions`` (one bool per region) is True only (those
+    of vehicles: a wall or hedge is one object across any hidden gap).
 
     Parameters
     ----------
@@ -215,6 +278,7 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
     [0, 0, 2]
     """
     first, last = prof.first, prof.last
+    body = prof.top >= SIDE_HEIGHT  # a kerb or sidewalk is never bridged to a body
     stretch = np.cumsum(~follows) - 1
     parent = np.arange(prof.n)
 
@@ -238,105 +302,21 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, **rule):
                 join = overlap >= 0.5 * shorter
             else:
                 lo, hi = (a, b) if last[a] < first[b] else (b, a)
-                join = bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
-                               first[hi], cum, near, **rule)
+                # never across another fragment of the region lying in the gap
+                between = ((region == region[a]) & (first > last[lo])
+                           & (last < first[hi]) & body)
+                gap = dict(rule)
+                if gap_regions is not None and not gap_regions[region[a]]:
+                    gap["bridge_gap"] = None
+                join = not (rule.get("horizon") is not None and between.any()) and (
+                    bridged(prof.end_depth[lo], prof.start_depth[hi], last[lo] + 1,
+                            first[hi], cum, near, alike=body[a] == body[b],
+                            **prof.seen(lo, hi), **gap))
             if join:
                 ra, rb = find(a), find(b)
                 if ra != rb:
                     parent[max(ra, rb)] = min(ra, rb)
     return np.array([find(i) for i in range(prof.n)], dtype=np.int64)
-
-
-def split_profile(top, step, *, min_length=2.0, ratio=0.6):
-    """Where to split an object whose height profile has two humps.
-
-    Two vehicles parked nose to tail and merged into one object show, along the track,
-    two humps of the top height (roofs, 1.2-2 m) with a valley between them (bumpers,
-    0.3-0.7 m, or the road seen through the gap).  A single vehicle has one hump:
-    its low parts (bumpers, bonnet, boot) are at its ends.
-
-    The split point is the scan of lowest ``top / min(left peak, right peak)`` among
-    the scans that leave at least ``min_length`` metres on both sides; it is accepted
-    when that ratio is at most ``ratio``.  Applied recursively to both parts.
-
-    Parameters
-    ----------
-    top : ndarray of shape (n_scans,)
-        Top height (m) of the object in each of its scans (NaN where not seen).
-    step : float
-        Distance (m) travelled between two scans.
-    min_length : float, default=2.0
-        Shortest part (m) a split may leave.
-    ratio : float, default=0.6
-        Largest valley-to-peak ratio that splits.
-
-    Returns
-    -------
-    cuts : list of int
-        Scan offsets where a new object starts (sorted).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street import split_profile
-    >>> car = np.r_[0.5, 0.9, 0.9, 1.4, 1.45, 1.4, 1.0, 0.5]
-    >>> split_profile(np.r_[car, car], step=0.6)
-    [8]
-    >>> split_profile(car, step=0.6)
-    []
-    """
-    top = np.asarray(top, dtype=np.float64)
-    top = np.where(np.isnan(top), 0.0, top)
-    n = len(top)
-    k = max(int(np.ceil(min_length / max(step, 1e-9))), 1)
-    if n < 2 * k + 1:
-        return []
-    left = np.maximum.accumulate(top)
-    right = np.maximum.accumulate(top[::-1])[::-1]
-    idx = np.arange(k, n - k)
-    peak = np.minimum(left[idx - 1], right[idx + 1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        score = np.where(peak > 0, top[idx] / peak, np.inf)
-    j = int(np.argmin(score))
-    if not score[j] <= ratio:
-        return []
-    cut = int(idx[j])
-    # the valley scan goes with its higher neighbour (a bumper with its own body)
-    start = cut + 1 if top[cut - 1] > top[cut + 1] else cut
-    start = min(max(start, k), n - k)
-    a = split_profile(top[:start], step, min_length=min_length, ratio=ratio)
-    b = split_profile(top[start:], step, min_length=min_length, ratio=ratio)
-    return [*a, start, *(start + c for c in b)]
-
-
-def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance):
-    """Split objects with a two-hump height profile; the new object of every cluster.
-
-    Scans of an object's span where it has no cluster count as height 0 (a gap
-    between two vehicles), unless something nearer hid it (then unknown).
-    ``objects`` and ``prof.position`` are per intra-cluster, as in ``prof``.
-    """
-    new = objects.copy()
-    next_object = prof.n
-    for o in range(prof.n):
-        first, last = prof.first[o], prof.last[o]
-        span = last - first + 1
-        if cum[last + 1] - cum[first] < 2 * min_length:
-            continue
-        top = np.zeros(span)
-        seen, seen_top = prof.profile(o)
-        top[near[first:last + 1] < prof.depth[o] - link_distance] = np.nan
-        top[seen - first] = seen_top
-        cuts = split_profile(top, (cum[last + 1] - cum[first]) / span,
-                             min_length=min_length, ratio=ratio)
-        if not cuts:
-            continue
-        mine = np.flatnonzero(objects == o)
-        part = np.searchsorted(np.asarray(cuts), prof.position[mine] - first,
-                               side="right")
-        new[mine] = np.where(part == 0, o, next_object + part - 1)
-        next_object += len(cuts)
-    return new
 
 
 def hidden_ends(near, follows, first, last, depth, cum, cap):
@@ -370,7 +350,8 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
-               min_raised_fraction=0.0, max_hidden_fraction=1.0):
+               min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
+               top=np.inf, min_across_top=0.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -380,10 +361,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
     the hidden part) it can only be a motorbike: a body raised above the road between
     its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
-    wheelie bins and people stand on the ground).  Whose lower part is hidden by
-    something nearer in more than ``max_hidden_fraction`` of its scans, it is taken
-    for a piece of a vehicle seen past an occluder (a vehicle hidden over nearly its
-    whole length is lost too).
+    wheelie bins and people stand on the ground).  Shorter than ``min_length`` but
+    at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
+    motorbike at right angles to the kerb when at least ``min_across_raised`` of its
+    scans show a body raised between wheels and its ``top`` reaches
+    ``min_across_top`` (handlebars and screen; ``None``: never).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -401,10 +383,13 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
-    if float(np.mean((flags & HIDDEN_FLAG) > 0)) > max_hidden_fraction:
-        return False
+    raised = float(np.mean((flags & RAISED_FLAG) > 0))
     if vehicle and length + hidden_length < min_car_length:
-        vehicle = float(np.mean((flags & RAISED_FLAG) > 0)) >= min_raised_fraction
+        vehicle = raised >= min_raised_fraction
+    elif (not vehicle and min_across_length is not None and hidden_length == 0
+          and min_across_length <= length < min_length and top >= min_across_top
+          and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
+        vehicle = raised >= min_across_raised  # a motorbike across the kerb
     return bool(vehicle and body >= min_body_fraction)
 
 

@@ -39,6 +39,7 @@ from tunnelsense.street._clustering import (
     expand_ranges,
     first_appearance,
 )
+from tunnelsense.street._geometry import HORIZON_STEP
 from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
@@ -48,8 +49,8 @@ from tunnelsense.street._objects import (
     is_vehicle,
     merge_fragments,
     near_side,
-    split_objects,
 )
+from tunnelsense.street._splitting import split_objects
 from tunnelsense.street._window import ScanWindow
 
 __all__ = ["ScanStream"]
@@ -178,12 +179,18 @@ class _RunState(ScanWindow):
             fragment = first_appearance(
                 components(len(pending), earlier[keep], later[keep]))
             position = self.position[pending] - self.base
+            occlusion = {}
+            if est.beam_occlusion:
+                occlusion = dict(flags=self.flags[pending], span=np.column_stack(
+                    [np.where(np.isfinite(self.side[pending]), self.side[pending],
+                              np.nan), self.far[pending], self.occluder[pending]]))
             prof = ObjectProfiles(fragment, position, self.depth[pending],
-                                  self.top[pending], self.n_points[pending])
+                                  self.top[pending], self.n_points[pending], **occlusion)
             region = depth_region(self._region_depth(fragment, pending, prof),
                                   est.region_edges_)
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
-                                   reach=self.reach, **self.rule)
+                                   reach=self.reach, **self.rule, **self._horizon(),
+                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)))
             final = np.ones(prof.n, dtype=bool)
             np.logical_and.at(final, root, self._final_fragments(prof, root, ended))
             if check and est.max_pending_length is not None:
@@ -196,6 +203,13 @@ class _RunState(ScanWindow):
                 _, objects = np.unique(root[fragment[done]], return_inverse=True)
                 self._finalize(pending[done], objects.ravel(), position[done], ended)
         return self._number_and_release(frontier, ended, next_id)
+
+    def _horizon(self):
+        """The window's beam horizon for :func:`bridged` (none for the paper's)."""
+        if not self.est.beam_occlusion:
+            return {}
+        return dict(horizon=self.horizon, step=HORIZON_STEP,
+                    bridge_gap=self.est.occluded_length)
 
     def _region_depth(self, objects, clusters, prof):
         """The depth that decides every object's region: the mean depth, or (``"near"``)
@@ -249,7 +263,8 @@ class _RunState(ScanWindow):
             for a in np.flatnonzero(candidates):
                 blocked[a] = fb <= last[a] or bridged(
                     prof.end_depth[a], prof.start_depth[b], last[a] + 1, fb, cum, near,
-                    **self.rule)
+                    **prof.seen(a, b), **self.rule,
+                    **dict(self._horizon(), bridge_gap=None))
         # enough scans after the object-cluster to see whether its end is hidden
         last_of_root = np.full(prof.n, -1, dtype=np.int64)
         np.maximum.at(last_of_root, root, last)
@@ -269,7 +284,9 @@ class _RunState(ScanWindow):
             objects = split_objects(
                 ObjectProfiles(objects, position, depth, top, n_points), objects,
                 self.cum, self.near, min_length=est.min_length, ratio=est.split_ratio,
-                link_distance=est.link_distance)
+                link_distance=est.link_distance,
+                **(dict(horizon=self.horizon, step=HORIZON_STEP) if est.beam_occlusion
+                   else {}))
         prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
         region_depth = self._region_depth(objects, clusters, prof)
         self.object_id[clusters] = -1  # final, waiting for its id
@@ -285,6 +302,8 @@ class _RunState(ScanWindow):
                                             self.cap)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
+            region = int(depth_region(region_depth[o], est.region_edges_))
+            parked = est.labels_[region] == "parked"  # motorbikes across park
             vehicle = is_vehicle(
                 prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
                 self.near, min_length=est.min_length, max_length=est.max_length,
@@ -292,7 +311,9 @@ class _RunState(ScanWindow):
                 min_body_fraction=est.min_body_fraction,
                 min_car_length=est.min_car_length,
                 min_raised_fraction=est.min_raised_fraction,
-                max_hidden_fraction=est.max_hidden_fraction)
+                min_across_length=est.min_across_length if parked else None,
+                min_across_raised=est.min_across_raised, top=float(prof.top[o]),
+                min_across_top=est.min_across_top)
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
@@ -300,7 +321,7 @@ class _RunState(ScanWindow):
                 "extend": bool(est.occluded_length is not None and vehicle
                                and hidden_length > 0 and inside),
                 "vehicle": vehicle,
-                "region": int(depth_region(region_depth[o], est.region_edges_)),
+                "region": region,
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
                 "clusters": (clusters[objects == o] if prof.n > 1 else clusters)

@@ -13,13 +13,62 @@ import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
+from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT
 from tunnelsense.street._sections import section_evidence
 
 __all__ = ["SIDE_HEIGHT", "ScanWindow"]
 
-#: Lowest height (m) of the points that give a cluster's near side: above kerbs,
-#: sidewalks and the road edge of a cambered road, on a vehicle's flank.
-SIDE_HEIGHT = 0.3
+
+def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=None):
+    """Which region-of-interest points are echoes from raindrops or spray.
+
+    A drop returns one beam, seldom two, and the beams around it pass on to the
+    surface behind it: a run of at most ``max_beams`` consecutive beams (each
+    within ``cut`` of the next) whose beams just below and just above both pass
+    farther (nothing within range, ``passes`` (n, 2) for the beams above and
+    below, or a return more than ``cut`` farther from the sensor, at height
+    ``sensor[scan]`` above the origin, than the run; a dropout says nothing, so
+    one of the two must pass and the other pass or drop out; without ``passes``
+    every missing return passes) is an echo,
+    not an object.  Anything real spans more beams, or has a neighbour beam ending
+    on it or in front of it (a roof edge seen over a passing vehicle).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._window import spray
+    >>> pts = np.array([[1.2, 1.0], [5.0, 0.5], [5.0, 0.6], [5.0, 0.7]])
+    >>> beam = np.array([10, 20, 21, 22])
+    >>> above = np.array([[6.0, 0.4], [5.0, 0.6], [5.0, 0.7], [np.nan, np.nan]])
+    >>> below = np.array([[np.nan, np.nan], [5.0, 0.4], [5.0, 0.5], [5.0, 0.6]])
+    >>> spray(np.zeros(4, int), beam, pts, above, below, 2, 0.6).tolist()
+    [True, False, False, False]
+    """
+    n = len(scan)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    gap = np.hypot(*(points[1:] - points[:-1]).T)
+    link = (scan[1:] == scan[:-1]) & (beam[1:] == beam[:-1] + 1) & (gap <= cut)
+    start = concat(True, ~link)
+    chain = np.cumsum(start) - 1
+    first = np.flatnonzero(start)
+    last = concat(first[1:], n) - 1
+    h = np.zeros(n) if sensor is None else sensor[scan]
+
+    def rng(p):
+        return np.hypot(p[:, 0], p[:, 1] - h)
+
+    far = np.maximum.reduceat(rng(points), first)
+    with np.errstate(invalid="ignore"):
+        if passes is None:
+            past = ((~(rng(below)[first] <= far + cut))
+                    & (~(rng(above)[last] <= far + cut)))
+        else:  # one side passes; the other passes too or dropped out
+            down = passes[first, 1] | (rng(below)[first] > far + cut)
+            up = passes[last, 0] | (rng(above)[last] > far + cut)
+            past = ((down | np.isnan(below[first, 0]))
+                    & (up | np.isnan(above[last, 0])) & (down | up))
+    return (past & (last - first + 1 <= max_beams))[chain]
 
 
 class ScanWindow:
@@ -54,6 +103,7 @@ class ScanWindow:
         self.near = np.empty(0)  # mean depth of the nearest cluster
         self.cum = np.zeros(1)  # cum[p]: metres from the run's start to scan p
         self.tilt = np.empty(0)
+        self.horizon = np.empty((0, 0))  # per scan and depth: see ``horizon``
         self.n_clusters = np.empty(0, np.int64)
         self.first_cluster = np.empty(0, np.int64)  # absolute number of its first
         # per held cluster
@@ -64,6 +114,8 @@ class ScanWindow:
         self.n_points = np.empty(0)
         self.flags = np.empty(0, np.int8)
         self.side = np.empty(0)  # nearest depth (near side) of every cluster
+        self.far = np.empty(0)  # farthest depth of every cluster's body (NaN: none)
+        self.occluder = np.empty(0)  # depth the beam below every cluster ends at
         self.object_id = np.empty(0, np.int64)  # 0 not final, -1 final without id
         self.links = (np.empty(0, np.int64), np.empty(0, np.int64))
 
@@ -119,9 +171,15 @@ class ScanWindow:
         roi = roi_points(ranges, self.geometry, self.history,
                          tilt_compensation=est.tilt_compensation, max_tilt=est.max_tilt,
                          min_height=est.min_height, max_height=est.max_height)
-        x, y = roi.points[:, 0], roi.points[:, 1]
+        if est.spray_beams:  # echoes from raindrops and spray build nothing
+            keep = ~spray(roi.scan, roi.beam, roi.points, roi.above, roi.below,
+                          est.spray_beams, est.cut, roi.sensor, roi.passes)
+            roi = roi._replace(scan=roi.scan[keep], beam=roi.beam[keep],
+                               points=roi.points[keep], above=roi.above[keep],
+                               below=roi.below[keep], passes=roi.passes[keep])
         # intra-scan clusters, numbered over the block
         local = single_linkage(roi.points, est.cut, groups=roi.scan)
+        x, y = roi.points[:, 0], roi.points[:, 1]
         n = len(block)
         n_clusters = np.zeros(n, dtype=np.int64)
         np.maximum.at(n_clusters, roi.scan, local + 1)
@@ -136,6 +194,15 @@ class ScanWindow:
         side = np.full(k, np.inf)  # near side of the body (above kerb and sidewalk)
         body = y >= SIDE_HEIGHT
         np.minimum.at(side, cluster[body], x[body])
+        far = np.full(k, -np.inf)
+        np.maximum.at(far, cluster[body], x[body])
+        far[~np.isfinite(side)] = np.nan
+        # what the beam just below every cluster's lowest point ends on (its occluder)
+        lowest = np.lexsort((roi.beam, cluster))
+        lowest = lowest[concat(True, cluster[lowest][1:] != cluster[lowest][:-1])[
+            :len(lowest)]]
+        occluder = np.full(k, np.nan)
+        occluder[cluster[lowest]] = roi.below[lowest, 0]
         roof, wall, raised, hidden = section_evidence(
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
@@ -147,10 +214,19 @@ class ScanWindow:
         # inter-scan links: the previous scan's clusters against the block's
         first_new = self.cluster_base + len(self.position)
         n_prev = int(self.n_clusters[-1]) if len(self.n_clusters) else 0
+        old = slice(len(self.depth) - n_prev, len(self.depth))
+        occlusion = {}
+        if est.beam_occlusion:  # clusters seen past an occluder (lower part hidden)
+            span = np.column_stack([concat(self.side[old], side),
+                                    concat(self.far[old], far)])
+            span[~np.isfinite(span[:, 0])] = np.nan
+            occlusion = dict(span=span, hidden=concat(
+                (self.flags[old] & HIDDEN_FLAG) > 0, hidden),
+                occluder=concat(self.occluder[old], occluder))
         earlier, later = link_pairs(
             concat(np.zeros(n_prev, np.int64), position + 1),
-            concat(self.depth[len(self.depth) - n_prev:], depth),
-            concat(False, follows), est.link_distance)
+            concat(self.depth[old], depth),
+            concat(False, follows), est.link_distance, **occlusion)
         absolute = concat(np.arange(first_new - n_prev, first_new),
                          first_new + np.arange(k))
         # append to the window
@@ -163,6 +239,8 @@ class ScanWindow:
         self.near = concat(self.near, near)
         self.cum = concat(self.cum, np.cumsum(concat(self.cum[-1], step))[1:])
         self.tilt = concat(self.tilt, roi.tilt)
+        self.horizon = (roi.horizon if not len(self.horizon)
+                        else np.concatenate([self.horizon, roi.horizon]))
         self.n_clusters = concat(self.n_clusters, n_clusters)
         self.first_cluster = concat(self.first_cluster, first_new + start)
         self.position = concat(self.position, self.n_seen + position)
@@ -171,6 +249,8 @@ class ScanWindow:
         self.n_points = concat(self.n_points, n_points.astype(np.float64))
         self.flags = concat(self.flags, flags)
         self.side = concat(self.side, side)
+        self.far = concat(self.far, far)
+        self.occluder = concat(self.occluder, occluder)
         self.object_id = concat(self.object_id, np.zeros(k, np.int64))
         self.links = (concat(self.links[0], absolute[earlier]),
                       concat(self.links[1], absolute[later]))
@@ -181,7 +261,7 @@ class ScanWindow:
         self.base += d
         del self.records[:d]
         del self.payload[:d]
-        for name in ("scans", "follows", "near", "cum", "tilt", "n_clusters",
+        for name in ("scans", "follows", "near", "cum", "tilt", "horizon", "n_clusters",
                      "first_cluster"):
             setattr(self, name, getattr(self, name)[d:])
         dropped = (int(self.first_cluster[0]) - self.cluster_base
@@ -189,7 +269,7 @@ class ScanWindow:
         if dropped > 0:
             self.cluster_base += dropped
             for name in ("position", "depth", "top", "n_points", "flags", "side",
-                         "object_id"):
+                         "far", "occluder", "object_id"):
                 setattr(self, name, getattr(self, name)[dropped:])
             keep = self.links[0] >= self.cluster_base
             self.links = (self.links[0][keep], self.links[1][keep])

@@ -1,0 +1,152 @@
+"""Splitting vehicles parked nose to tail and merged into one object (beyond the paper).
+
+An object's height profile along the track (its top height in every scan) has one
+hump per vehicle: roof, with bonnet and boot lower at its ends.  Two humps with a
+valley between them are two vehicles; a stretch hidden by something nearer is a gap
+only where the seen profile falls into it and rises out of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense.street._clustering import concat
+
+__all__ = ["split_objects", "split_profile"]
+
+
+def _fill_hidden(top, band):
+    """Hidden (NaN) runs of a height profile: a gap (0) where the seen profile falls
+    into them and rises out of them (a vehicle's profile has one hump), else the
+    lower of their seen neighbours; and which scans may not be a split point."""
+    top = top.copy()
+    unknown = np.isnan(top)
+    if not unknown.any():
+        return top, unknown
+    known = np.flatnonzero(~unknown)
+    if not len(known):
+        return np.zeros_like(top), np.ones(len(top), dtype=bool)
+    edges = np.flatnonzero(np.diff(concat(0, unknown.astype(np.int8), 0)))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        left, right = top[:a][~unknown[:a]], top[b:][~unknown[b:]]
+        if len(left) and len(right):
+            falls = left[-1] < left.max() - band
+            rises = right[0] < right.max() - band
+            if falls and rises:
+                top[a:b] = 0.0
+                unknown[a:b] = False
+                continue
+        top[a:b] = min(left[-1] if len(left) else np.inf,
+                       right[0] if len(right) else np.inf)
+    return top, unknown
+
+
+def split_profile(top, step, *, min_length=2.0, ratio=0.6, band=0.15):
+    """Where to split an object whose height profile has two humps.
+
+    Two vehicles parked nose to tail and merged into one object show, along the track,
+    two humps of the top height (roofs, 1.2-2 m) with a valley between them (bumpers,
+    0.3-0.7 m, or the road seen through the gap).  A single vehicle has one hump:
+    its low parts (bumpers, bonnet, boot) are at its ends.
+
+    The split point is the scan of lowest ``top / min(left peak, right peak)`` among
+    the scans that leave at least ``min_length`` metres on both sides; it is accepted
+    when that ratio is at most ``ratio``.  Applied recursively to both parts.
+
+    Parameters
+    ----------
+    top : ndarray of shape (n_scans,)
+        Top height (m) of the object in each of its scans (NaN where hidden: a
+        hidden run is a gap where the seen profile falls into it and rises out of it
+        by more than ``band``, else never the split point).
+    step : float
+        Distance (m) travelled between two scans.
+    min_length : float, default=2.0
+        Shortest part (m) a split may leave.
+    ratio : float, default=0.6
+        Largest valley-to-peak ratio that splits.
+    band : float, default=0.15
+        How far (m) below its side's peak a profile must fall into a hidden run for
+        that run to be a gap.
+
+    Returns
+    -------
+    cuts : list of int
+        Scan offsets where a new object starts (sorted).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import split_profile
+    >>> car = np.r_[0.5, 0.9, 0.9, 1.4, 1.45, 1.4, 1.0, 0.5]
+    >>> split_profile(np.r_[car, car], step=0.6)
+    [8]
+    >>> split_profile(car, step=0.6)
+    []
+    """
+    top = raw = np.asarray(top, dtype=np.float64)
+    top, unknown = _fill_hidden(top, band)
+    n = len(top)
+    k = max(int(np.ceil(min_length / max(step, 1e-9))), 1)
+    if n < 2 * k + 1:
+        return []
+    left = np.maximum.accumulate(top)
+    right = np.maximum.accumulate(top[::-1])[::-1]
+    idx = np.arange(k, n - k)
+    peak = np.minimum(left[idx - 1], right[idx + 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        score = np.where((peak > 0) & ~unknown[idx], top[idx] / peak, np.inf)
+    j = int(np.argmin(score))
+    if not score[j] <= ratio:
+        return []
+    cut = int(idx[j])
+    # the valley scan goes with its higher neighbour (a bumper with its own body)
+    start = cut + 1 if top[cut - 1] > top[cut + 1] else cut
+    start = min(max(start, k), n - k)
+    a = split_profile(raw[:start], step, min_length=min_length, ratio=ratio, band=band)
+    b = split_profile(raw[start:], step, min_length=min_length, ratio=ratio, band=band)
+    return [*a, start, *(start + c for c in b)]
+
+
+def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
+                  horizon=None, step=None):
+    """Split objects with a two-hump height profile; the new object of every cluster.
+
+    Scans of an object's span where it has no cluster count as height 0 (a gap
+    between two vehicles), unless something nearer hid it (then unknown).  With
+    ``horizon`` (per scan, the lowest height at which the beams passing every
+    ``step`` metres of depth cross it, see
+    :func:`~tunnelsense.street._geometry.horizon`), such a scan is unknown only
+    where no beam passes the object's depth below the seen tops on either side: a
+    beam ending on a nearer object says nothing, one passing over the object's place
+    shows the gap.
+    ``objects`` and ``prof.position`` are per intra-cluster, as in ``prof``.
+    """
+    new = objects.copy()
+    next_object = prof.n
+    for o in range(prof.n):
+        first, last = prof.first[o], prof.last[o]
+        span = last - first + 1
+        if cum[last + 1] - cum[first] < 2 * min_length:
+            continue
+        top = np.zeros(span)
+        seen, seen_top = prof.profile(o)
+        if horizon is None:
+            top[near[first:last + 1] < prof.depth[o] - link_distance] = np.nan
+        else:  # hidden where the beams pass above the seen tops on either side
+            j = min(max(int(np.ceil(prof.depth[o] / step)), 1), horizon.shape[1]) - 1
+            k = np.searchsorted(seen - first, np.arange(span))
+            side = np.maximum(seen_top[np.maximum(k - 1, 0)],
+                              seen_top[np.minimum(k, len(seen) - 1)])
+            top[horizon[first:last + 1, j] >= side] = np.nan
+        top[seen - first] = seen_top
+        cuts = split_profile(top, (cum[last + 1] - cum[first]) / span,
+                             min_length=min_length, ratio=ratio)
+        if not cuts:
+            continue
+        mine = np.flatnonzero(objects == o)
+        part = np.searchsorted(np.asarray(cuts), prof.position[mine] - first,
+                               side="right")
+        new[mine] = np.where(part == 0, o, next_object + part - 1)
+        next_object += len(cuts)
+    return new
