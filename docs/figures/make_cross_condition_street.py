@@ -96,7 +96,7 @@ def draw(result, path, note):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scans", type=int, default=3000, help="scans per run")
+    parser.add_argument("--scans", type=int, default=2000, help="scans per run")
     parser.add_argument("--out", default=None, help="PNG to write "
                         "(default: docs/_static/cross_condition_street.png)")
     args = parser.parse_args(argv)
