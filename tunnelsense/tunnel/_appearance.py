@@ -35,9 +35,10 @@ from tunnelsense.tunnel._common import (
 )
 from tunnelsense.tunnel._invariant import (
     _crop,
+    _crop_bounds,
+    _features,
     invariant_features,
     n_invariant_features,
-    patch_features,
     perturb_patch,
 )
 from tunnelsense.tunnel._stumps import (
@@ -125,17 +126,15 @@ def box_histograms(
     if lut is None:
         lut = bin_lut(image.dtype, bins, intensity_range)
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    h, w = image.shape
-    out = np.empty((len(boxes), bins))
-    for i, (left, top, bw, bh) in enumerate(boxes.tolist()):
-        pad = margin * bh
-        c0 = min(max(int(round(left - pad)), 0), w - 1)
-        r0 = min(max(int(round(top - pad)), 0), h - 1)
-        c1 = max(min(int(round(left + bw + pad)), w), c0 + 1)
-        r1 = max(min(int(round(top + bh + pad)), h), r0 + 1)
-        counts = np.bincount(lut[image[r0:r1, c0:c1]].ravel(), minlength=bins)
-        out[i] = counts / counts.sum()
-    return out
+    if len(boxes) == 0:
+        return np.empty((0, bins))
+    # every rectangle's pixels at once: one bincount of (rectangle, bin) pairs
+    bounds = np.column_stack(_crop_bounds(boxes, image.shape, margin)).tolist()
+    pixels = [image[r0:r1, c0:c1].ravel() for c0, r0, c1, r1 in bounds]
+    ids = np.repeat(np.arange(len(boxes)), [p.size for p in pixels])
+    counts = np.bincount(ids * bins + lut[np.concatenate(pixels)],
+                         minlength=len(boxes) * bins).reshape(-1, bins)
+    return counts / counts.sum(axis=1, keepdims=True)
 
 
 #: Bins of the normalized histogram of ``features="invariant"``.
@@ -331,13 +330,16 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         lut = bin_lut(image.dtype, self.bins, self.intensity_range)
         out = []
         for _ in range(int(self.augment)):
-            rows = []
+            seen = []
             for box in boxes.tolist():
                 patch, _ = _crop(image, box, float(self.margin))
-                q, (bh, bw) = perturb_patch(patch, rng, (box[3], box[2]))
-                if self.features == "invariant":
-                    rows.append(patch_features(q, (bh, bw), _INVARIANT_BINS))
-                else:
+                seen.append(perturb_patch(patch, rng, (box[3], box[2])))
+            if self.features == "invariant":
+                rows = _features([q for q, _ in seen], [hw for _, hw in seen],
+                                 _INVARIANT_BINS)
+            else:
+                rows = []
+                for q, _ in seen:
                     counts = np.bincount(lut[q].ravel(), minlength=self.bins)
                     rows.append(counts / counts.sum())
             out.append(np.array(rows).reshape(len(boxes), -1))

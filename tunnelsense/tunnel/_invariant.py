@@ -14,6 +14,8 @@ augmentation in :class:`~tunnelsense.tunnel.WeightedAdaBoost`.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["AUGMENT_RANGES", "invariant_features", "n_invariant_features",
@@ -41,74 +43,156 @@ def n_invariant_features(bins) -> int:
     return int(bins) + _EXTRA
 
 
-def _crop(image, box, margin):
-    left, top, bw, bh = box
-    h, w = image.shape
+def _crop_bounds(boxes, shape, margin):
+    """Columns ``c0:c1`` and rows ``r0:r1`` of each box grown by ``margin`` times its
+    height on every side, clipped to an image of ``shape`` (at least one pixel).
+
+    Returns four (m,) int arrays ``c0, r0, c1, r1``.
+    """
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    h, w = shape
+    left, top, bw, bh = boxes.T
     pad = margin * bh
-    c0 = min(max(int(round(left - pad)), 0), w - 1)
-    r0 = min(max(int(round(top - pad)), 0), h - 1)
-    c1 = max(min(int(round(left + bw + pad)), w), c0 + 1)
-    r1 = max(min(int(round(top + bh + pad)), h), r0 + 1)
+    # np.rint rounds half to even, as Python's round() does
+    c0 = np.clip(np.rint(left - pad), 0, w - 1).astype(np.intp)
+    r0 = np.clip(np.rint(top - pad), 0, h - 1).astype(np.intp)
+    c1 = np.maximum(np.minimum(np.rint(left + bw + pad), w).astype(np.intp), c0 + 1)
+    r1 = np.maximum(np.minimum(np.rint(top + bh + pad), h).astype(np.intp), r0 + 1)
+    return c0, r0, c1, r1
+
+
+def _crop(image, box, margin):
+    c0, r0, c1, r1 = (int(v[0]) for v in _crop_bounds(box, image.shape, margin))
     return image[r0:r1, c0:c1], (c0, r0)
 
 
 def _percentiles(counts, n):
-    """The 10th and 90th percentiles of ``n`` 8-bit values from their counts.
+    """The 10th and 90th percentiles of ``n[i]`` 8-bit values from their counts.
 
-    Equal to ``np.percentile(values, [10, 90])`` (linear interpolation between
+    ``counts`` is (m, 256), one row of grey-level counts per patch.  Equal to
+    ``np.percentile(values, [10, 90])`` of every row (linear interpolation between
     the neighbouring order statistics).
     """
-    cdf = np.cumsum(counts)
+    cdf = np.cumsum(counts, axis=1)
     out = []
     for q in (_LOW_Q, _HIGH_Q):
         pos = q / 100.0 * (n - 1)
-        k = int(np.floor(pos))
-        a = float(np.searchsorted(cdf, k, side="right"))
-        b = float(np.searchsorted(cdf, min(k + 1, n - 1), side="right"))
+        k = np.floor(pos)
+        # order statistic k is the number of grey levels whose cumulative count is
+        # <= k (np.searchsorted(cdf, k, side="right"), row by row)
+        a = (cdf <= k[:, None]).sum(axis=1).astype(np.float64)
+        b = (cdf <= np.minimum(k + 1, n - 1)[:, None]).sum(axis=1).astype(np.float64)
         t = pos - k
         # numpy's lerp, term for term (exact equality with np.percentile)
-        out.append(b - (b - a) * (1 - t) if t >= 0.5 else a + (b - a) * t)
+        out.append(np.where(t >= 0.5, b - (b - a) * (1 - t), a + (b - a) * t))
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _edges(bins):
+    return np.linspace(-0.5, 1.5, bins + 1)
+
+
+def _level_histograms(zlut, counts, bins):
+    """Per row, the histogram over [-0.5, 1.5] of the values ``zlut[i, g]`` taken
+    ``counts[i, g]`` times: np.histogram's bins (its index arithmetic and edge
+    corrections, term for term), in one weighted bincount for all rows."""
+    m = len(zlut)
+    edges = _edges(bins)
+    a = np.clip(zlut, -0.5, 1.5)
+    idx = ((a - -0.5) / 2.0 * bins).astype(np.intp)
+    idx[idx == bins] -= 1
+    idx[a < edges[idx]] -= 1
+    idx[(a >= edges[idx + 1]) & (idx != bins - 1)] += 1
+    rows = np.arange(m)[:, None] * bins
+    hist = np.bincount((rows + idx).ravel(), weights=counts.ravel(), minlength=m * bins)
+    return hist.astype(np.int64).reshape(m, bins)
+
+
+def _order_statistic(counts, j):
+    """Per row, the grey level of order statistic ``j[i]`` of values counted in ``counts``."""
+    return (np.cumsum(counts, axis=1) <= j[:, None]).sum(axis=1)
+
+
+def _features(patches, box_hws, bins):
+    """The invariant features of raw patches, one row each (see :func:`invariant_features`).
+
+    Only the median filter runs patch by patch (OpenCV, on each patch's own border);
+    the histograms, percentiles, border medians and bright extents are computed for
+    all patches at once from their concatenated pixels.  The spread of the bright
+    values is each patch's ``ndarray.std`` over its own pixels in image order, as
+    the figure is defined.
+    """
+    import cv2  # noqa: PLC0415
+
+    m = len(patches)
+    out = np.empty((m, n_invariant_features(bins)))
+    if m == 0:
+        return out
+    filtered, rings = [], []
+    for patch in patches:
+        p = np.ascontiguousarray(patch)
+        if p.dtype != np.uint8:
+            p = np.clip(p, 0, 255).astype(np.uint8)
+        if min(p.shape) >= 3:
+            p = cv2.medianBlur(p, 3)
+        filtered.append(p.ravel())
+        rings.append(np.concatenate([p[0], p[-1], p[:, 0], p[:, -1]]))
+    widths = np.array([p.shape[1] for p in patches], dtype=np.intp)
+    n = np.array([p.size for p in filtered], dtype=np.intp)
+    ids = np.repeat(np.arange(m), n)
+    values = np.concatenate(filtered).astype(np.intp)
+    counts = np.bincount(ids * 256 + values, minlength=m * 256).reshape(m, 256)
+    lo, hi = _percentiles(counts, n)
+    span = np.maximum(hi - lo, 1.0)
+    zlut = (np.arange(256, dtype=np.float64) - lo[:, None]) / span[:, None]
+    out[:, :bins] = _level_histograms(zlut, counts, bins) / np.maximum(n, 1)[:, None]
+
+    z = zlut[ids, values]
+    bright = z > 0.5
+    n_bright = np.bincount(ids[bright], minlength=m)
+    out[:, bins] = n_bright / n  # fill
+    # the median of the border's z: z grows with the grey level, so the border's
+    # middle grey level(s) give it
+    n_ring = np.array([r.size for r in rings], dtype=np.intp)
+    ring_ids = np.repeat(np.arange(m), n_ring)
+    ring = np.concatenate(rings).astype(np.intp)
+    ring_counts = np.bincount(ring_ids * 256 + ring, minlength=m * 256).reshape(m, 256)
+    half = n_ring // 2
+    upper = zlut[np.arange(m), _order_statistic(ring_counts, half)]
+    lower = zlut[np.arange(m), _order_statistic(ring_counts, np.maximum(half - 1, 0))]
+    out[:, bins + 2] = np.where(n_ring % 2 == 1, upper, (lower + upper) / 2)
+    # extent of the bright region: first and last bright row and column
+    local = np.arange(len(ids)) - np.repeat(np.cumsum(n) - n, n)
+    width = np.repeat(widths, n)
+    row, col = local[bright] // width[bright], local[bright] % width[bright]
+    big = np.iinfo(np.intp).max
+    r0, c0 = np.full(m, big), np.full(m, big)
+    r1, c1 = np.full(m, -1), np.full(m, -1)
+    owner = ids[bright]
+    np.minimum.at(r0, owner, row)
+    np.minimum.at(c0, owner, col)
+    np.maximum.at(r1, owner, row)
+    np.maximum.at(c1, owner, col)
+    # contrast of the bright region against its surroundings, relative to the level
+    # of the surroundings: a gain does not change it, an offset little
+    out[:, bins + 5] = span / np.maximum(lo, 1.0)
+    z_bright = z[bright]
+    ends = np.cumsum(n_bright)
+    for i, (bh, bw) in enumerate(box_hws):
+        inner = z_bright[ends[i] - n_bright[i]:ends[i]]
+        out[i, bins + 1] = float(inner.std()) if inner.size > 1 else 0.0  # spread
+        if n_bright[i]:
+            out[i, bins + 3] = np.log((r1[i] - r0[i] + 1) / (c1[i] - c0[i] + 1))
+        else:
+            out[i, bins + 3] = 0.0
+        out[i, bins + 4] = np.log(max(bh, 1.0) / max(bw, 1.0))
     return out
 
 
 def patch_features(patch, box_hw, bins=16) -> np.ndarray:
     """The invariant features of one patch (see :func:`invariant_features`)."""
-    import cv2  # noqa: PLC0415
-
-    p = np.ascontiguousarray(patch)
-    if p.dtype != np.uint8:
-        p = np.clip(p, 0, 255).astype(np.uint8)
-    if min(p.shape) >= 3:
-        p = cv2.medianBlur(p, 3)
-    counts = np.bincount(p.ravel(), minlength=256)
-    lo, hi = _percentiles(counts, p.size)
-    span = max(hi - lo, 1.0)
-    zlut = (np.arange(256, dtype=np.float64) - lo) / span
-    z = zlut[p]
-    # the histogram of z, one weighted entry per grey level: the same bins as
-    # np.histogram over the pixels, at a fraction of the cost
-    hist, _ = np.histogram(np.clip(zlut, -0.5, 1.5), bins=bins, range=(-0.5, 1.5),
-                           weights=counts)
-    hist = hist / max(z.size, 1)
-    bright = z > 0.5
-    fill = float(bright.mean())
-    inner = z[bright]
-    spread = float(inner.std()) if inner.size > 1 else 0.0
-    ring = np.concatenate([z[0], z[-1], z[:, 0], z[:, -1]])
-    ring_level = float(np.median(ring))
-    rows = np.flatnonzero(bright.any(1))
-    cols = np.flatnonzero(bright.any(0))
-    if rows.size and cols.size:
-        aspect_bright = np.log((rows[-1] - rows[0] + 1) / (cols[-1] - cols[0] + 1))
-    else:
-        aspect_bright = 0.0
-    bh, bw = box_hw
-    aspect = np.log(max(bh, 1.0) / max(bw, 1.0))
-    # contrast of the bright region against its surroundings, relative to the level
-    # of the surroundings: a gain does not change it, an offset little
-    contrast = span / max(lo, 1.0)
-    extra = [fill, spread, ring_level, aspect_bright, aspect, contrast]
-    return np.concatenate([hist, extra])
+    return _features([patch], [box_hw], bins)[0]
 
 
 def invariant_features(image, boxes, *, bins=16, margin=0.25) -> np.ndarray:
@@ -147,11 +231,9 @@ def invariant_features(image, boxes, *, bins=16, margin=0.25) -> np.ndarray:
     ((1, 22), True)
     """
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    out = np.empty((len(boxes), n_invariant_features(bins)))
-    for i, box in enumerate(boxes.tolist()):
-        patch, _ = _crop(image, box, margin)
-        out[i] = patch_features(patch, (box[3], box[2]), bins)
-    return out
+    bounds = np.column_stack(_crop_bounds(boxes, image.shape, margin)).tolist()
+    patches = [image[r0:r1, c0:c1] for c0, r0, c1, r1 in bounds]
+    return _features(patches, boxes[:, [3, 2]].tolist(), bins)
 
 
 def perturb_patch(patch, rng, box_hw, ranges=None):
