@@ -107,6 +107,29 @@ def test_unfitted_and_empty_pipelines_are_refused():
         StreamingPipeline(Pipeline([("b", "passthrough")]))
 
 
+class Checked(Brightness):
+    """A stage whose transform checks each call and whose _transform_frames works."""
+
+    def transform(self, X):
+        self.checked_calls_ = getattr(self, "checked_calls_", 0) + 1
+        return self._transform_frames(list(X))
+
+    def _transform_frames(self, records):
+        return [r.evolve(seen=r.payload.get("seen", 0) + 1) for r in records]
+
+
+def test_later_stages_skip_the_per_call_checks_the_first_stage_keeps():
+    X = _frames("a", 5)
+    first, second = Checked().fit(X), Checked().fit(X)
+    stream = StreamingPipeline(Pipeline([("first", first), ("second", second)]))
+    out = list(stream.run(X))
+    # the same records as the public transforms give, the first stage checked per
+    # frame, the second (fed by the first) not
+    assert [r.payload for r in out] == [r.payload for r in second.transform(
+        first.transform(X))]
+    assert first.checked_calls_ == 5 + 1 and second.checked_calls_ == 1
+
+
 def test_stateless_final_step_streams_through_predict():
     class Predictor(BaseEstimator):
         def fit(self, X, y=None):

@@ -15,7 +15,12 @@ A record stage may offer ``start_stream()``, returning a *stream state* with
 
 A stage without ``start_stream`` is stateless per record: :func:`start_stream` wraps
 it so that ``push(r)`` returns ``stage.transform([r])`` (``predict`` for a final step
-that has no ``transform``).
+that has no ``transform``).  Inside a :class:`StreamingPipeline`, a stateless stage
+after the first receives only records that earlier stages made and that were checked
+on entry, from stages checked fitted at the start; when it offers
+``_transform_frames(records) -> list`` (the work of its ``transform`` without the
+per-call checks), the pipeline calls that instead: one frame at a time, the checks
+would cost more than the work of a small stage.
 
 A stateful stage (trajectory linking, motion verification, inter-scan linking) derives
 from :class:`StreamingMixin` and supplies only its state, a :class:`StreamState`; the
@@ -285,13 +290,19 @@ class StreamingMixin:
 
 
 class _StatelessStream:
-    """Stream state of a stage that maps each record on its own."""
+    """Stream state of a stage that maps each record on its own.
+
+    ``checked=True``: the records come checked (see the module docstring), so a stage
+    that offers ``_transform_frames`` maps them through it.
+    """
 
     __slots__ = ("_map",)
 
-    def __init__(self, stage, final):
+    def __init__(self, stage, final, checked=False):
         if final and not hasattr(stage, "transform"):
             self._map = stage.predict
+        elif checked and hasattr(stage, "_transform_frames"):
+            self._map = stage._transform_frames
         else:
             self._map = stage.transform
 
@@ -360,8 +371,12 @@ class StreamingPipeline:
             raise ValueError("pipeline has no steps to stream through")
         for s in stages:
             check_is_fitted(s)
+        # the first stage checks what the caller pushes; later stateless stages take
+        # their predecessors' records without repeating the checks
         self._states = [
-            start_stream(s, final=(i == len(stages) - 1)) for i, s in enumerate(stages)
+            s.start_stream() if hasattr(s, "start_stream")
+            else _StatelessStream(s, final=(i == len(stages) - 1), checked=i > 0)
+            for i, s in enumerate(stages)
         ]
         self._last_key = None
 
