@@ -74,18 +74,17 @@ def _percentiles(counts, n):
     the neighbouring order statistics).
     """
     cdf = np.cumsum(counts, axis=1)
-    out = []
-    for q in (_LOW_Q, _HIGH_Q):
-        pos = q / 100.0 * (n - 1)
-        k = np.floor(pos)
-        # order statistic k is the number of grey levels whose cumulative count is
-        # <= k (np.searchsorted(cdf, k, side="right"), row by row)
-        a = (cdf <= k[:, None]).sum(axis=1).astype(np.float64)
-        b = (cdf <= np.minimum(k + 1, n - 1)[:, None]).sum(axis=1).astype(np.float64)
-        t = pos - k
-        # numpy's lerp, term for term (exact equality with np.percentile)
-        out.append(np.where(t >= 0.5, b - (b - a) * (1 - t), a + (b - a) * t))
-    return out
+    # both percentiles at once: rows (q, patch)
+    pos = np.array([_LOW_Q / 100.0, _HIGH_Q / 100.0])[:, None] * (n - 1)
+    k = np.floor(pos)
+    # order statistic k is the number of grey levels whose cumulative count is
+    # <= k (np.searchsorted(cdf, k, side="right"), row by row)
+    a = (cdf <= k[..., None]).sum(axis=-1).astype(np.float64)
+    b = (cdf <= np.minimum(k + 1, n - 1)[..., None]).sum(axis=-1).astype(np.float64)
+    t = pos - k
+    # numpy's lerp, term for term (exact equality with np.percentile)
+    lo, hi = np.where(t >= 0.5, b - (b - a) * (1 - t), a + (b - a) * t)
+    return lo, hi
 
 
 @functools.lru_cache(maxsize=8)
@@ -162,23 +161,25 @@ def _features(patches, box_hws, bins):
     upper = zlut[np.arange(m), _order_statistic(ring_counts, half)]
     lower = zlut[np.arange(m), _order_statistic(ring_counts, np.maximum(half - 1, 0))]
     out[:, bins + 2] = np.where(n_ring % 2 == 1, upper, (lower + upper) / 2)
-    # extent of the bright region: first and last bright row and column
-    local = np.arange(len(ids)) - np.repeat(np.cumsum(n) - n, n)
-    width = np.repeat(widths, n)
-    row, col = local[bright] // width[bright], local[bright] % width[bright]
-    big = np.iinfo(np.intp).max
-    r0, c0 = np.full(m, big), np.full(m, big)
-    r1, c1 = np.full(m, -1), np.full(m, -1)
-    owner = ids[bright]
-    np.minimum.at(r0, owner, row)
-    np.minimum.at(c0, owner, col)
-    np.maximum.at(r1, owner, row)
-    np.maximum.at(c1, owner, col)
+    # extent of the bright region: rows of a patch's first and last bright pixel
+    # (row-major order), least and greatest column over its bright pixels
+    ends = np.cumsum(n_bright)
+    has = n_bright > 0
+    local = (np.arange(len(ids)) - np.repeat(np.cumsum(n) - n, n))[bright]
+    width = np.repeat(widths, n)[bright]
+    row, col = local // width, local % width
+    r0 = r1 = c0 = c1 = np.zeros(m, np.intp)
+    if has.any():
+        first = (ends - n_bright)[has]
+        r0, r1 = np.zeros(m, np.intp), np.zeros(m, np.intp)
+        c0, c1 = np.zeros(m, np.intp), np.zeros(m, np.intp)
+        r0[has], r1[has] = row[first], row[ends[has] - 1]
+        c0[has] = np.minimum.reduceat(col, first)
+        c1[has] = np.maximum.reduceat(col, first)
     # contrast of the bright region against its surroundings, relative to the level
     # of the surroundings: a gain does not change it, an offset little
     out[:, bins + 5] = span / np.maximum(lo, 1.0)
     z_bright = z[bright]
-    ends = np.cumsum(n_bright)
     for i, (bh, bw) in enumerate(box_hws):
         inner = z_bright[ends[i] - n_bright[i]:ends[i]]
         out[i, bins + 1] = float(inner.std()) if inner.size > 1 else 0.0  # spread
