@@ -62,15 +62,14 @@ def _classes() -> dict:
     """Exact type name -> class, for the types a detector's file may build."""
     from sklearn.pipeline import Pipeline
 
+    # from the defining modules (the packages' faces import the command-line helpers)
     from tunnelsense.street._detector import ScanClusterer
-    from tunnelsense.tunnel import (
-        IntensityKeypointSampler,
-        KMeansHistogramVerifier,
-        MSTClusterer,
-        PCCVerifier,
-        TrajectoryLinker,
-        WeightedAdaBoost,
-    )
+    from tunnelsense.tunnel._appearance import WeightedAdaBoost
+    from tunnelsense.tunnel._clustering import MSTClusterer
+    from tunnelsense.tunnel._keypoints import IntensityKeypointSampler
+    from tunnelsense.tunnel._motion import PCCVerifier
+    from tunnelsense.tunnel._tracking import TrajectoryLinker
+    from tunnelsense.tunnel._verification import KMeansHistogramVerifier
 
     classes = [Pipeline, ScanClusterer, IntensityKeypointSampler,
                KMeansHistogramVerifier, MSTClusterer, PCCVerifier, TrajectoryLinker,
