@@ -89,8 +89,9 @@ def write_run_bag(run: Run, path, *, version="ros2", topic="/scan",
     T = store.types
     scan_type = "sensor_msgs/msg/LaserScan"
     g = run.geometry
+    # REP 117: NaN is a failed measurement (a dropout), +inf no return within range;
+    # both are kept as they are (the detector tells a dropout from a beam that passed)
     ranges = run.scans.ranges().astype(np.float32)
-    ranges[~np.isfinite(ranges)] = np.float32(g.range_max)
     n_beams = ranges.shape[1]
     stamps = np.array([r.stamp for r in run.scans], dtype=np.float64)
     # ROS times are not negative: shift a run that starts before 0 by whole seconds
