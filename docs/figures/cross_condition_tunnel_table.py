@@ -41,18 +41,12 @@ fitted on ``plain`` only.  Tours are cached under ``$TMPDIR/tunnelsense-cross``.
 from __future__ import annotations
 
 import argparse
-import os
-import pickle
-import tempfile
 import time
-from pathlib import Path
 
 from tunnelsense import to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores
 from tunnelsense.tunnel import make_indicator_pipeline
-
-CACHE = Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "tunnelsense-cross"
 
 CAMERA_A = dict(focal_length_px=700.0, mount_height_m=1.3, noise_sigma=3.0)
 CAMERA_B = dict(focal_length_px=560.0, mount_height_m=1.6, noise_sigma=5.0)
@@ -91,19 +85,13 @@ EVAL_TEST_SEEDS = (3001, 3002)
 
 
 def tour(condition, seed, n_frames):
-    """The tour of ``condition`` for ``seed`` (cached)."""
-    CACHE.mkdir(parents=True, exist_ok=True)
-    path = CACHE / f"{condition}-{seed}-{n_frames}.pkl"
-    if path.is_file():
-        return pickle.loads(path.read_bytes())
+    """The tour of ``condition`` for ``seed``: each condition's tours have seeds of
+    their own (ten times the condition's index added)."""
     kw = dict(CONDITIONS[condition])
     scenario = kw.pop("scenario")
-    # each condition's tours have their own seeds
     offset = 10 * list(CONDITIONS).index(condition)
-    t = make_tunnel_tour(n_frames, scenario=scenario, random_state=seed + offset,
-                         **COMMON, **kw)
-    path.write_bytes(pickle.dumps(t))
-    return t
+    return make_tunnel_tour(n_frames, scenario=scenario, random_state=seed + offset,
+                            **COMMON, **kw)
 
 
 def evaluate(model, condition, seeds, n_frames):

@@ -29,40 +29,30 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import machine, output_path  # noqa: E402
 
+# the conditions, their tours and the seeds are the table script's, beside this one
+from cross_condition_tunnel_table import (  # noqa: E402
+    CONDITIONS as ALL_CONDITIONS,
+)
+from cross_condition_tunnel_table import (
+    EVAL_TEST_SEEDS as TEST_SEEDS,
+)
+from cross_condition_tunnel_table import (
+    EVAL_TRAIN_SEED as TRAIN_SEED,
+)
+from cross_condition_tunnel_table import (
+    tour,
+)
+
 from tunnelsense import to_xy  # noqa: E402
-from tunnelsense.datasets import make_tunnel_tour  # noqa: E402
 from tunnelsense.metrics import indicator_scores  # noqa: E402
 from tunnelsense.tunnel import make_indicator_pipeline  # noqa: E402
 
-CAMERA_A = dict(focal_length_px=700.0, mount_height_m=1.3, noise_sigma=3.0)
-CAMERA_B = dict(focal_length_px=560.0, mount_height_m=1.6, noise_sigma=5.0)
-#: Every tour: signs every 100 m (more of them per simulated second).
-COMMON = dict(indicator_spacing_m=100.0)
-
-#: Condition name -> parameters of :func:`~tunnelsense.datasets.make_tunnel_tour`.
-CONDITIONS = {
-    "plain": dict(scenario="light", **CAMERA_A),
-    "heavy": dict(scenario="heavy", **CAMERA_A),
-    "other-camera": dict(scenario="light", **CAMERA_B),
-    "curve-right": dict(scenario="light", curve_radius_m=1500.0, **CAMERA_A),
-    "curve-left": dict(scenario="light", curve_radius_m=-1500.0, **CAMERA_A),
-    "other-curve-fast": dict(scenario="light", curve_radius_m=1500.0,
-                             speed_kmh=(100.0, 130.0), **CAMERA_B),
-}
+#: The conditions of the heat map (the table adds another unit's gain and offset,
+#: automatic gain control, warm air and a 320 x 240 sensor).
+CONDITIONS = {name: ALL_CONDITIONS[name] for name in (
+    "plain", "heavy", "other-camera", "curve-right", "curve-left", "other-curve-fast")}
 #: Method name -> arguments of :func:`~tunnelsense.tunnel.make_indicator_pipeline`.
 METHODS = {"the paper's method": dict(preset="paper"), "default": {}}
-#: Seed of each condition's training tour and of its two test tours (each condition
-#: adds ten times its index, so no two conditions share a tour).
-TRAIN_SEED = 2001
-TEST_SEEDS = (3001, 3002)
-
-
-def tour(condition, seed, n_frames):
-    kw = dict(CONDITIONS[condition])
-    scenario = kw.pop("scenario")
-    offset = 10 * list(CONDITIONS).index(condition)
-    return make_tunnel_tour(n_frames, scenario=scenario, random_state=seed + offset,
-                            **COMMON, **kw)
 
 
 def matrix(n_frames, log=print):
