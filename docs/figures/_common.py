@@ -39,3 +39,12 @@ def output_path(name: str, out: str | None) -> Path:
     path = Path(out) if out else STATIC / name
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def save_figure(fig, path: Path, note: str) -> None:
+    """Stamp ``note`` (command, machine, date) under the figure, write it, close it."""
+    import matplotlib.pyplot as plt
+
+    fig.supxlabel(note, fontsize=7, color="0.4")
+    fig.savefig(path, dpi=80)
+    plt.close(fig)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, machine, output_path  # noqa: E402
+from _common import load, machine, output_path, save_figure  # noqa: E402
 
 from tunnelsense import FrameRecord, FrameSequence, Tour, to_xy  # noqa: E402
 from tunnelsense.datasets import make_tunnel_tour  # noqa: E402
@@ -116,9 +116,7 @@ def draw(result, path, note):
     fig.colorbar(im, ax=ax, label="share of indicators found")
     ax.set_title("FIR indicator detector on cameras of another gain\n(cell: indicators "
                  "found / indicators, false-alarm trajectories (FA))", fontsize=10)
-    fig.supxlabel(note, fontsize=7, color="0.4")
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    save_figure(fig, path, note)
 
 
 def main(argv=None):

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import machine, output_path  # noqa: E402
+from _common import machine, output_path, save_figure  # noqa: E402
 
 # the conditions, seeds and the paper's settings are the table script's, beside this one
 from cross_condition_street_table import (  # noqa: E402
@@ -88,9 +88,7 @@ def draw(result, path, note):
     fig.colorbar(im, ax=ax, label="parked-vehicle recall")
     ax.set_title("Laser parked-vehicle detector fitted on a plain street, "
                  "evaluated on every condition", fontsize=11)
-    fig.supxlabel(note, fontsize=7, color="0.4")
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    save_figure(fig, path, note)
     return recall, precision
 
 

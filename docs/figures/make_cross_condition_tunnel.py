@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import machine, output_path  # noqa: E402
+from _common import machine, output_path, save_figure  # noqa: E402
 
 # the conditions, their tours and the seeds are the table script's, beside this one
 from cross_condition_tunnel_table import (  # noqa: E402
@@ -101,9 +101,7 @@ def draw(result, path, note):
     fig.suptitle("FIR indicator detector: fitted on one condition, evaluated on "
                  "every condition\n(cell: indicators found / indicators, "
                  "false-alarm trajectories (FA))", fontsize=11)
-    fig.supxlabel(note, fontsize=7, color="0.4")
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    save_figure(fig, path, note)
 
 
 def main(argv=None):

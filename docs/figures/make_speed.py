@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import load, machine, output_path  # noqa: E402
+from _common import load, machine, output_path, save_figure  # noqa: E402
 
 _DECODE = (
     "import sys, glob, cv2, numpy as np\n"
@@ -146,9 +146,7 @@ def draw(rows, frames, path, note):
         ax.legend(loc="upper left", fontsize=8)
     fig.suptitle(f"FIR indicator detector beside the PNG decode, 640 x 480 frames, "
                  f"{frames}-frame tours (median of runs)", fontsize=11)
-    fig.supxlabel(note, fontsize=7, color="0.4")
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    save_figure(fig, path, note)
 
 
 def main(argv=None):
