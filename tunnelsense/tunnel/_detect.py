@@ -55,8 +55,7 @@ SEARCH_GRID = {
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
-                           dask_scheduler=None, progress=None, search_progress=None,
-                           verbose=0):
+                           dask_scheduler=None, progress=None, search_progress=None):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
@@ -86,8 +85,6 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         fit (``done`` steps of ``total``), or the search's fits done and its refit.
     search_progress : callable or None, default=None
         ``search_progress(done, total)`` after each fit of a search.
-    verbose : int, default=0
-        Unused (kept for callers of earlier releases).
 
     Returns
     -------
