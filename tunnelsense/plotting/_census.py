@@ -84,7 +84,8 @@ def plot_census(table, parked, *, ax=None, title=None):
         top = -0.05 - i * lane
         spans = list(zip(rows["start_m"], rows["end_m"] - rows["start_m"], strict=True))
         ax.broken_barh(spans, (top - 0.8 * lane, 0.8 * lane),
-                       color=VEHICLE_CLASS_COLOURS[name], label=name)
+                       facecolor=VEHICLE_CLASS_COLOURS[name], edgecolor="white",
+                       linewidth=0.5, label=name)
     end = float(table["end_m"].iloc[-1]) if len(table) else 1.0
     ax.set_xlim(0.0, end)
     ax.set_ylim(-0.4, 1.15)
