@@ -180,3 +180,12 @@ def test_distance_follows_a_bags_odometry(tmp_path):
     # 20 scans of 1/15 m before the boundary at 20 m, 20 scans of 0.2 m after it
     np.testing.assert_allclose(table["parked_length_m"], [1.333, 4.0, 0, 0], atol=2e-3)
     assert table["parked"].tolist() == [0, 1, 0, 0]
+
+
+def test_survey_street_is_registered(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["survey", "street", "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert "tunnelsense survey street" in text
+    assert all(option in text for option in ("--segment-length", "--speed", "--plot"))

@@ -92,6 +92,6 @@ def plot_census(table, parked, *, ax=None, title=None):
     ax.set_yticks(np.linspace(0.0, 1.0, 5))
     ax.set(xlabel="distance along the street (m)",
            ylabel="kerb occupancy; parked vehicles below", title=title)
-    ax.legend(loc="lower right", fontsize="small", bbox_to_anchor=(1.0, 1.0),
-              ncol=1 + len(present), frameon=False)
+    ax.legend(loc="upper left", fontsize="small", bbox_to_anchor=(1.0, 1.0),
+              frameon=False)
     return ax
