@@ -35,13 +35,22 @@ def test_scan_distances_from_speed_and_periods():
 @pytest.mark.parametrize("stamps, speed, match", [
     ([0.0], 1.0, "at least two"),
     ([0.0, 0.1, 0.1], 1.0, "strictly increasing; scan 2"),
-    ([0.0, 0.1], [1.0, 0.0], "scan 1 has 0.0"),
-    ([0.0, 0.1], float("nan"), "positive and finite"),
+    ([0.0, 0.1], [1.0, -2.0], "scan 1 has -2.0"),
+    ([0.0, 0.1], float("nan"), "finite and not negative"),
     ([0.0, 0.1, 0.2], [1.0, 1.0], "one per scan"),
 ])
 def test_scan_distances_refuses_bad_input(stamps, speed, match):
     with pytest.raises(ValueError, match=match):
         scan_distances(stamps, speed)
+
+
+def test_a_stop_adds_no_distance():
+    d = scan_distances([0.0, 1.0, 2.0, 3.0], [2.0, 0.0, 0.0, 2.0])
+    np.testing.assert_allclose(d, [0.0, 2.0, 2.0, 2.0, 4.0])
+    # an object seen only while stopped covers no kerb but is still counted
+    table = census(objects([(1, 2, "parked")]), d, segment_length=1.0)
+    assert table["parked"].tolist() == [0, 0, 1, 0]  # at 2 m: the segment from 2 m
+    assert table["occupancy"].sum() == 0.0
 
 
 def test_segments_cover_the_street_the_last_one_shorter():

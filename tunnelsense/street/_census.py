@@ -47,8 +47,9 @@ def scan_distances(stamps, speed):
 
     Scan ``i`` stands for the stretch the vehicle drives during its scan period:
     ``speed[i] * (stamps[i + 1] - stamps[i])`` metres (the last scan takes the
-    period before it).  The street is assumed straight and driven without stops or
-    reversing; the distance starts at 0 where the first scan begins.
+    period before it).  The street is assumed straight and driven forwards (a
+    stop, speed 0, adds no distance); the distance starts at 0 where the first
+    scan begins.
 
     Parameters
     ----------
@@ -56,7 +57,7 @@ def scan_distances(stamps, speed):
         Times of the scans (s), strictly increasing; at least two scans.
     speed : float or array-like of shape (n_scans,)
         Ego speed (m/s) of every scan, or of each scan (e.g. interpolated from
-        odometry); positive and finite.
+        odometry); finite and not negative.
 
     Returns
     -------
@@ -67,7 +68,7 @@ def scan_distances(stamps, speed):
     ------
     ValueError
         Fewer than two stamps, stamps not strictly increasing or not finite, a speed
-        not positive and finite, or a speed array of another length.
+        negative or not finite, or a speed array of another length.
 
     Examples
     --------
@@ -92,10 +93,10 @@ def scan_distances(stamps, speed):
     if speed.shape != stamps.shape:
         raise ValueError(f"speed must be a number or one per scan ({len(stamps)}); got "
                          f"shape {speed.shape}")
-    bad = np.flatnonzero(~(np.isfinite(speed) & (speed > 0)))
+    bad = np.flatnonzero(~(np.isfinite(speed) & (speed >= 0)))
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"speed must be positive and finite (m/s); scan {i} has "
+        raise ValueError(f"speed must be finite and not negative (m/s); scan {i} has "
                          f"{speed[i]}")
     steps = speed * np.append(periods, periods[-1])
     return np.concatenate([[0.0], np.cumsum(steps)])
