@@ -16,7 +16,7 @@ from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io import open_run_stream, read_objects
 from tunnelsense.io._output import atomic_write, check_output, input_files
 
-__all__ = ["register"]
+__all__ = ["register_top"]
 
 #: Picture formats of ``--plot``, by file suffix.
 _PLOT_SUFFIXES = (".png", ".pdf", ".svg")

@@ -88,8 +88,9 @@ def scan_distances(stamps, speed):
         i = int(bad[0])
         raise ValueError(f"stamps must be finite and strictly increasing; scan {i + 1} "
                          f"({stamps[i + 1]}) follows scan {i} ({stamps[i]})")
-    speed = np.broadcast_to(np.asarray(speed, dtype=np.float64), stamps.shape) \
-        if np.ndim(speed) == 0 else np.asarray(speed, dtype=np.float64)
+    speed = np.asarray(speed, dtype=np.float64)
+    if speed.ndim == 0:
+        speed = np.full(stamps.shape, float(speed))
     if speed.shape != stamps.shape:
         raise ValueError(f"speed must be a number or one per scan ({len(stamps)}); got "
                          f"shape {speed.shape}")
