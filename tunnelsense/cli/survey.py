@@ -66,16 +66,14 @@ def _speeds(args, speeds, model):
         "at 40 km/h)")
 
 
-def _objects_file(args, n_scans):
-    """The object table of ``--objects``, its scans within the run's."""
-    objects = read_objects(args.objects)
+def _check_objects_file(args, objects, n_scans):
+    """Refuse an object table of ``--objects`` whose scans are beyond the run's."""
     beyond = np.flatnonzero(objects["last_scan"].to_numpy() >= n_scans)
     if beyond.size:
         raise InputFormatError(
             f"{args.objects}, line {beyond[0] + 2}: last_scan "
             f"{objects['last_scan'].iloc[beyond[0]]} is beyond the {n_scans} scans of "
             f"{args.rundir} (numbered from 0): is it the objects file of this run?")
-    return objects
 
 
 def _cmd_survey_street(args) -> int:
@@ -93,6 +91,7 @@ def _cmd_survey_street(args) -> int:
         require_extra("plot", "--plot")
     _check_outputs(args)
     model = common.cli_model(args, "street") if args.model is not None else None
+    objects = read_objects(args.objects) if model is None else None  # before the run
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
                              speed_topic=args.speed_topic)
@@ -113,7 +112,7 @@ def _cmd_survey_street(args) -> int:
         raise InputFormatError(f"{args.rundir}: {len(stamps)} scan(s); a census needs "
                                "at least two (the time between scans gives distance)")
     if model is None:
-        objects = _objects_file(args, len(stamps))
+        _check_objects_file(args, objects, len(stamps))
     distances = scan_distances(stamps, _speeds(args, speeds, model))
     table = census(objects, distances, segment_length=args.segment_length)
     with atomic_write(args.out, "w") as f:
