@@ -29,6 +29,7 @@ from _common import load, machine, output_path, save_figure  # noqa: E402
 
 from tunnelsense.datasets import make_street_scans  # noqa: E402
 from tunnelsense.io import ego_speed  # noqa: E402
+from tunnelsense.metrics import street_scores  # noqa: E402
 from tunnelsense.plotting import plot_census  # noqa: E402
 from tunnelsense.street import (  # noqa: E402
     census,
@@ -55,6 +56,9 @@ def censuses(n_scans):
         KIND_CLASS[kinds[i]] if label == "parked" else ""
         for i, label in zip(run.gt["id"], run.gt["label"], strict=True)])
     distances = scan_distances([s.stamp for s in run.scans], ego_speed(run.info))
+    scores = street_scores(run.gt, detected)["parked"]
+    print(f"detected parked vehicles: {scores['tp']} matched, {scores['fn']} missed, "
+          f"{scores['fp']} false (scan-interval IoU >= 0.5)")
     return {name: (census(objects, distances, segment_length=SEGMENT),
                    parked_extents(objects, distances))
             for name, objects in (("detected", detected), ("true", truth))}
