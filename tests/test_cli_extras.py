@@ -78,6 +78,22 @@ def test_a_missing_extra_is_named_before_any_work(street):
     assert "tour" not in results[1][1]
 
 
+def test_survey_names_a_missing_extra_before_any_work(street):
+    root, model = street["root"], str(street["model"])
+    out, plot = root / "census.csv", root / "census.png"
+    results = _without_extras(
+        ["survey", "street", str(street["run"]), "--model", model, "--out", str(out),
+         "--plot", str(plot), "--quiet"],
+        ["survey", "street", str(street["bag"]), "--model", model, "--out", str(out)],
+    )
+    hints = ["pip install 'tunnelsense[plot]'", "pip install 'tunnelsense[rosbag]'"]
+    for (status, err), hint in zip(results, hints, strict=True):
+        assert status == 1, err
+        assert err.count("\n") == 1 and hint in err, err
+    assert "--plot needs matplotlib" in results[0][1]
+    assert not out.exists() and not plot.exists()
+
+
 def test_an_import_error_of_an_extra_deep_inside_is_a_hint(monkeypatch, capsys):
     from tunnelsense.cli import info
 

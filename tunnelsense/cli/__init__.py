@@ -17,7 +17,7 @@ from tunnelsense._version import __version__
 __all__ = ["build_parser", "main"]
 
 #: The command modules, in the order of the help text.
-_MODULES = ("info", "simulate", "tunnel", "street", "position", "keys")
+_MODULES = ("info", "simulate", "tunnel", "street", "survey", "position", "keys")
 
 
 def build_parser() -> argparse.ArgumentParser:

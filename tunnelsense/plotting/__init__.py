@@ -5,6 +5,7 @@
 ``tunnelsense`` stays fast.
 """
 
+from tunnelsense.plotting._census import VEHICLE_CLASS_COLOURS, plot_census
 from tunnelsense.plotting._detections import DRAW_COLOURS, draw_detections
 from tunnelsense.plotting._frames import CLASS_COLORS, plot_frame
 from tunnelsense.plotting._scans import (
@@ -23,9 +24,11 @@ from tunnelsense.plotting._street import (
 __all__ = [
     "CLASS_COLORS",
     "DRAW_COLOURS",
+    "VEHICLE_CLASS_COLOURS",
     "draw_detections",
     "draw_run",
     "interval_bars",
+    "plot_census",
     "plot_clusters",
     "plot_dendrogram",
     "plot_frame",

@@ -5,13 +5,22 @@ Laser-Range Image*, as array functions and scikit-learn estimators on scan recor
 user guide: :doc:`/street`.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
 clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``),
-the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``).
+the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``);
+a parking census of the objects (``_census``).
 """
 
 # The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
 # (_clustering), objects (_sections, _objects), the online state (_stream), the
 # estimator (_detector) and whole runs (_run).
 
+from tunnelsense.street._census import (
+    CENSUS_CLASSES,
+    CENSUS_COLUMNS,
+    VEHICLE_CLASSES,
+    census,
+    parked_extents,
+    scan_distances,
+)
 from tunnelsense.street._clustering import link_scans, single_linkage
 from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer
 from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
@@ -38,6 +47,12 @@ from tunnelsense.street._sections import section_evidence
 from tunnelsense.street._splitting import split_profile
 
 __all__ = [
+    "CENSUS_CLASSES",
+    "CENSUS_COLUMNS",
+    "VEHICLE_CLASSES",
+    "census",
+    "parked_extents",
+    "scan_distances",
     "OBJECT_COLUMNS",
     "OBJECT_CSV_COLUMNS",
     "SEARCH_GRID",
