@@ -140,7 +140,7 @@ class PositionStream:
             self._lockon, self._lock_k = None, 0
             self.lock_frame = "start"
 
-    def _start_lockon(self):
+    def _start_lockon(self, start=0.0):
         p = self._p
         self._lock_k = None
         self._lock_q = None  # cumulative noise at the last pass given to the lock-on
@@ -148,7 +148,7 @@ class PositionStream:
             self._map, scale=self._c0, scale_sigma=math.sqrt(self._sc2),
             fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
             false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
-            min_passes=p.lock_passes)
+            min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation)
 
     @property
     def locked(self) -> bool:
@@ -543,7 +543,7 @@ class PositionStream:
     def _unlock(self):
         """The gate has rejected several passes in a row: find the place again."""
         rejected, self._rejected = self._rejected, []
-        self._start_lockon()
+        self._start_lockon(start=None)  # where it was since the lock: unknown
         self.lock_frame = None
         self.relocked = True
         self.fix_list = [] if self.fix_list is not None else None
