@@ -187,11 +187,12 @@ def _stream_run(pos, rows, frames, tracks, heights):
     return stream, n_fixes
 
 
-def memory(sizes=(3_000, 30_000, 300_000)):
+def memory(sizes=(3_000, 30_000, 300_000), repeats=3):
     """Time per frame and memory of the online stream, flat in the tour's length."""
     import tracemalloc
 
-    print("stream time (median of 3) and memory held at the end and at the peak")
+    print(f"stream time (median of {repeats}) and memory held at the end and at the "
+          "peak")
     print(f"{'frames':>8} {'us/frame':>9} {'held KB':>8} {'peak KB':>8} "
           f"{'fixes':>6}")
     for n in sizes:
@@ -212,7 +213,7 @@ def memory(sizes=(3_000, 30_000, 300_000)):
 
         args = (pos, rows, frames, tracks, heights)
         times = []
-        for _ in range(3):  # time without tracemalloc (it slows allocation)
+        for _ in range(repeats):  # time without tracemalloc (it slows allocation)
             t0 = time.perf_counter()
             _stream_run(*args)
             times.append(time.perf_counter() - t0)
@@ -226,10 +227,12 @@ def memory(sizes=(3_000, 30_000, 300_000)):
               f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
 
 
-def lock(seeds):
+def lock(seeds, scale_range=(0.01, 0.04)):
     """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
+    lo, hi = scale_range
     print(f"lock-on, irregular map (gaps 150-250 m), {len(seeds)} tours (seeds "
-          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error 1-4 %")
+          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error "
+          f"{100 * lo:.0f}-{100 * hi:.0f} %")
     passes, wrong, err, never = [], 0, [], 0
     start_rows = []
     for seed in seeds:
@@ -237,7 +240,7 @@ def lock(seeds):
         truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
                                        indicator_spacing_m=(150.0, 250.0),
                                        random_state=seed)
-        scale = rng.choice([-1, 1]) * rng.uniform(0.01, 0.04)
+        scale = rng.choice([-1, 1]) * rng.uniform(lo, hi)
         positions, odometry, indicators = make_tunnel_odometry(
             truth, scale_error=scale, random_state=seed)
         det = simulate_indicator_detections(truth, random_state=seed)
@@ -335,7 +338,12 @@ def main():
     parser.add_argument("--memory", action="store_true", help="only the stream's "
                         "time and memory from 3k to 300k frames")
     parser.add_argument("--lock", action="store_true", help="only lock-on and a start "
-                        "10 m off, on --seeds tours from seed 1000")
+                        "10 m off, on --seeds tours from --first-seed")
+    parser.add_argument("--first-seed", type=int, default=1000, help="first seed of "
+                        "the --lock tours (evaluation seeds: never used to choose a "
+                        "setting; the settings were chosen on 5000-5299)")
+    parser.add_argument("--harder", action="store_true", help="--lock tours with "
+                        "scale errors of 2-4 %% (instead of 1-4 %%)")
     parser.add_argument("--speed", action="store_true", help="only position --model "
                         "beside detect tunnel on one rendered tour")
     parser.add_argument("--frames", type=int, default=3000)
@@ -349,7 +357,8 @@ def main():
         memory()
         return
     if args.lock:
-        lock(list(range(1000, 1000 + args.seeds)))
+        lock(list(range(args.first_seed, args.first_seed + args.seeds)),
+             (0.02, 0.04) if args.harder else (0.01, 0.04))
         return
     if not args.only_rendered:
         statistical(list(range(args.seeds)))
