@@ -19,17 +19,22 @@ then its rows have ``locked=False`` and no chainage.
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.positioning._fixes import detection_table, estimate_pass
+from tunnelsense.positioning._fixes import _estimate_pass, detection_table
 from tunnelsense.positioning._lock import LockOn
 from tunnelsense.positioning._tables import ESTIMATE_COLUMNS
 
 __all__ = ["FIX_COLUMNS", "Position", "PositionStream"]
+
+#: A trajectory with this many degrees of freedom (boxes beyond the line's two
+#: parameters) tells the detector's box-height noise (its estimate within a third).
+_NOISE_DOF = 20
 
 #: Columns of the fix log (``PositionStream.fixes``).
 FIX_COLUMNS = ("track_id", "first_frame", "last_frame", "pass_frame", "pass_distance",
@@ -125,10 +130,15 @@ class PositionStream:
         self._c0 = float(p.initial_scale)
         self._sc2 = float(p.scale_sigma) ** 2 if p.estimate_scale else 0.0
         self._fixes = {}  # frame index -> [(u, z, r)], applied online
-        # (frame index, u, z, r) of every fix, for the whole-tour smoother (offline)
+        # (frame index, u, z, r, noise2) of every fix, for the whole-tour smoother
+        # (offline; noise2: the relative box noise of its trajectory, squared)
         self.fix_list = [] if keep_fixes else None
         self.relocked = False
         self._tracks = {}  # track id -> [distances, heights, last frame, last index]
+        # relative box-height noise (squared) of the last long trajectories: their
+        # median is the least noise a short trajectory's pass is given
+        self._box_noise = deque(maxlen=31)
+        self._pass_noise = {}  # offline: pass distance -> its boxes' noise2
         self._log = []
         self._rows = _Rows()
         self._closed = False
@@ -149,6 +159,13 @@ class PositionStream:
             fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
             false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
             min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation)
+
+    def pooled_box_noise(self):
+        """Median squared relative box-height noise of the long trajectories seen
+        (None before three)."""
+        if len(self._box_noise) < 3:
+            return None
+        return float(np.median(self._box_noise))
 
     @property
     def locked(self) -> bool:
@@ -422,12 +439,18 @@ class PositionStream:
                 else math.nan
             scale = scale if scale == scale else self._c0
             slope = -scale / (float(p.focal_length_px) * float(p.sign_height_m))
-        dist, var = estimate_pass(d, hs[keep], slope=slope)
+        pooled = self.pooled_box_noise()
+        dist, var, noise2, dof = _estimate_pass(
+            d, hs[keep], slope, None if pooled is None else math.sqrt(pooled))
         row["pass_distance"] = dist
         if not np.isfinite(dist):
             row["reason"] = "the object does not approach"
             self._log.append(row)
             return
+        if dof >= _NOISE_DOF:
+            self._box_noise.append(noise2)
+        if self.fix_list is not None:
+            self._pass_noise[dist] = noise2
         ahead = dist - d[-1]
         if not (-2.0 <= ahead <= float(p.max_extrapolation)):
             row["reason"] = (f"passes {ahead:.1f} m past its last box (expected 0 to "
@@ -485,7 +508,7 @@ class PositionStream:
         z = float(self._map[j])
         self._fixes.setdefault(k, []).append((u, z, r))
         if self.fix_list is not None:
-            self.fix_list.append((k, u, z, r))
+            self.fix_list.append((k, u, z, r, self._pass_noise.get(dist, math.nan)))
         # delayed measurement: correct at the pass, propagate the odometry since
         self._post[k % W] = _update(x, u, z, r)
         self._propagate(k)
@@ -530,7 +553,8 @@ class PositionStream:
                 continue
             z = float(self._map[j])
             if self.fix_list is not None:
-                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
+                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv,
+                                      self._pass_noise.get(rr["pass_distance"], math.nan)))
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
                       indicator_chainage=z)
         self._lock_k = k
