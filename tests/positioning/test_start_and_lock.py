@@ -119,18 +119,21 @@ def test_lock_on_without_a_start(global_random_seed):
 
 
 def test_an_evenly_spaced_map_never_gives_a_wrong_chainage(global_random_seed):
-    """Every 200 m: the passes fit many places equally; no lock, no chainage."""
-    truth, positions, odometry, indicators, det = _tour(global_random_seed)
-    est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
-        det, odometry, return_fixes=True)
-    assert not est["locked"].any() and est["chainage"].isna().all()
-    assert "places of the map explain them equally" in fixes.attrs["lock_status"]
-    assert not fixes["accepted"].any()
-    errors = position_errors(positions, est, odometry, indicators)
-    assert errors["lock"] is None and errors["max"] is None
-    smooth = TunnelPositioner(initial_chainage=None, smooth=True).fit(
-        indicators).predict(det, odometry)
-    assert smooth["chainage"].isna().all()
+    """Every 200 m: the passes fit many places equally; no lock, no chainage --
+    wherever in the tunnel the record begins, the odometry long or short."""
+    for start, scale_error in ((1000.0, 0.03), (330.0, -0.04), (2950.0, 0.01)):
+        truth, positions, odometry, indicators, det = _tour(
+            global_random_seed, start=start, scale_error=scale_error)
+        est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
+            det, odometry, return_fixes=True)
+        assert not est["locked"].any() and est["chainage"].isna().all()
+        assert "places of the map explain them equally" in fixes.attrs["lock_status"]
+        assert not fixes["accepted"].any()
+        errors = position_errors(positions, est, odometry, indicators)
+        assert errors["lock"] is None and errors["max"] is None
+        smooth = TunnelPositioner(initial_chainage=None, smooth=True).fit(
+            indicators).predict(det, odometry)
+        assert smooth["chainage"].isna().all()
 
 
 def test_a_wrong_start_is_dropped_and_found_again(global_random_seed):
@@ -210,6 +213,25 @@ def test_cli_start_unknown_writes_unlocked_rows(tmp_path, capsys):
                   str(tmp_path / "x.csv"), *bad])
         assert bad[0] in capsys.readouterr().err
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_cli_on_an_evenly_spaced_map_says_it_cannot_lock(tmp_path, capsys):
+    """The command line says why, and writes every row unlocked, chainage empty."""
+    truth, positions, odometry, indicators, det = _tour(4)  # a sign every 200 m
+    tour = tmp_path / "tour"
+    tour.mkdir()
+    truth.write(tour)
+    results = tmp_path / "r.txt"
+    det.assign(x=-1, y=-1, z=-1).to_csv(results, header=False, index=False)
+    out = tmp_path / "pos.csv"
+    assert main(["position", str(tour), "--results", str(results), "--out", str(out),
+                 "--start-chainage", "unknown"]) == 0
+    text = capsys.readouterr().out
+    assert "not locked on" in text and "explain them equally" in text
+    assert "give the chainage of the first frame" in text
+    got = read_positions(out, sigma=True)
+    assert len(got) == len(positions)
+    assert not got["locked"].any() and got["chainage"].isna().all()
 
 
 def test_unlocked_rows_are_checked(tmp_path):
