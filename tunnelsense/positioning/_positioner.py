@@ -328,12 +328,7 @@ class TunnelPositioner(BaseEstimator):
                else np.zeros_like(dt))
         sc2 = float(self.scale_sigma) ** 2 if self.estimate_scale else 0.0
         fixes = {}
-        # the box noise of the whole tour: a pass fitted before it was known (the
-        # first, often cut short by the start of the record) gets at least it
-        pooled, f2 = stream.pooled_box_noise(), float(self.fix_sigma) ** 2
-        for k, u, z, r, noise2 in stream.fix_list:
-            if pooled is not None and 0.0 < noise2 < pooled:
-                r = f2 + (r - f2) * pooled / noise2
+        for k, u, z, r in stream.fix_list:
             fixes.setdefault(k, []).append((u, z, r))
         known = self.initial_chainage is not None and not stream.relocked
         if known:

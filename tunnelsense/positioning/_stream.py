@@ -130,15 +130,17 @@ class PositionStream:
         self._c0 = float(p.initial_scale)
         self._sc2 = float(p.scale_sigma) ** 2 if p.estimate_scale else 0.0
         self._fixes = {}  # frame index -> [(u, z, r)], applied online
-        # (frame index, u, z, r, noise2) of every fix, for the whole-tour smoother
-        # (offline; noise2: the relative box noise of its trajectory, squared)
+        # (frame index, u, z, r) of every fix, for the whole-tour smoother (offline)
         self.fix_list = [] if keep_fixes else None
         self.relocked = False
         self._tracks = {}  # track id -> [distances, heights, last frame, last index]
         # relative box-height noise (squared) of the last long trajectories: their
         # median is the least noise a short trajectory's pass is given
         self._box_noise = deque(maxlen=31)
-        self._pass_noise = {}  # offline: pass distance -> its boxes' noise2
+        self._box_noise_known = None  # the pooled noise2, once three are seen
+        # fixes used before it: (frame index, index among its fixes, noise2, index in
+        # fix_list)
+        self._early = []
         self._log = []
         self._rows = _Rows()
         self._closed = False
@@ -449,8 +451,9 @@ class PositionStream:
             return
         if dof >= _NOISE_DOF:
             self._box_noise.append(noise2)
-        if self.fix_list is not None:
-            self._pass_noise[dist] = noise2
+            if self._box_noise_known is None and len(self._box_noise) >= 3:
+                self._box_noise_known = self.pooled_box_noise()
+                self._reweight_early()
         ahead = dist - d[-1]
         if not (-2.0 <= ahead <= float(p.max_extrapolation)):
             row["reason"] = (f"passes {ahead:.1f} m past its last box (expected 0 to "
@@ -461,7 +464,7 @@ class PositionStream:
             row["reason"] = "passed before the first frame"
             self._log.append(row)
             return
-        row["_var"] = var
+        row["_var"], row["_noise2"] = var, noise2
         self._apply(dist, row)
 
     def _apply(self, dist, row):
@@ -506,12 +509,41 @@ class PositionStream:
         self._rejected = []
         row.update(accepted=True, reason="")
         z = float(self._map[j])
-        self._fixes.setdefault(k, []).append((u, z, r))
+        here = self._fixes.setdefault(k, [])
+        here.append((u, z, r))
+        noise2 = row.pop("_noise2", math.nan)
+        if self._box_noise_known is None:  # weighted again once the noise is known
+            self._early.append((k, len(here) - 1, noise2,
+                                None if self.fix_list is None else len(self.fix_list)))
         if self.fix_list is not None:
-            self.fix_list.append((k, u, z, r, self._pass_noise.get(dist, math.nan)))
+            self.fix_list.append((k, u, z, r))
         # delayed measurement: correct at the pass, propagate the odometry since
         self._post[k % W] = _update(x, u, z, r)
         self._propagate(k)
+
+    def _reweight_early(self):
+        """The box noise is now known: the fixes used before it, whose trajectories'
+        own noise was smaller, get the variance it gives (the first pass, cut short by
+        the start of the record, fits a dozen boxes well by chance); the state is
+        propagated again from the first of them."""
+        pooled, f2 = self._box_noise_known, float(self._p.fix_sigma) ** 2
+        first = None
+        for k, idx, noise2, at in self._early:
+            if k < self._n - self._W or not 0.0 < noise2 < pooled:
+                continue
+            u, z, r = self._fixes[k][idx]
+            r = f2 + (r - f2) * pooled / noise2
+            self._fixes[k][idx] = (u, z, r)
+            if at is not None:
+                self.fix_list[at] = (k, u, z, r)
+            first = k if first is None else min(first, k)
+        self._early = []
+        if first is not None:
+            x = self._prior[first % self._W].tolist()
+            for fu, z, r in self._fixes[first]:
+                x = _update(x, fu, z, r)
+            self._post[first % self._W] = x
+            self._propagate(first)
 
     def _propagate(self, k):
         """Propagate the post state of frame ``k`` to the last frame, with the fixes."""
@@ -552,9 +584,9 @@ class PositionStream:
             if j < 0:
                 continue
             z = float(self._map[j])
+            rr.pop("_noise2", None)
             if self.fix_list is not None:
-                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv,
-                                      self._pass_noise.get(rr["pass_distance"], math.nan)))
+                self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
                       indicator_chainage=z)
         self._lock_k = k
@@ -572,6 +604,7 @@ class PositionStream:
         self.relocked = True
         self.fix_list = [] if self.fix_list is not None else None
         self._fixes = {}
+        self._early = []
         n, W = self._n, self._W
         first = rejected[0][2]
         for i in range(max(first, n - W), n):  # unknown from the first rejected pass
