@@ -1,10 +1,11 @@
 """Online positioning stream: time per frame and memory, flat in the tour's length.
 
 Run: ``python benchmarks/bench_positioning_stream.py [frames ...] [--repeats N]
-[--speed]``.  The default sizes are 3,000, 30,000 and 300,000 frames (add 3000000
-for a 2,200 km tour: about 15 minutes and 2 GB for the tour's tables, not for the
-stream).  For each size a simulated tour (80 km/h, a sign every 200 m, the
-detector's output simulated) is pushed frame by frame through a fresh
+[--speed]``.  The default sizes are 3,000, 30,000 and 300,000 frames; 3000000 can be
+added (the simulator's tours end at 1,000 km, so that tour is driven at 41 km/h;
+its tables, not the stream, take a few hundred MB, and it runs for many minutes).
+For each size a simulated tour (80 km/h, a sign every 200 m, the detector's output
+simulated) is pushed frame by frame through a fresh
 ``TunnelPositioner().start_stream()``, its final rows drained every 1,024 frames as
 ``position --model`` does: the time a frame (median of ``--repeats`` runs, without
 ``tracemalloc``), then the memory the stream holds at the end and at its peak
