@@ -9,22 +9,13 @@ from pathlib import Path
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extras_for_runs
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
-from tunnelsense.io._rosbag import is_bag
-from tunnelsense.metrics import street_report, street_scores
-from tunnelsense.plotting import draw_run
-from tunnelsense.street import (
-    format_objects_written,
-    format_runs,
-    format_training,
-    train_detector,
-    write_objects,
-)
 
 __all__ = ["register"]
 
 
 def _read_runs(paths, args):
+    from tunnelsense.io import read_run
+
     runs = []
     for p in paths:
         runs.append(read_run(p, range_unit=args.range_unit, topic=args.topic,
@@ -37,6 +28,8 @@ def _read_runs(paths, args):
 def _check_bag_speed(path, info, model=None) -> None:
     """Refuse a bag that gives no ego speed when the model fixes none: its lengths
     would come from an assumed 40 km/h."""
+    from tunnelsense.io._rosbag import is_bag
+
     if not is_bag(path) or "speed" in info or "speed_topic" in info:
         return
     if model is not None and getattr(model[-1], "speed", None) is not None:
@@ -48,6 +41,8 @@ def _check_bag_speed(path, info, model=None) -> None:
 
 
 def _cmd_train(args) -> int:
+    from tunnelsense.street._run import format_runs, format_training, train_detector
+
     start = time.perf_counter()
     require_extras_for_runs(args.rundirs)
     key = common.check_model_output(args, args.rundirs)
@@ -64,6 +59,9 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    from tunnelsense.io._laser import open_run_stream
+    from tunnelsense.street._run import format_objects_written, write_objects
+
     require_extras_for_runs([args.rundir], draw=args.draw)
     common.check_detect_outputs(args, args.rundir, [args.out])
     model = common.cli_model(args, "street")
@@ -77,6 +75,8 @@ def _cmd_detect(args) -> int:
             args, source.n_scans, f"{source.name}: detecting", unit="scan"))
     print(format_objects_written(source.name, counts, args.out, resumed))
     if args.draw:
+        from tunnelsense.plotting import draw_run
+
         run = _read_runs([args.rundir], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans
         written = draw_run(run, model[-1], args.draw, X=head)
@@ -85,6 +85,9 @@ def _cmd_detect(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
+    from tunnelsense.io import read_objects, read_run_gt
+    from tunnelsense.metrics import street_report, street_scores
+
     rundir = Path(args.rundir)
     gt = read_run_gt(rundir / "gt.csv" if rundir.is_dir() else rundir)
     detected = read_objects(args.objects)

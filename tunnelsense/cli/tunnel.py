@@ -10,22 +10,14 @@ from pathlib import Path
 
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extra
-from tunnelsense.io import clusters_path, read_tour
-from tunnelsense.metrics import results_scores, tunnel_report
-from tunnelsense.tunnel import (
-    detect_to_files,
-    fit_indicator_detector,
-)
-from tunnelsense.tunnel._detect import SEARCH_GRID
-from tunnelsense.tunnel._reports import (
-    format_detection,
-    format_tours,
-    format_training,
-    run_demo,
-)
+from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 
 def _cmd_train(args) -> int:
+    from tunnelsense.io import read_tour
+    from tunnelsense.tunnel import fit_indicator_detector
+    from tunnelsense.tunnel._reports import format_tours, format_training
+
     start = time.perf_counter()
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
@@ -44,6 +36,10 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    from tunnelsense.io import clusters_path
+    from tunnelsense.tunnel import detect_to_files
+    from tunnelsense.tunnel._reports import format_detection
+
     start, out = time.perf_counter(), Path(args.out)
     common.check_detect_outputs(args, args.source, [out, clusters_path(out)])
     if args.draw_video:
@@ -68,6 +64,7 @@ def _cmd_detect(args) -> int:
 def _check_video_output(args, out) -> None:
     """Refuse a --draw-video file before any work: a .mp4/.avi name, not an input,
     not another output of the run, and an existing file only with --force."""
+    from tunnelsense.io import clusters_path
     from tunnelsense.io._output import check_output, input_files
     from tunnelsense.io._video_out import check_video_path
 
@@ -84,6 +81,9 @@ def _check_video_output(args, out) -> None:
 
 
 def _cmd_evaluate(args) -> int:
+    from tunnelsense.io import read_tour
+    from tunnelsense.metrics import results_scores, tunnel_report
+
     tour = read_tour(args.seqdir)
     scores = results_scores(args.results, tour, min_height=args.min_height)
     print(json.dumps(scores, indent=2) if args.json
@@ -92,6 +92,8 @@ def _cmd_evaluate(args) -> int:
 
 
 def _cmd_demo(args) -> int:
+    from tunnelsense.tunnel._reports import run_demo
+
     for text in run_demo(args.frames, random_state=args.seed, min_height=args.min_height,
                          progress=lambda total, desc: common.progress(args, total, desc)):
         print(text)

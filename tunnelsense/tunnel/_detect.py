@@ -36,6 +36,7 @@ from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.plotting._detections import draw_detections
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
+from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 __all__ = [
     "SEARCH_GRID",
@@ -46,12 +47,6 @@ __all__ = [
     "stream_detect",
 ]
 
-#: The small grid ``fit_indicator_detector(search=True)`` explores.
-SEARCH_GRID = {
-    "appearance__positive_weight": [1.0, 7.0],
-    "motion__min_r": [0.9, 0.95],
-    "motion__min_length": [5, 10],
-}
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
