@@ -76,7 +76,7 @@ def load_all(package: str = "tunnelsense") -> None:
     module = importlib.import_module(package)
     for name in getattr(module, "__all__", ()):
         getattr(module, name)
-    for sub in ("io", "metrics", "positioning", "street", "tunnel"):
+    for sub in ("io", "metrics", "street", "tunnel"):
         inner = importlib.import_module(f"{package}.{sub}")
         for name in inner.__all__:
             getattr(inner, name)

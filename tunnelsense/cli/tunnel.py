@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extra
 from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
@@ -36,6 +37,10 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    sources = fleet.fleet_sources(args)
+    if sources is not None:
+        return fleet.run_fleet(args, "tunnel", sources,
+                               {"colour": common.colour(args)})
     from tunnelsense.io import clusters_path
     from tunnelsense.tunnel import detect_to_files
     from tunnelsense.tunnel._reports import format_detection
@@ -126,8 +131,10 @@ def register(verbs) -> None:
         "MOTChallenge results and every keypoint cluster beside them (.clusters.csv).")
     common.add_model_arguments(p, help_model="model written by 'train tunnel' (.skops, "
                                "or a .joblib pickle with --trust-pickle)")
-    p.add_argument("source", help="MOTChallenge folder, image folder or video file")
-    p.add_argument("--out", required=True, help="MOTChallenge results file to write")
+    p.add_argument("source", nargs="*", metavar="SOURCE", help="MOTChallenge folder, "
+                   "image folder or video file (several: a fleet, see --tours-from)")
+    p.add_argument("--out", required=True, help="MOTChallenge results file to write "
+                   "(several sources: the folder of their results files)")
     p.add_argument("--draw", metavar="DIR", help="also draw frames into DIR (clusters, "
                    "trajectories, a legend and the frame number)")
     p.add_argument("--draw-every", type=int, default=1, metavar="N", help="with --draw, "
@@ -142,8 +149,10 @@ def register(verbs) -> None:
     common.add_output_arguments(p, quiet=True)
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode the next frames while the detector works (0: decode in the "
-                   "detector's thread; default: the number of CPUs)")
+                   "detector's thread; several sources: tours detected at once; "
+                   "default: the number of CPUs)")
     common.add_colour_arguments(p)
+    fleet.add_fleet_arguments(p, "tour")
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(
