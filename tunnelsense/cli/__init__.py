@@ -50,6 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Run the command; return its exit status (0 done, 1 bad input or a missing
     optional extra, 3 a defect, 130 interrupted)."""
+    if argv is None:  # the command: its own process (see tunnelsense._deferred)
+        from tunnelsense._deferred import defer
+
+        defer()
     try:
         return _run(argv)
     except KeyboardInterrupt:  # Ctrl-C at any moment, start-up imports included

@@ -87,7 +87,7 @@ def _cmd_detect(args) -> int:
     model = common.cli_model(args, "street")
     source = open_run_stream(args.source, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
-                             speed_topic=args.speed_topic)
+                             speed_topic=args.speed_topic, ground_truth=False)
     _check_bag_speed(args.source, source.info, model)
     counts, resumed = write_objects(
         model, source, args.out, all_objects=args.all_objects, resume=args.resume,

@@ -257,7 +257,7 @@ def _detect_into(model, kind, source, out, options):
 
     reading = {k: options[k] for k in ("range_unit", "topic", "mount_height", "speed",
                                        "speed_topic") if options.get(k) is not None}
-    scans = open_run_stream(source, **reading)
+    scans = open_run_stream(source, ground_truth=False, **reading)
     counts, _ = write_objects(model, scans, out,
                               all_objects=bool(options.get("all_objects")))
     return {"counts": counts}
