@@ -67,8 +67,8 @@ def defer(names=DEFERRED) -> list[str]:
     for name in names:
         if name in sys.modules:
             continue
-        try:
-            if importlib.util.find_spec(name) is None:
+        try:  # the top-level package only: a submodule's look-up imports its parent
+            if importlib.util.find_spec(name.partition(".")[0]) is None:
                 continue
         except (ImportError, ValueError):
             continue
