@@ -93,13 +93,7 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     >>> summary["tours"][0]["frames"]
     60
     """
-    # training's modules (model selection, metrics: SciPy's stats) are imported here,
-    # not by detection
-    from sklearn.model_selection import GroupKFold
-
     from tunnelsense._fitting import counted, fit_pipeline, search_ticks
-    from tunnelsense._search import PrefixGridSearch
-    from tunnelsense.metrics import make_tunnel_scorer
 
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
@@ -116,6 +110,12 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     model = make_indicator_pipeline(random_state=random_state)
     found = None
     if search:
+        # model selection and scoring (they import SciPy's stats) only for a search
+        from sklearn.model_selection import GroupKFold
+
+        from tunnelsense._search import PrefixGridSearch
+        from tunnelsense.metrics import make_tunnel_scorer
+
         # keypoints, verifier and clusters (the k-means) are fitted once per fold
         found = PrefixGridSearch(
             model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
