@@ -135,3 +135,40 @@ def test_record_stage_checks_of_the_contrast_sampler(tours):
     for name, check in record_stage_checks(est, X[:3], y[:3]):
         check()
         assert name.startswith("check_")
+
+
+def test_surround_histograms_ignore_gain_offset_and_contrast():
+    from tunnelsense.tunnel._descriptors import surround_histograms
+
+    rng = np.random.default_rng(1)
+    wall = rng.normal(100, 2, (60, 60))
+    plate = wall.copy()
+    plate[10:40, 20:30] += 70
+    rows, cols = np.array([20, 25, 50]), np.array([24, 26, 10])
+    base = surround_histograms(plate.round().astype(np.uint8), rows, cols)
+    assert base.shape == (3, 32)
+    assert np.allclose(base.sum(axis=1), 1.0)
+    for gain, offset, contrast in [(0.7, -20, 1.0), (1.3, 20, 1.0), (1.0, 0, 0.5)]:
+        other = wall.copy()
+        other[10:40, 20:30] += 70 * contrast
+        img = (gain * other + offset).round().clip(0, 255).astype(np.uint8)
+        h = surround_histograms(img, rows, cols)
+        # the plate's keypoints: the same peak (bins 22-26, z within 1 +/- 0.125)
+        assert h[:2, 22:27].sum(axis=1).min() >= 0.9
+        assert np.abs(h[:2] - base[:2]).sum(axis=1).max() <= 0.6
+
+
+def test_verifier_surround_normalization_describes_by_one_histogram(tours):
+    from tunnelsense.tunnel import KMeansHistogramVerifier
+
+    plain, other, _ = tours
+    X, y, _ = to_xy([plain])
+    Xo, _, _ = to_xy([other])
+    sampled = IntensityKeypointSampler(**CONTRAST).fit_transform(X, y)
+    ver = KMeansHistogramVerifier(normalize="surround", context_size=None,
+                                  n_negative_clusters=40, random_state=0)
+    ver.fit(sampled, y)
+    assert ver.n_features_in_ == 32
+    out = ver.transform(sampled)
+    kept = sum(len(r.payload["keypoints"]) for r in out)
+    assert 0 < kept < sum(len(r.payload["sampled_keypoints"]) for r in out)
