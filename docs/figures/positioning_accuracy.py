@@ -187,16 +187,19 @@ def _stream_run(pos, rows, frames, tracks, heights):
     return stream, n_fixes
 
 
-def memory(sizes=(3_000, 30_000, 300_000)):
+def memory(sizes=(3_000, 30_000, 300_000), repeats=3):
     """Time per frame and memory of the online stream, flat in the tour's length."""
     import tracemalloc
 
-    print("stream time (median of 3) and memory held at the end and at the peak")
-    print(f"{'frames':>8} {'us/frame':>9} {'held KB':>8} {'peak KB':>8} "
+    print(f"stream time (median of {repeats}) and memory held at the end and at the "
+          "peak")
+    print(f"{'frames':>8} {'km/h':>5} {'us/frame':>9} {'held KB':>8} {'peak KB':>8} "
           f"{'fixes':>6}")
     for n in sizes:
-        distance = n / 30.0 * 22.0  # 80 km/h
-        truth = make_tunnel_kinematics(distance, speed_kmh=80.0, random_state=0)
+        # 80 km/h; slower where the tour would pass the simulator's 1,000 km
+        kmh = min(80.0, 0.95e6 / (n / 30.0) * 3.6)
+        distance = n / 30.0 * kmh / 3.6
+        truth = make_tunnel_kinematics(distance, speed_kmh=kmh, random_state=0)
         _, odometry, indicators = make_tunnel_odometry(truth, random_state=0)
         det = simulate_indicator_detections(truth, random_state=0)
         odometry = odometry.iloc[:n]
@@ -212,7 +215,7 @@ def memory(sizes=(3_000, 30_000, 300_000)):
 
         args = (pos, rows, frames, tracks, heights)
         times = []
-        for _ in range(3):  # time without tracemalloc (it slows allocation)
+        for _ in range(repeats):  # time without tracemalloc (it slows allocation)
             t0 = time.perf_counter()
             _stream_run(*args)
             times.append(time.perf_counter() - t0)
@@ -222,25 +225,71 @@ def memory(sizes=(3_000, 30_000, 300_000)):
         held, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         stream.close()
-        print(f"{n:>8} {1e6 * np.median(times) / n:>9.1f} {(held - base) / 1024:>8.0f} "
+        print(f"{n:>8} {kmh:>5.0f} {1e6 * np.median(times) / n:>9.1f} "
+              f"{(held - base) / 1024:>8.0f} "
               f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
 
 
-def lock(seeds):
+def _lock_tour(seed, scale_range, failures):
+    """A 2.4 km tour started mid-tunnel on a map with gaps of 150-250 m."""
+    rng = np.random.default_rng(seed)
+    truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
+                                   indicator_spacing_m=(150.0, 250.0),
+                                   random_state=seed)
+    scale = rng.choice([-1, 1]) * rng.uniform(*scale_range)
+    positions, odometry, indicators = make_tunnel_odometry(
+        truth, scale_error=scale, random_state=seed)
+    missed, false = [], []
+    if failures:  # one of the first three signs missed, a false alarm in the first 600 m
+        s = positions["chainage"].to_numpy()
+        c, ids = truth.indicator_chainage, truth.indicator_ids
+        ahead = np.flatnonzero((c > s[0] + 80) & (c < s[-1] - 80))
+        missed = [int(ids[ahead[rng.integers(0, 3)]])]
+        false = [float(s[0] + rng.uniform(80, 600))]
+    det = simulate_indicator_detections(truth, missed=missed, false_alarms=false,
+                                        random_state=seed)
+    return scale, positions, odometry, indicators, det
+
+
+def _previous_tunnel_scale(seed, scale):
+    """The scale and its sigma a vehicle ends another 2.4 km tunnel with."""
+    truth = make_tunnel_kinematics(2400.0, indicator_spacing_m=(150.0, 250.0),
+                                   random_state=seed + 100_000)
+    positions, odometry, indicators = make_tunnel_odometry(
+        truth, scale_error=scale, random_state=seed + 100_000)
+    det = simulate_indicator_detections(truth, random_state=seed + 100_000)
+    est = TunnelPositioner(initial_chainage=0.0).fit(indicators).predict(det, odometry)
+    return float(est["scale"].iloc[-1]), float(est["scale_sigma"].iloc[-1])
+
+
+def _after_first_pass(positions, est, fixes, odometry, indicators):
+    """Worst error at a pass after the first, largest error after the first pass,
+    dead reckoning's largest error, largest error anywhere."""
+    e = position_errors(positions, est, odometry, indicators)
+    kept = fixes[fixes["accepted"]].sort_values("pass_frame")
+    first, first_id = kept["pass_frame"].iloc[0], kept["indicator_id"].iloc[0]
+    after = est["frame"].to_numpy() > first
+    err_after = np.abs(est["chainage"] - positions["chainage"]).to_numpy()[after]
+    at_pass = max(abs(p["error"]) for p in e["passes"]
+                  if p["chainage"] > kept["indicator_chainage"].iloc[0]
+                  and p["id"] != first_id)
+    return at_pass, err_after.max(), e["dead_reckoning"]["max"], e["max"]
+
+
+def lock(seeds, scale_range=(0.01, 0.04), failures=False):
     """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
+    lo, hi = scale_range
     print(f"lock-on, irregular map (gaps 150-250 m), {len(seeds)} tours (seeds "
-          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error 1-4 %")
-    passes, wrong, err, never = [], 0, [], 0
-    start_rows = []
+          f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error "
+          f"{100 * lo:.0f}-{100 * hi:.0f} %"
+          + (", one of the first three signs missed and a false alarm in the first "
+             "600 m" if failures else ""))
+    passes, wrong, wrong_m, err, end_err, never = [], 0, [], [], [], 0
+    start_rows = {"online": [], "smoothed": [], "online, scale carried": []}
     for seed in seeds:
-        rng = np.random.default_rng(seed)
-        truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
-                                       indicator_spacing_m=(150.0, 250.0),
-                                       random_state=seed)
-        scale = rng.choice([-1, 1]) * rng.uniform(0.01, 0.04)
-        positions, odometry, indicators = make_tunnel_odometry(
-            truth, scale_error=scale, random_state=seed)
-        det = simulate_indicator_detections(truth, random_state=seed)
+        scale, positions, odometry, indicators, det = _lock_tour(seed, scale_range,
+                                                                 failures)
+        s = positions["chainage"].to_numpy()
         est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
             det, odometry, return_fixes=True)
         e = position_errors(positions, est, odometry, indicators)
@@ -249,39 +298,45 @@ def lock(seeds):
             continue
         # the passes the lock-on saw (the last one may be just ahead of the camera)
         passes.append(int(fixes["reason"].str.contains("lock").sum()))
-        wrong += e["max"] > 50.0
-        err.append(e["max"])
-        s0 = positions["chainage"].iloc[0]
-        for smooth in (False, True):
+        bad = np.abs(est["chainage"].to_numpy() - s) > 50.0  # a wrong place: >= 150 m
+        if bad.any():
+            wrong += 1
+            wrong_m.append(float(np.diff(s, prepend=s[0])[bad].sum()))
+        ok = est["locked"].to_numpy() & ~bad
+        err.append(float(np.abs(est["chainage"].to_numpy() - s)[ok].max()))
+        end_err.append(abs(float(est["chainage"].iloc[-1]) - s[-1]))
+        if failures:
+            continue
+        for name, kw in (("online", {}), ("smoothed", {"smooth": True}),
+                         ("online, scale carried", "carried")):
+            if kw == "carried":
+                c, sigma = _previous_tunnel_scale(seed, scale)
+                kw = {"initial_scale": c, "scale_sigma": sigma}
             est, fixes = TunnelPositioner(
-                initial_chainage=s0 + 10.0, initial_sigma=20.0, smooth=smooth).fit(
+                initial_chainage=s[0] + 10.0, initial_sigma=20.0, **kw).fit(
                 indicators).predict(det, odometry, return_fixes=True)
-            e = position_errors(positions, est, odometry, indicators)
-            kept = fixes[fixes["accepted"]].sort_values("pass_frame")
-            first, first_id = kept["pass_frame"].iloc[0], kept["indicator_id"].iloc[0]
-            after = est["frame"].to_numpy() > first
-            err_after = np.abs(est["chainage"] - positions["chainage"]).to_numpy()[after]
-            start_rows.append((smooth, max(abs(p["error"]) for p in e["passes"]
-                                           if p["chainage"] > kept[
-                                               "indicator_chainage"].iloc[0]
-                                           and p["id"] != first_id),
-                               err_after.max(), e["dead_reckoning"]["max"], e["max"]))
+            start_rows[name].append(_after_first_pass(positions, est, fixes, odometry,
+                                                      indicators))
     passes = np.asarray(passes)
-    print(f"  locked: {len(passes)} of {len(seeds)}; wrong locks {wrong}; passes seen "
-          f"until the lock: " + ", ".join(f"{k}: {np.sum(passes == k)}"
-                                   for k in range(1, passes.max() + 1)))
-    print(f"  largest error after the lock: {max(err):.2f} m")
-    print("start 10 m off (sigma 20 m), the same tours:")
-    for smooth in (False, True):
-        rows = [r for r in start_rows if r[0] == smooth]
-        worst_pass = max(r[1] for r in rows)
-        ratio = min(r[3] / r[2] for r in rows)
-        ratios = np.array([r[3] / r[2] for r in rows])
-        print(f"  {'smoothed' if smooth else 'online  '}: worst error at a pass after "
-              f"the first {worst_pass:.2f} m; largest error after the first pass "
-              f"{max(r[2] for r in rows):.2f} m, at least {ratio:.1f}x below dead "
-              f"reckoning ({np.mean(ratios >= 10):.0%} of tours 10x or more); largest "
-              f"error anywhere {max(r[4] for r in rows):.2f} m")
+    print(f"  locked: {len(passes)} of {len(seeds)}; passes seen until the lock: "
+          + ", ".join(f"{k}: {np.sum(passes == k)}"
+                      for k in range(1, passes.max() + 1)))
+    print(f"  tours with a wrong chainage written: {wrong}"
+          + (f" (for {', '.join(f'{m:.0f}' for m in wrong_m)} m, until the gate "
+             "rejected three passes and the lock was found again)" if wrong else ""))
+    print(f"  largest error after the lock (at the right place): {max(err):.2f} m; at "
+          f"the end of the tour {max(end_err):.2f} m")
+    if failures:
+        return
+    print("start 10 m off (sigma 20 m), the same tours (scale carried: the scale and "
+          "its sigma from another 2.4 km tunnel with the same odometry):")
+    for name, rows in start_rows.items():
+        rows = np.asarray(rows)
+        ratios = rows[:, 2] / rows[:, 1]
+        print(f"  {name:21}: worst error at a pass after the first {rows[:, 0].max():.2f}"
+              f" m; largest error after the first pass {rows[:, 1].max():.2f} m, at "
+              f"least {ratios.min():.1f}x below dead reckoning ({np.mean(ratios >= 10):.0%}"
+              f" of tours 10x or more); largest error anywhere {rows[:, 3].max():.2f} m")
 
 
 def speed(n_frames, repeats=3, seed=0):
@@ -335,7 +390,15 @@ def main():
     parser.add_argument("--memory", action="store_true", help="only the stream's "
                         "time and memory from 3k to 300k frames")
     parser.add_argument("--lock", action="store_true", help="only lock-on and a start "
-                        "10 m off, on --seeds tours from seed 1000")
+                        "10 m off, on --seeds tours from --first-seed")
+    parser.add_argument("--first-seed", type=int, default=1000, help="first seed of "
+                        "the --lock tours (evaluation seeds: never used to choose a "
+                        "setting; the settings were chosen on 5000-5299)")
+    parser.add_argument("--harder", action="store_true", help="--lock tours with "
+                        "scale errors of 2-4 %% (instead of 1-4 %%)")
+    parser.add_argument("--failures", action="store_true", help="--lock tours with "
+                        "one of the first three signs missed and a false alarm in the "
+                        "first 600 m (lock-on only)")
     parser.add_argument("--speed", action="store_true", help="only position --model "
                         "beside detect tunnel on one rendered tour")
     parser.add_argument("--frames", type=int, default=3000)
@@ -349,7 +412,8 @@ def main():
         memory()
         return
     if args.lock:
-        lock(list(range(1000, 1000 + args.seeds)))
+        lock(list(range(args.first_seed, args.first_seed + args.seeds)),
+             (0.02, 0.04) if args.harder else (0.01, 0.04), args.failures)
         return
     if not args.only_rendered:
         statistical(list(range(args.seeds)))

@@ -171,6 +171,31 @@ def test_estimate_pass_is_exact_on_the_pinhole_model():
     assert np.isnan(estimate_pass(d[:2], h[:2])[0])
 
 
+def test_a_short_trajectory_gets_at_least_the_detectors_box_noise():
+    """A dozen boxes, far from the pass: their residuals can be small by chance; with
+    the noise known from other trajectories the pass's variance is that noise's."""
+    rng = np.random.default_rng(0)
+    d = np.linspace(0.0, 6.0, 12)
+    truth = 800.0 / (17.0 - d)
+    passes, own, floored = [], [], []
+    for _ in range(400):
+        h = truth * (1.0 + 0.03 * rng.standard_normal(12))
+        got, var = estimate_pass(d, h)
+        passes.append(got)
+        own.append(var)
+        floored.append(estimate_pass(d, h, noise=0.03)[1])
+    err2 = (np.asarray(passes) - 17.0) ** 2
+    own, floored = np.asarray(own), np.asarray(floored)
+    assert np.all(floored >= own)
+    # its own residuals: a pass 3 sigma off in 2-4 % of the trajectories (ten times
+    # a normal variable's 0.3 %); with the noise as a floor, about 0.3 %
+    assert np.mean(err2 > 9 * own) > 0.015
+    assert np.mean(err2 > 9 * floored) < 0.02
+    # the floor only raises: a noisier trajectory keeps its own
+    h = truth * (1.0 + 0.1 * rng.standard_normal(12))
+    assert estimate_pass(d, h, noise=0.01) == estimate_pass(d, h)
+
+
 def test_rts_smoother_matches_a_least_squares_line():
     """No process noise: the smoother's states all lie on the line through the fixes."""
     inc = np.full(100, 1.03)

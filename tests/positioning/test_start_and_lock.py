@@ -21,7 +21,7 @@ from tunnelsense.positioning import (
     position_tour,
     read_positions,
 )
-from tunnelsense.positioning._lock import LockOn
+from tunnelsense.positioning._lock import LockOn, unseen_before
 
 
 def _tour(seed, *, start=1000.0, spacing=200.0, distance=2400.0, scale_error=0.03,
@@ -119,18 +119,21 @@ def test_lock_on_without_a_start(global_random_seed):
 
 
 def test_an_evenly_spaced_map_never_gives_a_wrong_chainage(global_random_seed):
-    """Every 200 m: the passes fit many places equally; no lock, no chainage."""
-    truth, positions, odometry, indicators, det = _tour(global_random_seed)
-    est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
-        det, odometry, return_fixes=True)
-    assert not est["locked"].any() and est["chainage"].isna().all()
-    assert "places of the map explain them equally" in fixes.attrs["lock_status"]
-    assert not fixes["accepted"].any()
-    errors = position_errors(positions, est, odometry, indicators)
-    assert errors["lock"] is None and errors["max"] is None
-    smooth = TunnelPositioner(initial_chainage=None, smooth=True).fit(
-        indicators).predict(det, odometry)
-    assert smooth["chainage"].isna().all()
+    """Every 200 m: the passes fit many places equally; no lock, no chainage --
+    wherever in the tunnel the record begins, the odometry long or short."""
+    for start, scale_error in ((1000.0, 0.03), (330.0, -0.04), (2950.0, 0.01)):
+        truth, positions, odometry, indicators, det = _tour(
+            global_random_seed, start=start, scale_error=scale_error)
+        est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
+            det, odometry, return_fixes=True)
+        assert not est["locked"].any() and est["chainage"].isna().all()
+        assert "places of the map explain them equally" in fixes.attrs["lock_status"]
+        assert not fixes["accepted"].any()
+        errors = position_errors(positions, est, odometry, indicators)
+        assert errors["lock"] is None and errors["max"] is None
+        smooth = TunnelPositioner(initial_chainage=None, smooth=True).fit(
+            indicators).predict(det, odometry)
+        assert smooth["chainage"].isna().all()
 
 
 def test_a_wrong_start_is_dropped_and_found_again(global_random_seed):
@@ -212,6 +215,25 @@ def test_cli_start_unknown_writes_unlocked_rows(tmp_path, capsys):
     assert not (tmp_path / "x.csv").exists()
 
 
+def test_cli_on_an_evenly_spaced_map_says_it_cannot_lock(tmp_path, capsys):
+    """The command line says why, and writes every row unlocked, chainage empty."""
+    truth, positions, odometry, indicators, det = _tour(4)  # a sign every 200 m
+    tour = tmp_path / "tour"
+    tour.mkdir()
+    truth.write(tour)
+    results = tmp_path / "r.txt"
+    det.assign(x=-1, y=-1, z=-1).to_csv(results, header=False, index=False)
+    out = tmp_path / "pos.csv"
+    assert main(["position", str(tour), "--results", str(results), "--out", str(out),
+                 "--start-chainage", "unknown"]) == 0
+    text = capsys.readouterr().out
+    assert "not locked on" in text and "explain them equally" in text
+    assert "give the chainage of the first frame" in text
+    got = read_positions(out, sigma=True)
+    assert len(got) == len(positions)
+    assert not got["locked"].any() and got["chainage"].isna().all()
+
+
 def test_unlocked_rows_are_checked(tmp_path):
     table = pd.DataFrame({"frame": [1, 2], "stamp": [0.0, 0.1],
                           "chainage": [np.nan, 5.0], "sigma": [np.nan, 0.3],
@@ -267,3 +289,34 @@ def test_a_short_window_changes_nothing_online_and_smooths_with_a_lag():
     with pytest.raises(InputFormatError, match="window=50"):
         stream.add_detections(pd.DataFrame({"frame": [3], "id": [1],
                                             "bb_height": [20.0]}))
+
+
+def test_indicators_passed_unseen_before_the_first_pass():
+    """At indicator j after 450 m of odometry, the record began 450 m before it:
+    the indicators more than the clearance after that were in view."""
+    chainage = np.array([0.0, 200.0, 400.0, 600.0])
+    got = unseen_before(chainage, 450.0, 1.0, 0.0, 60.0)
+    assert got.tolist() == [0, 1, 1, 1]
+    # a short drive (within the clearance): nothing can have been missed
+    assert unseen_before(chainage, 50.0, 1.0, 0.05, 60.0).tolist() == [0, 0, 0, 0]
+    # with a scale sigma of 5 % the span counted is 10 % shorter: 270 m of odometry
+    # count as 189 m past the clearance, not enough to reach the indicator before
+    assert unseen_before(chainage, 270.0, 1.0, 0.0, 60.0).tolist() == [0, 1, 1, 1]
+    assert unseen_before(chainage, 270.0, 1.0, 0.05, 60.0).tolist() == [0, 0, 0, 0]
+
+
+def test_the_start_of_the_record_tells_repeated_spacings_apart():
+    """Gaps 180, 230, 160 twice on the map; the record began 250 m before the first
+    pass.  At the second copy the vehicle would have driven past an indicator
+    unseen: with the start known the first copy wins, without it the two tie."""
+    chainage = np.cumsum([0.0, 300, 180, 230, 160, 120, 180, 230, 160])
+    passes = 250.0 + np.array([0.0, 180.0, 410.0, 570.0])
+    kw = dict(scale=1.0, scale_sigma=0.05, fix_sigma=0.3, gate=4.0, miss_rate=0.05,
+              false_pass_rate=5e-5, margin=2.0, min_passes=3)
+    tie = LockOn(chainage, **kw)
+    assert all(tie.add(d, 0.01) is None for d in passes)
+    assert tie.n_explaining() == 2
+    known = LockOn(chainage, start=0.0, clearance=60.0, **kw)
+    got = [known.add(d, 0.01) for d in passes]
+    lock = next(g for g in got if g is not None)
+    assert lock["indicator"] == 1 + got.index(lock)  # the first copy, from indicator 1

@@ -89,7 +89,7 @@ def detection_table(detections) -> pd.DataFrame:
         drop=True)
 
 
-def estimate_pass(distance, height, *, slope=None):
+def estimate_pass(distance, height, *, slope=None, noise=None):
     """Odometry distance at which a sign passes the camera, from its box heights.
 
     Fits ``1 / h = a + b d`` (weighted by ``h**2``: a box's height error is a fixed
@@ -106,6 +106,12 @@ def estimate_pass(distance, height, *, slope=None):
     slope : float or None, default=None
         The known ``b = -c / (f H)`` (odometry scale ``c``, focal length ``f`` in px,
         sign height ``H`` in m); None estimates it from the scale growth alone.
+    noise : float or None, default=None
+        Relative standard deviation of a box's height known from other trajectories
+        (the detector's, e.g. 0.03); the variance is computed with at least this
+        noise.  A short trajectory's residuals can be small by chance (a dozen boxes,
+        some left out as outliers) and its variance then far too small for a pass
+        extrapolated metres beyond its last box.  None: the residuals alone.
 
     Returns
     -------
@@ -124,10 +130,17 @@ def estimate_pass(distance, height, *, slope=None):
     >>> round(d_pass, 6)
     60.0
     """
+    return _estimate_pass(distance, height, slope, noise)[:2]
+
+
+def _estimate_pass(distance, height, slope=None, noise=None):
+    """:func:`estimate_pass`, and the relative noise of the boxes kept (its square)
+    with its degrees of freedom: ``(pass_distance, variance, noise2, dof)``."""
+    nan4 = (float("nan"),) * 4
     d = np.asarray(distance, np.float64)
     h = np.asarray(height, np.float64)
     if len(d) < (2 if slope is not None else 3):
-        return float("nan"), float("nan")
+        return nan4
     # a box merged with a lamp now and then is an outlier: start from a line fitted
     # robustly (Theil-Sen), then refit without the boxes whose relative error is far
     # beyond the others' (robust scale, MAD)
@@ -138,15 +151,22 @@ def estimate_pass(distance, height, *, slope=None):
         scale = 1.4826 * np.median(np.abs(rel[keep]))
         new = np.abs(rel) <= max(4.0 * scale, 0.01)
         if new.sum() < (2 if slope is not None else 3):
-            return float("nan"), float("nan")
+            return nan4
         keep, done = new, np.array_equal(new, keep)
         fit = _fit(d[keep], h[keep], d[-1], slope)
         if fit is None:
-            return float("nan"), float("nan")
+            return nan4
         a, b = fit[:2]
         if done:
             break
-    return _solve(*fit)
+    # the fit's variance per unit weight is the boxes' relative variance over their
+    # mean square height (weights h**2 summing to n)
+    mean_h2 = float(np.mean(h[keep] ** 2))
+    noise2 = fit[4] * mean_h2
+    dof = int(keep.sum()) - (1 if slope is not None else 2)
+    if noise is not None and float(noise) ** 2 > noise2:
+        fit = (*fit[:4], float(noise) ** 2 / mean_h2, *fit[5:])
+    return (*_solve(*fit), noise2, dof)
 
 
 def _theil_sen(x, y, slope):

@@ -7,7 +7,9 @@ hypothesis says "this pass was indicator ``j``" and runs its own 1-D Kalman filt
 (chainage and odometry scale) over the later passes, each associated with the
 nearest indicator ahead within the gate.  Its score is the log-likelihood of the
 passes: a Gaussian term for a pass it explains, the log of the false-pass rate for
-one it does not, the log of the miss rate for an indicator it skips.  Hypotheses are
+one it does not, the log of the miss rate for an indicator it skips -- and, when the
+record's start is known, for each indicator it says the vehicle drove past unseen
+before the first pass it explains (:func:`unseen_before`).  Hypotheses are
 anchored at each of the first few passes, so one false alarm among them does not
 prevent the lock.
 
@@ -52,10 +54,19 @@ class LockOn:
         Hypotheses are anchored at each of the first ``max_anchors`` passes.
     memory : int, default=32
         Passes whose association is remembered (reported at the lock).
+    start : float or None, default=None
+        Odometry distance where the record begins.  A hypothesis "the first pass it
+        explains is indicator ``j``" then also says which indicators the vehicle
+        drove past before it, unseen: each pays the miss rate.  None: unknown (after
+        a wrong lock), no such term.
+    clearance : float, default=60.0
+        A sign whose pass comes less than this (m of odometry) after ``start`` may
+        have been in view before the record began: it is not counted as missed.
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
-                 false_pass_rate, margin, min_passes, max_anchors=3, memory=32):
+                 false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
+                 start=None, clearance=60.0):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -66,6 +77,8 @@ class LockOn:
         self.margin = float(margin)
         self.min_passes = int(min_passes)
         self.max_anchors = int(max_anchors)
+        self.start = None if start is None else float(start)
+        self.clearance = float(clearance)
         self.n_passes = 0
         self._last_dist = None
         self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
@@ -120,20 +133,25 @@ class LockOn:
         else:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
-            assign = self._spawn(float(var), assign)
+            assign = self._spawn(float(dist), float(var), assign)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
         self._prune()
         return self.lock()
 
-    def _spawn(self, var, assign):
+    def _spawn(self, dist, var, assign):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
         m = len(self.map)
+        score = np.full(m, self.n_passes * self.log_false + self.log_hit)
+        if self.start is not None:
+            score += self.log_miss * unseen_before(self.map, dist - self.start,
+                                                   self.scale, self.scale_sigma,
+                                                   self.clearance)
         new = {"s": self.map.copy(), "c": np.full(m, self.scale),
                "p00": np.full(m, self.fix_var + self.scale**2 * var),
                "p01": np.zeros(m), "p11": np.full(m, self.scale_sigma**2),
-               "score": np.full(m, self.n_passes * self.log_false + self.log_hit)}
+               "score": score}
         for key, value in new.items():
             self._h[key] = np.concatenate([self._h[key], value])
         self._last = np.concatenate([self._last, np.arange(m)])
@@ -194,3 +212,21 @@ class LockOn:
             "passes": [(t, int(a[best])) for t, a in self._assign],
             "margin": margin,
         }
+
+
+def unseen_before(chainage, driven, scale, scale_sigma, clearance):
+    """Indicators each hypothesis "the pass is indicator ``j``" says were passed unseen.
+
+    The pass came ``driven`` m of odometry after the record began, so at indicator
+    ``j`` the record began near ``chainage[j] - scale * driven``.  An indicator
+    passed more than ``clearance`` (m of odometry) after that, with two standard
+    deviations of the scale to spare, was surely in view: not seeing it is a miss.
+
+    Returns
+    -------
+    count : ndarray of int, shape (n_indicators,)
+    """
+    chainage = np.asarray(chainage, np.float64)
+    seen_from = chainage - (scale - 2.0 * scale_sigma) * (driven - clearance)
+    first = np.searchsorted(chainage, seen_from, side="right")
+    return np.maximum(np.arange(len(chainage)) - first, 0)

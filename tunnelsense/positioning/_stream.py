@@ -19,17 +19,22 @@ then its rows have ``locked=False`` and no chainage.
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.positioning._fixes import detection_table, estimate_pass
+from tunnelsense.positioning._fixes import _estimate_pass, detection_table
 from tunnelsense.positioning._lock import LockOn
 from tunnelsense.positioning._tables import ESTIMATE_COLUMNS
 
 __all__ = ["FIX_COLUMNS", "Position", "PositionStream"]
+
+#: A trajectory with this many degrees of freedom (boxes beyond the line's two
+#: parameters) tells the detector's box-height noise (its estimate within a third).
+_NOISE_DOF = 20
 
 #: Columns of the fix log (``PositionStream.fixes``).
 FIX_COLUMNS = ("track_id", "first_frame", "last_frame", "pass_frame", "pass_distance",
@@ -129,6 +134,13 @@ class PositionStream:
         self.fix_list = [] if keep_fixes else None
         self.relocked = False
         self._tracks = {}  # track id -> [distances, heights, last frame, last index]
+        # relative box-height noise (squared) of the last long trajectories: their
+        # median is the least noise a short trajectory's pass is given
+        self._box_noise = deque(maxlen=31)
+        self._box_noise_known = None  # the pooled noise2, once three are seen
+        # fixes used before it: (frame index, index among its fixes, noise2, index in
+        # fix_list)
+        self._early = []
         self._log = []
         self._rows = _Rows()
         self._closed = False
@@ -140,7 +152,7 @@ class PositionStream:
             self._lockon, self._lock_k = None, 0
             self.lock_frame = "start"
 
-    def _start_lockon(self):
+    def _start_lockon(self, start=0.0):
         p = self._p
         self._lock_k = None
         self._lock_q = None  # cumulative noise at the last pass given to the lock-on
@@ -148,7 +160,14 @@ class PositionStream:
             self._map, scale=self._c0, scale_sigma=math.sqrt(self._sc2),
             fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
             false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
-            min_passes=p.lock_passes)
+            min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation)
+
+    def pooled_box_noise(self):
+        """Median squared relative box-height noise of the long trajectories seen
+        (None before three)."""
+        if len(self._box_noise) < 3:
+            return None
+        return float(np.median(self._box_noise))
 
     @property
     def locked(self) -> bool:
@@ -422,12 +441,19 @@ class PositionStream:
                 else math.nan
             scale = scale if scale == scale else self._c0
             slope = -scale / (float(p.focal_length_px) * float(p.sign_height_m))
-        dist, var = estimate_pass(d, hs[keep], slope=slope)
+        pooled = self.pooled_box_noise()
+        dist, var, noise2, dof = _estimate_pass(
+            d, hs[keep], slope, None if pooled is None else math.sqrt(pooled))
         row["pass_distance"] = dist
         if not np.isfinite(dist):
             row["reason"] = "the object does not approach"
             self._log.append(row)
             return
+        if dof >= _NOISE_DOF:
+            self._box_noise.append(noise2)
+            if self._box_noise_known is None and len(self._box_noise) >= 3:
+                self._box_noise_known = self.pooled_box_noise()
+                self._reweight_early()
         ahead = dist - d[-1]
         if not (-2.0 <= ahead <= float(p.max_extrapolation)):
             row["reason"] = (f"passes {ahead:.1f} m past its last box (expected 0 to "
@@ -438,7 +464,7 @@ class PositionStream:
             row["reason"] = "passed before the first frame"
             self._log.append(row)
             return
-        row["_var"] = var
+        row["_var"], row["_noise2"] = var, noise2
         self._apply(dist, row)
 
     def _apply(self, dist, row):
@@ -483,12 +509,41 @@ class PositionStream:
         self._rejected = []
         row.update(accepted=True, reason="")
         z = float(self._map[j])
-        self._fixes.setdefault(k, []).append((u, z, r))
+        here = self._fixes.setdefault(k, [])
+        here.append((u, z, r))
+        noise2 = row.pop("_noise2", math.nan)
+        if self._box_noise_known is None:  # weighted again once the noise is known
+            self._early.append((k, len(here) - 1, noise2,
+                                None if self.fix_list is None else len(self.fix_list)))
         if self.fix_list is not None:
             self.fix_list.append((k, u, z, r))
         # delayed measurement: correct at the pass, propagate the odometry since
         self._post[k % W] = _update(x, u, z, r)
         self._propagate(k)
+
+    def _reweight_early(self):
+        """The box noise is now known: the fixes used before it, whose trajectories'
+        own noise was smaller, get the variance it gives (the first pass, cut short by
+        the start of the record, fits a dozen boxes well by chance); the state is
+        propagated again from the first of them."""
+        pooled, f2 = self._box_noise_known, float(self._p.fix_sigma) ** 2
+        first = None
+        for k, idx, noise2, at in self._early:
+            if k < self._n - self._W or not 0.0 < noise2 < pooled:
+                continue
+            u, z, r = self._fixes[k][idx]
+            r = f2 + (r - f2) * pooled / noise2
+            self._fixes[k][idx] = (u, z, r)
+            if at is not None:
+                self.fix_list[at] = (k, u, z, r)
+            first = k if first is None else min(first, k)
+        self._early = []
+        if first is not None:
+            x = self._prior[first % self._W].tolist()
+            for fu, z, r in self._fixes[first]:
+                x = _update(x, fu, z, r)
+            self._post[first % self._W] = x
+            self._propagate(first)
 
     def _propagate(self, k):
         """Propagate the post state of frame ``k`` to the last frame, with the fixes."""
@@ -529,6 +584,7 @@ class PositionStream:
             if j < 0:
                 continue
             z = float(self._map[j])
+            rr.pop("_noise2", None)
             if self.fix_list is not None:
                 self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
@@ -543,11 +599,12 @@ class PositionStream:
     def _unlock(self):
         """The gate has rejected several passes in a row: find the place again."""
         rejected, self._rejected = self._rejected, []
-        self._start_lockon()
+        self._start_lockon(start=None)  # where it was since the lock: unknown
         self.lock_frame = None
         self.relocked = True
         self.fix_list = [] if self.fix_list is not None else None
         self._fixes = {}
+        self._early = []
         n, W = self._n, self._W
         first = rejected[0][2]
         for i in range(max(first, n - W), n):  # unknown from the first rejected pass
