@@ -13,7 +13,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-__all__ = ["attach", "load_all"]
+__all__ = ["attach"]
 
 
 def attach(package: str, names: dict[str, str], public=None):
@@ -64,19 +64,3 @@ def attach(package: str, names: dict[str, str], public=None):
         return sorted({*public, *vars(sys.modules[package])})
 
     return __getattr__, __dir__, public
-
-
-def load_all(package: str = "tunnelsense") -> None:
-    """Import every lazy name of ``package`` and its subpackages now.
-
-    A worker process calls it first: a process pool that watches its workers' memory
-    (loky restarts a worker whose memory grew after a task) must not see a worker
-    grow by importing modules in the middle of its tasks.
-    """
-    module = importlib.import_module(package)
-    for name in getattr(module, "__all__", ()):
-        getattr(module, name)
-    for sub in ("io", "metrics", "street", "tunnel"):
-        inner = importlib.import_module(f"{package}.{sub}")
-        for name in inner.__all__:
-            getattr(inner, name)

@@ -216,15 +216,31 @@ def _run_dask(model, tasks, address):
 
 
 def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
-    """:func:`detect_one` in a worker process, every tunnelsense module imported first.
+    """:func:`detect_one` in a worker process, the detector's modules imported first.
 
-    A pool that watches its workers' memory (loky restarts a worker whose memory grew
-    after a task) must not see the first task's lazy imports as growth.
+    loky measures a worker's memory after its first task and restarts a worker whose
+    memory grew by more than 300 MB since; the modules a detection imports (lazily)
+    must all be in by the end of the first task, whatever that task did.
     """
-    from tunnelsense._lazy import load_all
-
-    load_all()
+    _import_detector(kind)
     return detect_one(model, kind, source, out_dir, overwrite, options)
+
+
+def _import_detector(kind) -> None:
+    """Import every module a detection of ``kind`` uses."""
+    import importlib
+
+    for name in _DETECTOR_MODULES[kind]:
+        importlib.import_module(name)
+
+
+#: The modules a detection imports, by kind (the estimators come with the model).
+_DETECTOR_MODULES = {
+    "tunnel": ("tunnelsense.tunnel._detect", "tunnelsense.tunnel._pipeline",
+               "tunnelsense.io._sources", "tunnelsense.io._results"),
+    "street": ("tunnelsense.street._run", "tunnelsense.street._detector",
+               "tunnelsense.io._laser", "tunnelsense.io._rosbag"),
+}
 
 
 def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
