@@ -4,7 +4,7 @@ Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Pa
 Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
 user guide: :doc:`/street`.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
-clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``),
+clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``, ``_classes``),
 the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``);
 a parking census of the objects (``_census``).
 """
@@ -21,6 +21,7 @@ from tunnelsense.street._census import (
     parked_extents,
     scan_distances,
 )
+from tunnelsense.street._classes import class_features, vehicle_class
 from tunnelsense.street._clustering import link_scans, single_linkage
 from tunnelsense.street._detector import OBJECT_COLUMNS, ScanClusterer
 from tunnelsense.street._plotting import plot_clusters, plot_dendrogram, plot_objects
@@ -51,6 +52,8 @@ __all__ = [
     "CENSUS_COLUMNS",
     "VEHICLE_CLASSES",
     "census",
+    "class_features",
+    "vehicle_class",
     "parked_extents",
     "scan_distances",
     "OBJECT_COLUMNS",
