@@ -23,6 +23,7 @@ __all__ = [
     "is_vehicle",
     "merge_fragments",
     "near_side",
+    "see_through",
 ]
 
 #: Bits of the per-cluster evidence flags that show a vehicle body: roof, wall, raised.
@@ -181,6 +182,41 @@ def _held(seen, link_distance, short):
                                     link_distance)[0])
 
 
+def see_through(horizon, step, depth, top, fraction=0.5):
+    """Whether every scan of a gap sees through it: beams pass ``depth`` below
+    ``fraction`` of ``top`` (the lower top of the two fragments beside the gap).
+
+    A gap between two fragments that the beams see through, below the bodies'
+    height, is the space between two vehicles standing close (a motorbike across
+    the kerb beside a car), not a stretch of one body that returned nothing
+    (dropouts prove nothing: they do not enter the horizon).
+
+    Parameters
+    ----------
+    horizon : ndarray of shape (n_gap_scans, n_depths)
+        The gap scans' rows of :func:`~tunnelsense.street._geometry.horizon`.
+    step : float
+        Its depth step (m).
+    depth : float
+        The fragments' depth (m).
+    top : float
+        The lower of the two fragments' tops (m).
+    fraction : float, default=0.5
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import see_through
+    >>> h = np.array([[0.0, 0.1, 0.2], [0.0, 0.2, 0.3]])  # the road seen at 2 m
+    >>> see_through(h, 1.0, 2.0, 1.2), see_through(h[:, :2] + 1.0, 1.0, 2.0, 1.2)
+    (True, False)
+    """
+    if not len(horizon):
+        return False
+    j = min(max(int(np.ceil(depth / step)), 1), horizon.shape[1]) - 1
+    return bool(np.all(horizon[:, j] < fraction * top))
+
+
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
             merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
             horizon=None, step=None, tops=None, bridge_gap=None):
@@ -189,7 +225,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     The first ends before scan ``after``, the second starts at scan ``before``.
     They join when the first's last and the second's first mean depths differ by less
     than ``link_distance`` and the gap between them (``cum[before] - cum[after]``
-    metres) is at most ``merge_gap``, or (``bridge_occluded``, and the two ``alike``:
+    metres) is at most ``merge_gap`` (with ``horizon``, unless every scan of the gap
+    sees through it, :func:`see_through`: two vehicles standing close), or (``bridge_occluded``, and the two ``alike``:
     both show a body above kerb height or neither does) every scan of the gap shows
     something at least ``occlusion_margin`` nearer.  With ``seen`` (the first's last
     and the second's first scan: ``(span and occluder, hidden)`` each, see
@@ -220,8 +257,10 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     if not abs(end_depth - start_depth) < link_distance and not (
             seen is not None and _held(seen, link_distance, short)):
         return False
-    if short:
-        return True
+    if short:  # unless the beams see through the gap: two vehicles standing close
+        return not (horizon is not None and tops is not None and before > after
+                    and see_through(horizon[after:before], step,
+                                    min(end_depth, start_depth), min(tops)))
     if bridge_gap is not None and cum[before] - cum[after] > bridge_gap:
         return False
     depth = min(end_depth, start_depth)

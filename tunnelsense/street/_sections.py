@@ -17,7 +17,9 @@ the kerb (beyond the paper, see ``docs/street.md``):
   road and the beam just below it passes under the body (it returns from farther
   away, the road beneath); or a beam just below any point of the cluster at least
   ``min_clearance`` high reaches the road (below ``min_clearance``) beyond it (a
-  motorbike whose cluster also holds the kerb behind it).  Pedestrians, bins and
+  motorbike whose cluster also holds the kerb behind it), or returns nothing
+  within range (it passed under the body and everything behind it: seen from the
+  road, a motorbike across the kerb, its screen over the gap between its wheels).  Pedestrians, bins and
   bollards stand on the ground; a
   cluster whose lower part is hidden by something nearer is not raised (the beam
   below returns from nearer).
@@ -35,7 +37,7 @@ _UNDER_MARGIN = 0.1
 
 def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=None,
                      roof_band=0.15, roof_width=0.8, max_height=2.0, cut=0.6,
-                     min_clearance=0.2, min_roof_height=0.0):
+                     min_clearance=0.2, min_roof_height=0.0, below_passes=None):
     """Per intra-cluster: does it show a vehicle's roof, wall or raised body?
 
     Parameters
@@ -66,6 +68,12 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
         the surface to continue above the ceiling (the single-linkage cut).
     min_clearance : float, default=0.2
         Lowest bottom (m above the road) of a raised body.
+    below_passes : ndarray of shape (n_points,) of bool, default=None
+        Whether the next beam down returned nothing within range (it passed
+        everything; a dropout is not that).  A beam that passes under a point at
+        least ``min_clearance`` high shows the space under it empty as far as the
+        sensor reaches: the body is raised (a motorbike across the kerb seen from
+        the road, whose under-body beam reaches beyond range).  None: no beam passes.
 
     Returns
     -------
@@ -132,6 +140,8 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
             below[b, 0] > depth[b] + _UNDER_MARGIN)
         under = ((height >= min_clearance) & (below[:, 0] > depth + _UNDER_MARGIN)
                  & (below[:, 1] < min_clearance))
+        if below_passes is not None:  # nothing under it within range
+            under |= (height >= min_clearance) & np.asarray(below_passes, dtype=bool)
         hidden[has] = below[b, 0] < depth[b] - _UNDER_MARGIN
     np.logical_or.at(raised, cluster[under], True)
     return roof, wall, raised, hidden

@@ -206,7 +206,8 @@ class ScanWindow:
         roof, wall, raised, hidden = section_evidence(
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
-            min_clearance=est.min_clearance, min_roof_height=est.min_roof_height)
+            min_clearance=est.min_clearance, min_roof_height=est.min_roof_height,
+            below_passes=roi.passes[:, 1])
         flags = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
                  | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
         near = np.full(n, np.inf)
