@@ -289,7 +289,7 @@ def street_class_scores(gt, detected, *, label="parked", min_iou=0.5, classes=No
             confusion.loc[c, column] = int(sum(h == column for h in hits))
         confusion.loc[c, "missed"] = int(rows.sum()) - matched
         out[c] = {"n": int(rows.sum()), "matched": matched, "correct": correct,
-                  "recall": matched / rows.sum() if rows.sum() else None,
+                  "recall": matched / int(rows.sum()) if rows.sum() else None,
                   "accuracy": correct / matched if matched else None}
     matched = sum(v["matched"] for v in out.values())
     correct = sum(v["correct"] for v in out.values())

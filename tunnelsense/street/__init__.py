@@ -44,7 +44,7 @@ from tunnelsense.street._run import (
     train_detector,
     write_objects,
 )
-from tunnelsense.street._sections import section_evidence
+from tunnelsense.street._sections import passed_under, section_evidence
 from tunnelsense.street._splitting import split_profile
 
 __all__ = [
@@ -75,6 +75,7 @@ __all__ = [
     "plot_objects",
     "restore_points",
     "roi_mask",
+    "passed_under",
     "section_evidence",
     "single_linkage",
     "stream_objects",

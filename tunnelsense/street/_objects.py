@@ -32,6 +32,10 @@ BODY_FLAGS = 0b0111
 RAISED_FLAG = 0b0100
 #: Bit of the per-cluster evidence flags of a cluster whose lower part is hidden.
 HIDDEN_FLAG = 0b1000
+#: Bit of the per-cluster evidence flags of a cluster a beam passes under
+#: (:func:`~tunnelsense.street.passed_under`): counts as raised for a motorbike
+#: across the kerb only.
+PASSED_FLAG = 0b10000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
 #: Lowest height (m) of the points that give a cluster's near side: above kerbs,
@@ -390,7 +394,7 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
                min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
-               top=np.inf, min_across_top=0.0):
+               top=np.inf, min_across_top=0.0, inside=True):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -403,8 +407,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     wheelie bins and people stand on the ground).  Shorter than ``min_length`` but
     at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
     motorbike at right angles to the kerb when at least ``min_across_raised`` of its
-    scans show a body raised between wheels and its ``top`` reaches
-    ``min_across_top`` (handlebars and screen; ``None``: never).
+    scans show a body raised between wheels or a beam passing under it
+    (``PASSED_FLAG``) and its ``top`` reaches
+    ``min_across_top`` (handlebars and screen; ``None``: never), and ``inside``
+    its stretch of consecutive scans (a run's first or last scans cut what they
+    show: a van's end is not a motorbike).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -426,9 +433,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     if vehicle and length + hidden_length < min_car_length:
         vehicle = raised >= min_raised_fraction
     elif (not vehicle and min_across_length is not None and hidden_length == 0
+          and inside
           and min_across_length <= length < min_length and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
-        vehicle = raised >= min_across_raised  # a motorbike across the kerb
+        under = float(np.mean((flags & (RAISED_FLAG | PASSED_FLAG)) > 0))
+        vehicle = under >= min_across_raised  # a motorbike across the kerb
     return bool(vehicle and body >= min_body_fraction)
 
 

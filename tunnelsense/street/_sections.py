@@ -17,9 +17,7 @@ the kerb (beyond the paper, see ``docs/street.md``):
   road and the beam just below it passes under the body (it returns from farther
   away, the road beneath); or a beam just below any point of the cluster at least
   ``min_clearance`` high reaches the road (below ``min_clearance``) beyond it (a
-  motorbike whose cluster also holds the kerb behind it), or returns nothing
-  within range (it passed under the body and everything behind it: seen from the
-  road, a motorbike across the kerb, its screen over the gap between its wheels).  Pedestrians, bins and
+  motorbike whose cluster also holds the kerb behind it).  Pedestrians, bins and
   bollards stand on the ground; a
   cluster whose lower part is hidden by something nearer is not raised (the beam
   below returns from nearer).
@@ -29,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["section_evidence"]
+__all__ = ["passed_under", "section_evidence"]
 
 #: How much farther (m) the beam below a raised body must return than the body.
 _UNDER_MARGIN = 0.1
@@ -37,7 +35,7 @@ _UNDER_MARGIN = 0.1
 
 def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=None,
                      roof_band=0.15, roof_width=0.8, max_height=2.0, cut=0.6,
-                     min_clearance=0.2, min_roof_height=0.0, below_passes=None):
+                     min_clearance=0.2, min_roof_height=0.0):
     """Per intra-cluster: does it show a vehicle's roof, wall or raised body?
 
     Parameters
@@ -68,12 +66,6 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
         the surface to continue above the ceiling (the single-linkage cut).
     min_clearance : float, default=0.2
         Lowest bottom (m above the road) of a raised body.
-    below_passes : ndarray of shape (n_points,) of bool, default=None
-        Whether the next beam down returned nothing within range (it passed
-        everything; a dropout is not that).  A beam that passes under a point at
-        least ``min_clearance`` high shows the space under it empty as far as the
-        sensor reaches: the body is raised (a motorbike across the kerb seen from
-        the road, whose under-body beam reaches beyond range).  None: no beam passes.
 
     Returns
     -------
@@ -140,8 +132,46 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
             below[b, 0] > depth[b] + _UNDER_MARGIN)
         under = ((height >= min_clearance) & (below[:, 0] > depth + _UNDER_MARGIN)
                  & (below[:, 1] < min_clearance))
-        if below_passes is not None:  # nothing under it within range
-            under |= (height >= min_clearance) & np.asarray(below_passes, dtype=bool)
         hidden[has] = below[b, 0] < depth[b] - _UNDER_MARGIN
     np.logical_or.at(raised, cluster[under], True)
     return roof, wall, raised, hidden
+
+
+def passed_under(height, cluster, below_passes, *, n_clusters, min_clearance=0.2):
+    """Per intra-cluster: does a beam pass under it, returning nothing within range?
+
+    A beam just below a point at least ``min_clearance`` high that returns nothing
+    within range (it passed everything; a dropout is not that) shows the space under
+    the point empty as far as the sensor reaches: seen from the road, a motorbike
+    across the kerb, its screen and body over the gap between its wheels.  This is
+    weaker evidence than a raised body (the beam may pass under an overhang, or over
+    a car's bonnet at the edge of a roof), so the detector counts it only for an
+    object too short for anything but a motorbike across the kerb, seen whole.
+
+    Parameters
+    ----------
+    height : ndarray of shape (n_points,)
+        Region-of-interest heights (m).
+    cluster : ndarray of shape (n_points,) of int
+        Intra-cluster number of every point.
+    below_passes : ndarray of shape (n_points,) of bool
+        Whether the next beam down returned nothing within range.
+    n_clusters : int
+    min_clearance : float, default=0.2
+
+    Returns
+    -------
+    passed : ndarray of shape (n_clusters,) of bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import passed_under
+    >>> passed_under(np.array([0.8, 1.1, 0.05, 0.5]), np.array([0, 0, 1, 1]),
+    ...              np.array([True, False, True, False]), n_clusters=2).tolist()
+    [True, False]
+    """
+    passed = np.zeros(int(n_clusters), dtype=bool)
+    under = (np.asarray(height) >= min_clearance) & np.asarray(below_passes, dtype=bool)
+    passed[np.asarray(cluster)[under]] = True
+    return passed

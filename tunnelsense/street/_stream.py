@@ -305,6 +305,7 @@ class _RunState(ScanWindow):
                 cum[last + 1 + after] - cum[last + 1])
             region = int(depth_region(region_depth[o], est.region_edges_))
             parked = est.labels_[region] == "parked"  # motorbikes across park
+            inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             vehicle = is_vehicle(
                 prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
                 self.near, min_length=est.min_length, max_length=est.max_length,
@@ -314,8 +315,7 @@ class _RunState(ScanWindow):
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top)
-            inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
+                min_across_top=est.min_across_top, inside=inside)
             of = objects == o if prof.n > 1 else slice(None)
             mine = clusters[of]
             # (a passing vehicle's seen length follows the two speeds, not its body)
