@@ -18,8 +18,11 @@ def test_a_beam_passing_under_a_body():
     # lowest point returns nothing within range (it passes under, beyond the kerb)
     h = np.array([0.8, 1.05, 1.3, 0.05, 0.6])
     c = np.array([0, 0, 0, 1, 1])
-    passes = np.array([True, False, False, True, False])
+    passes = np.array([True, False, False, False, True])
+    # a person: the beam under the torso passes between the legs, the lowest point
+    # is a foot on the ground
     assert passed_under(h, c, passes, n_clusters=2).tolist() == [True, False]
+    assert passed_under(h, c, ~passes, n_clusters=2).tolist() == [False, False]
     # the raised-body evidence does not change: nothing returned below
     nan = np.full((3, 2), np.nan)
     raised = section_evidence(np.full(3, 5.9), h[:3], c[:3], np.array([40, 41, 42]),
@@ -41,8 +44,11 @@ def test_passing_under_counts_for_a_whole_short_object_only():
     body = passed | 0b0001  # a roof-wide top: a body, and a beam passing under it
     assert is_vehicle(seen, body, 5.5, 0.0, cum, near, **rule)
     assert not is_vehicle(seen, np.full(4, 0b0001), 5.5, 0.0, cum, near, **rule)
-    # at the start of a run (its first scans cut it), not seen whole
+    # at the start of a run (its first scans cut it), a beam passing under it is
+    # no evidence; a raised body still is
     assert not is_vehicle(seen, body, 5.5, 0.0, cum, near, **rule, inside=False)
+    assert is_vehicle(seen, body | RAISED_FLAG, 5.5, 0.0, cum, near, **rule,
+                      inside=False)
     # a 2.0 m object is not across the kerb: passing under is no raised body there
     long = np.arange(0, 11)
     assert not is_vehicle(long, np.full(11, 0b0001 | PASSED_FLAG), 5.5, 0.0, cum, near,

@@ -280,7 +280,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_roof_height=0.5,
         beam_occlusion=True,
         spray_beams=2,
-        min_across_length=0.35,
+        min_across_length=0.5,
         min_across_raised=0.3,
         min_across_top=1.05,
         van_height=1.8,

@@ -409,9 +409,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     motorbike at right angles to the kerb when at least ``min_across_raised`` of its
     scans show a body raised between wheels or a beam passing under it
     (``PASSED_FLAG``) and its ``top`` reaches
-    ``min_across_top`` (handlebars and screen; ``None``: never), and ``inside``
-    its stretch of consecutive scans (a run's first or last scans cut what they
-    show: a van's end is not a motorbike).
+    ``min_across_top`` (handlebars and screen; ``None``: never); a beam passing
+    under it counts as that evidence only when it lies ``inside`` its stretch of
+    consecutive scans (a run's first or last scans cut what they show: a van's end
+    is not a motorbike).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -433,10 +434,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     if vehicle and length + hidden_length < min_car_length:
         vehicle = raised >= min_raised_fraction
     elif (not vehicle and min_across_length is not None and hidden_length == 0
-          and inside
           and min_across_length <= length < min_length and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
-        under = float(np.mean((flags & (RAISED_FLAG | PASSED_FLAG)) > 0))
+        evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
+        under = float(np.mean((flags & evidence) > 0))
         vehicle = under >= min_across_raised  # a motorbike across the kerb
     return bool(vehicle and body >= min_body_fraction)
 

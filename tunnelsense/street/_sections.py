@@ -140,9 +140,10 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
 def passed_under(height, cluster, below_passes, *, n_clusters, min_clearance=0.2):
     """Per intra-cluster: does a beam pass under it, returning nothing within range?
 
-    A beam just below a point at least ``min_clearance`` high that returns nothing
-    within range (it passed everything; a dropout is not that) shows the space under
-    the point empty as far as the sensor reaches: seen from the road, a motorbike
+    A beam just below a cluster's lowest point, at least ``min_clearance`` high,
+    that returns nothing within range (it passed everything; a dropout is not that)
+    shows the space under the cluster empty as far as the sensor reaches (under a
+    person's body, between the legs, the lowest point is a foot on the ground): seen from the road, a motorbike
     across the kerb, its screen and body over the gap between its wheels.  This is
     weaker evidence than a raised body (the beam may pass under an overhang, or over
     a car's bonnet at the edge of a roof), so the detector counts it only for an
@@ -168,10 +169,16 @@ def passed_under(height, cluster, below_passes, *, n_clusters, min_clearance=0.2
     >>> import numpy as np
     >>> from tunnelsense.street import passed_under
     >>> passed_under(np.array([0.8, 1.1, 0.05, 0.5]), np.array([0, 0, 1, 1]),
-    ...              np.array([True, False, True, False]), n_clusters=2).tolist()
+    ...              np.array([True, False, False, True]), n_clusters=2).tolist()
     [True, False]
     """
+    height = np.asarray(height, dtype=np.float64)
+    cluster = np.asarray(cluster, dtype=np.int64)
     passed = np.zeros(int(n_clusters), dtype=bool)
-    under = (np.asarray(height) >= min_clearance) & np.asarray(below_passes, dtype=bool)
-    passed[np.asarray(cluster)[under]] = True
+    if not len(cluster):
+        return passed
+    lowest = np.lexsort((height, cluster))  # by cluster, then height
+    lowest = lowest[np.r_[True, cluster[lowest][1:] != cluster[lowest][:-1]]]
+    passes = np.asarray(below_passes, dtype=bool)[lowest]
+    passed[cluster[lowest]] = passes & (height[lowest] >= min_clearance)
     return passed
