@@ -40,7 +40,9 @@ def test_passing_under_counts_for_a_whole_short_object_only():
                 min_across_top=1.05)
     passed = np.full(4, PASSED_FLAG)
     assert is_vehicle(seen, passed | RAISED_FLAG, 5.5, 0.0, cum, near, **rule)
-    assert is_vehicle(seen, passed, 5.5, 0.0, cum, near, **rule) is False  # no body
+    # its screen alone at its sides: a beam passes under it, its only body evidence
+    assert is_vehicle(seen, passed, 5.5, 0.0, cum, near, **rule)
+    assert not is_vehicle(seen, np.zeros(4, np.int8), 5.5, 0.0, cum, near, **rule)
     body = passed | 0b0001  # a roof-wide top: a body, and a beam passing under it
     assert is_vehicle(seen, body, 5.5, 0.0, cum, near, **rule)
     assert not is_vehicle(seen, np.full(4, 0b0001), 5.5, 0.0, cum, near, **rule)

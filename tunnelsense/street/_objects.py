@@ -439,6 +439,7 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
         under = float(np.mean((flags & evidence) > 0))
         vehicle = under >= min_across_raised  # a motorbike across the kerb
+        body = max(body, under)  # its body: raised, or a beam passing under it
     return bool(vehicle and body >= min_body_fraction)
 
 
