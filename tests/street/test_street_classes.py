@@ -4,9 +4,11 @@ table, its CSV file, the scores per class and the census."""
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.base import clone
 
 from tunnelsense.datasets import make_street_scans
-from tunnelsense.io import read_objects
+from tunnelsense.exceptions import InputFormatError
+from tunnelsense.io import read_objects, read_run, read_run_gt, write_run
 from tunnelsense.metrics import street_class_scores, street_report
 from tunnelsense.street import (
     CENSUS_CLASSES,
@@ -79,14 +81,15 @@ def model():
                                              random_state=41)])[0][-1]
 
 
-@pytest.mark.parametrize("scenario, overrides", [
-    ("dense", {}),  # cars, vans and parallel motorbikes nose to tail
+@pytest.mark.parametrize("scenario, overrides, cut", [
+    ("dense", {}, 0.6),  # cars, vans and parallel motorbikes nose to tail
+    ("dense", {}, 0.4),  # a finer cut parts flanks from roofs: the same classes
     ("sparse", {"motorbike_fraction": 0.6, "motorbike_across_fraction": 0.6,
-                "parked_cluster_size": 4.0, "parked_gap_m": 12.0}),
+                "parked_cluster_size": 4.0, "parked_gap_m": 12.0}, 0.6),
 ])
-def test_classes_of_a_simulated_street(model, scenario, overrides):
+def test_classes_of_a_simulated_street(model, scenario, overrides, cut):
     run = make_street_scans(1500, scenario=scenario, random_state=43, **overrides)
-    detected = model.detect(run.scans)
+    detected = clone(model).set_params(cut=cut).fit(run.scans).detect(run.scans)
     assert list(detected.columns) == list(OBJECT_COLUMNS)
     assert set(detected["vehicle_class"]) <= set(VEHICLE_CLASSES)
     s = street_class_scores(run.gt, detected)
@@ -178,3 +181,35 @@ def test_classes_from_hand_built_scans():
     det = ScanClusterer().fit(run.scans).detect(run.scans)
     assert det["label"].tolist() == ["parked"] * 3
     assert det["vehicle_class"].tolist() == ["car", "motorbike", "van"]
+
+
+def test_the_ground_truth_carries_the_class_through_its_file(tmp_path):
+    run = make_street_scans(600, scenario="hard", random_state=47)
+    assert set(run.gt["vehicle_class"]) <= set(VEHICLE_CLASSES)
+    kinds = {v["id"]: v["kind"] for v in run.info["vehicles"]}
+    small = [i for i, k in kinds.items() if k == "small"]
+    assert (run.gt.set_index("id").loc[small, "vehicle_class"] == "car").all()
+    write_run(run, tmp_path / "run")
+    back = read_run(tmp_path / "run").gt
+    assert back["vehicle_class"].tolist() == run.gt["vehicle_class"].tolist()
+    # a gt.csv without the column (an older run) reads as before; a bad class is refused
+    gt = tmp_path / "run" / "gt.csv"
+    text = gt.read_text()
+    old = tmp_path / "old.csv"
+    old.write_text("\n".join(",".join(line.split(",")[:4])
+                             for line in text.splitlines()) + "\n")
+    assert "vehicle_class" not in read_run_gt(old)
+    gt.write_text(text.replace(",car\n", ",lorry\n", 1))
+    with pytest.raises(InputFormatError, match="vehicle_class is 'lorry'"):
+        read_run_gt(gt)
+
+
+def test_an_objects_file_with_a_bad_class_is_refused(tmp_path):
+    path = tmp_path / "o.csv"
+    path.write_text("id,first_scan,last_scan,label,vehicle_class\n1,0,9,parked,car\n"
+                    "2,10,19,parked,bus\n3,20,29,parked,\n")
+    with pytest.raises(InputFormatError, match="line 3: vehicle_class is 'bus'"):
+        read_objects(path)
+    path.write_text("id,first_scan,last_scan,label,vehicle_class\n1,0,9,parked,car\n"
+                    "3,20,29,other,\n")
+    assert read_objects(path)["vehicle_class"].tolist() == ["car", ""]
