@@ -106,12 +106,18 @@ def _cmd_detect(args) -> int:
 
 def _cmd_evaluate(args) -> int:
     from tunnelsense.io import read_objects, read_run_gt
-    from tunnelsense.metrics import street_report, street_scores
+    from tunnelsense.metrics import street_class_scores, street_report, street_scores
 
     rundir = Path(args.rundir)
     gt = read_run_gt(rundir / "gt.csv" if rundir.is_dir() else rundir)
     detected = read_objects(args.objects)
     scores = street_scores(gt, detected, min_iou=args.min_iou, zero_division=None)
+    if args.json and "vehicle_class" in gt and "vehicle_class" in detected:
+        classes = street_class_scores(gt, detected, min_iou=args.min_iou)
+        scores["parked_classes"] = {
+            "classes": classes["classes"], "accuracy": classes["accuracy"],
+            "confusion": {truth: {k: int(v) for k, v in row.items()}
+                          for truth, row in classes["confusion"].iterrows()}}
     print(json.dumps(scores, indent=2) if args.json
           else street_report(gt, detected, min_iou=args.min_iou))
     return 0
@@ -176,7 +182,9 @@ def register(verbs) -> None:
     fleet.add_fleet_arguments(p, "run")
     p.set_defaults(func=_cmd_detect)
 
-    p = verbs["evaluate"].add_parser("street", help="score an object table")
+    p = verbs["evaluate"].add_parser(
+        "street", help="score an object table (per vehicle class when both tables "
+        "have a vehicle_class column)")
     p.add_argument("rundir", metavar="RUNDIR", help="the run folder (its gt.csv)")
     p.add_argument("objects", metavar="OBJECTS.csv", help="written by detect street")
     p.add_argument("--json", action="store_true",

@@ -158,8 +158,8 @@ def register_top(sub) -> None:
         "street", help="parked vehicles per street segment, by class, and the kerb "
         "occupancy",
         description="A parking census of a laser run: per street segment, the parked "
-        "vehicles by class (car, van, motorbike; 'unclassified' when the detector "
-        "gives no class), their length and the fraction of the kerb they cover. "
+        "vehicles by class (car, van, motorbike, as the detector tells them; "
+        "'unclassified' for an object table without classes), their length and the fraction of the kerb they cover. "
         "Distance along the street comes from the ego speed of each scan (the run's "
         "own, a ROS bag's odometry, or --speed) times the time between scans. Detect "
         "with --model, or count an object table of 'detect street' (--objects).")

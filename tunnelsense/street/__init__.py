@@ -4,7 +4,7 @@ Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Pa
 Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
 user guide: :doc:`/street`.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
-clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``),
+clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``, ``_classes``),
 the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``);
 a parking census of the objects (``_census``).
 """
@@ -22,6 +22,8 @@ _NAMES = {
     "census": "_census",
     "parked_extents": "_census",
     "scan_distances": "_census",
+    "class_features": "_classes",
+    "vehicle_class": "_classes",
     "link_scans": "_clustering",
     "single_linkage": "_clustering",
     "OBJECT_COLUMNS": "_detector",
@@ -44,6 +46,7 @@ _NAMES = {
     "stream_objects": "_run",
     "train_detector": "_run",
     "write_objects": "_run",
+    "passed_under": "_sections",
     "section_evidence": "_sections",
     "split_profile": "_splitting",
 }
@@ -53,6 +56,8 @@ __all__ = [
     "CENSUS_COLUMNS",
     "VEHICLE_CLASSES",
     "census",
+    "class_features",
+    "vehicle_class",
     "parked_extents",
     "scan_distances",
     "OBJECT_COLUMNS",
@@ -74,6 +79,7 @@ __all__ = [
     "plot_objects",
     "restore_points",
     "roi_mask",
+    "passed_under",
     "section_evidence",
     "single_linkage",
     "stream_objects",
