@@ -67,6 +67,7 @@ API_MODULES = {
     "tunnelsense.metrics": "Scores",
     "tunnelsense.plotting": "Pictures",
     "tunnelsense.utils": "Checks for stage authors",
+    "tunnelsense.fleet": "Many tours at once",
 }
 
 

@@ -48,11 +48,21 @@ def test_train_detect_evaluate(rundirs, tmp_path, capsys):
     capsys.readouterr()
     assert run_cli(["evaluate", "street", rundirs[1], str(out), "--json"]) == 0
     scores = json.loads(capsys.readouterr().out)
-    assert set(scores) == {"parked", "passing"}
+    assert set(scores) == {"parked", "passing", "parked_classes"}
     assert set(scores["parked"]) == {"tp", "fp", "fn", "recall", "precision"}
     assert scores["parked"]["recall"] >= 0.9
+    # per vehicle class: the truth's classes (rows) against the detected ones
+    classes = scores["parked_classes"]
+    assert set(classes["confusion"]) == {"car", "van", "motorbike"}
+    assert set(classes["confusion"]["car"]) == {"car", "van", "motorbike", "none",
+                                                "missed"}
+    found = sum(sum(v for k, v in row.items() if k != "missed")
+                for row in classes["confusion"].values())
+    assert found == scores["parked"]["tp"]
+    assert classes["classes"]["car"]["accuracy"] >= 0.9
     assert run_cli(["evaluate", "street", rundirs[1], str(out)]) == 0
     printed = capsys.readouterr().out
+    assert "parked vehicles by class" in printed and "class accuracy" in printed
     assert "n/a" in printed  # the undefined true negatives of the confusion matrix
     assert "NaN" not in printed and "N/A" not in printed
 

@@ -10,8 +10,8 @@ not of bytes (a last-bit difference of a CPU's arithmetic must not fail the suit
 * tunnel clusters: at least ``CLUSTER_MATCH`` of the clusters on each side matched
   one to one (same frame, IoU >= 0.5), and the matched ones with the same indicator
   and trajectory labels, at least ``CLUSTER_MATCH`` of them;
-* street objects: one to one, the same label, first and last scans within
-  ``SCAN_TOL`` scans.
+* street objects: one to one, the same label and vehicle class, first and last scans
+  within ``SCAN_TOL`` scans.
 
 A change that is meant to alter detections regenerates them deliberately with
 ``TUNNELSENSE_REGENERATE_GOLDEN=1 pytest tests/test_golden.py`` and says why in its
@@ -158,14 +158,15 @@ def test_street_detections_unchanged(scenario, tmp_path):
 
     def read(path):
         with open(path, newline="") as f:
-            return [(int(r["first_scan"]), int(r["last_scan"]), r["label"])
-                    for r in csv.DictReader(f)]
+            return [(int(r["first_scan"]), int(r["last_scan"]), r["label"],
+                     r["vehicle_class"]) for r in csv.DictReader(f)]
 
     got, want = read(out), read(expected)
     assert len(got) == len(want), f"{len(got)} objects against {len(want)} golden"
     unmatched = list(want)
-    for first, last, label in got:
-        hit = [w for w in unmatched if w[2] == label and abs(w[0] - first) <= SCAN_TOL
-               and abs(w[1] - last) <= SCAN_TOL]
-        assert hit, f"object scans {first}-{last} ({label}) not in the golden file"
+    for first, last, label, kind in got:
+        hit = [w for w in unmatched if w[2:] == (label, kind)
+               and abs(w[0] - first) <= SCAN_TOL and abs(w[1] - last) <= SCAN_TOL]
+        assert hit, (f"object scans {first}-{last} ({label}, {kind}) not in the "
+                     "golden file")
         unmatched.remove(hit[0])

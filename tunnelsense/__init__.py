@@ -10,37 +10,38 @@ A sample is one frame or one scan (:class:`FrameRecord`, :class:`ScanRecord`); s
 :doc:`/architecture`.
 """
 
-from tunnelsense._records import (
-    MOT_GT_COLUMNS,
-    OBJECT_CLASSES,
-    RUN_GT_COLUMNS,
-    RUN_LABELS,
-    DecodedImage,
-    FrameRecord,
-    FrameSequence,
-    ImageFile,
-    LaserGeometry,
-    Run,
-    ScanRecord,
-    ScanSequence,
-    Tour,
-    VideoFrame,
-    check_frames,
-    check_scans,
-    to_xy,
-)
+from tunnelsense._lazy import attach
 from tunnelsense._version import __version__
-from tunnelsense.positioning import TunnelPositioner
-from tunnelsense.street import ScanClusterer, make_parking_pipeline
-from tunnelsense.tunnel import (
-    IntensityKeypointSampler,
-    KMeansHistogramVerifier,
-    MSTClusterer,
-    PCCVerifier,
-    TrajectoryLinker,
-    WeightedAdaBoost,
-    make_indicator_pipeline,
-)
+
+_NAMES = {
+    "MOT_GT_COLUMNS": "_records",
+    "OBJECT_CLASSES": "_records",
+    "RUN_GT_COLUMNS": "_records",
+    "RUN_LABELS": "_records",
+    "DecodedImage": "_records",
+    "FrameRecord": "_records",
+    "FrameSequence": "_records",
+    "ImageFile": "_records",
+    "LaserGeometry": "_records",
+    "Run": "_records",
+    "ScanRecord": "_records",
+    "ScanSequence": "_records",
+    "Tour": "_records",
+    "VideoFrame": "_records",
+    "check_frames": "_records",
+    "check_scans": "_records",
+    "to_xy": "_records",
+    "TunnelPositioner": "positioning",
+    "ScanClusterer": "street",
+    "make_parking_pipeline": "street",
+    "IntensityKeypointSampler": "tunnel",
+    "KMeansHistogramVerifier": "tunnel",
+    "MSTClusterer": "tunnel",
+    "PCCVerifier": "tunnel",
+    "TrajectoryLinker": "tunnel",
+    "WeightedAdaBoost": "tunnel",
+    "make_indicator_pipeline": "tunnel",
+}
 
 __all__ = [
     "DecodedImage",
@@ -72,3 +73,5 @@ __all__ = [
     "check_scans",
     "to_xy",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

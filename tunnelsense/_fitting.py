@@ -10,8 +10,6 @@ progress by named stage.
 
 from __future__ import annotations
 
-from sklearn.model_selection import ParameterGrid
-
 __all__ = ["counted", "fit_pipeline", "search_ticks"]
 
 
@@ -27,6 +25,8 @@ def search_ticks(progress, grid, n_folds, *also):
     """The ``progress(done, total)`` of a search, as ``progress(stage, done, total)``
     with the stage naming the grid (fits done: every fit, the refit included); each
     callable of ``also`` is called with ``(done, total)`` too.  None without any."""
+    from sklearn.model_selection import ParameterGrid
+
     stage = f"grid search ({len(ParameterGrid(grid))} settings x {n_folds} folds), fits"
     calls = [c for c in also if c is not None]
     if progress is None and not calls:

@@ -76,6 +76,9 @@ METHODS = {
     "before": dict(keypoints__frame_size="native"),
     "ours": {},
     "canonical": dict(keypoints__radiometry="frame"),
+    "contrast": dict(keypoints__radiometry="contrast", keypoints__min_contrast=0.45,
+                     keypoints__max_contrast=1.5,
+                     verifier__augment_contrast=(0.45, 1.0)),
 }
 
 TUNING_TRAIN_SEED = 1

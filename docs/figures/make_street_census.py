@@ -3,16 +3,17 @@
 The detector is fitted on one plain run (``train_detector``, as ``tunnelsense train
 street`` does) and run over a hard street (cars, small cars, vans and motorbikes,
 touching rows, pedestrians and bins); its objects are counted per 50 m segment
-(``tunnelsense.street.census``, as ``tunnelsense survey street`` does).  Below, the
-census of the run's ground truth with the simulator's vehicle classes.  Distance comes
+(``tunnelsense.street.census``, as ``tunnelsense survey street`` does), by the
+classes the detector gives them.  Below, the census of the run's ground truth with
+the simulator's vehicle classes.  Distance comes
 from the run's ego speed times the scan periods, as on the command line.
 
 Run from a source checkout or an unpacked sdist, with the ``plot`` extra installed::
 
     python docs/figures/make_street_census.py [--scans 3000] [--out PNG]
 
-It writes ``docs/_static/street_census.png`` and prints both censuses (about 20 s on
-a 2-core machine).
+It writes ``docs/_static/street_census.png`` and prints both censuses and the class
+confusion matrix of the matched parked vehicles (about 20 s on a 2-core machine).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from _common import load, machine, output_path, save_figure  # noqa: E402
 
 from tunnelsense.datasets import make_street_scans  # noqa: E402
 from tunnelsense.io import ego_speed  # noqa: E402
-from tunnelsense.metrics import street_scores  # noqa: E402
+from tunnelsense.metrics import street_class_scores, street_scores  # noqa: E402
 from tunnelsense.plotting import plot_census  # noqa: E402
 from tunnelsense.street import (  # noqa: E402
     census,
@@ -38,8 +39,6 @@ from tunnelsense.street import (  # noqa: E402
     train_detector,
 )
 
-#: The simulator's kinds of vehicle as census classes (a small car is a car).
-KIND_CLASS = {"car": "car", "small": "car", "van": "van", "motorbike": "motorbike"}
 TRAIN = ("sparse", 1)
 SURVEY = ("hard", 2)
 SEGMENT = 50.0
@@ -51,14 +50,14 @@ def censuses(n_scans):
     run = make_street_scans(n_scans, scenario=SURVEY[0], random_state=SURVEY[1])
     model, _ = train_detector([train])
     detected = model[-1].detect(run.scans)
-    kinds = {v["id"]: v["kind"] for v in run.info["vehicles"]}
-    truth = run.gt.assign(vehicle_class=[
-        KIND_CLASS[kinds[i]] if label == "parked" else ""
-        for i, label in zip(run.gt["id"], run.gt["label"], strict=True)])
+    truth = run.gt  # the simulator's ground truth carries every vehicle's class
     distances = scan_distances([s.stamp for s in run.scans], ego_speed(run.info))
     scores = street_scores(run.gt, detected)["parked"]
     print(f"detected parked vehicles: {scores['tp']} matched, {scores['fn']} missed, "
           f"{scores['fp']} false (scan-interval IoU >= 0.5)")
+    classes = street_class_scores(run.gt, detected)
+    print("classes of the matched parked vehicles (rows: truth):")
+    print(classes["confusion"].to_string())
     return {name: (census(objects, distances, segment_length=SEGMENT),
                    parked_extents(objects, distances))
             for name, objects in (("detected", detected), ("true", truth))}
@@ -71,8 +70,8 @@ def draw(result, path, note):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True, layout="constrained")
-    titles = {"detected": "detected (survey street): the detector gives no vehicle "
-                          "class, so every vehicle is 'unclassified'",
+    titles = {"detected": "detected (survey street), with the detector's vehicle "
+                          "classes",
               "true": "the run's ground truth, with the simulator's vehicle classes"}
     for ax, (name, (table, parked)) in zip(axes, result.items(), strict=True):
         plot_census(table, parked, ax=ax, title=titles[name])

@@ -5,9 +5,9 @@ A parking census along a street
 Count the parked vehicles of a simulated street per 50 m segment, with the parked
 length and the kerb occupancy of each segment, from the detector's objects and the
 distance the measurement vehicle drove (its ego speed times the time between scans).
-The detector gives no vehicle class here, so every vehicle is counted as
-``unclassified``; an object table with a ``vehicle_class`` column is counted per class,
-as the ground truth with the simulator's classes shows below.
+The detector labels every vehicle ``car``, ``van`` or ``motorbike`` (its
+``vehicle_class`` column), so the census counts them per class; below, the same from
+the ground truth with the simulator's classes.
 """
 
 # %%
@@ -34,19 +34,15 @@ fig, ax = plt.subplots(figsize=(12, 3.5), layout="constrained")
 plot_census(table, parked_extents(objects, distances), ax=ax, title="detected")
 
 # %%
-# The same street from its ground truth, each vehicle with the simulator's class (a
-# small car is a car).
-kinds = {v["id"]: v["kind"] for v in run.info["vehicles"]}
-classes = {"car": "car", "small": "car", "van": "van", "motorbike": "motorbike"}
-truth = run.gt.assign(vehicle_class=[
-    classes[kinds[i]] if label == "parked" else ""
-    for i, label in zip(run.gt["id"], run.gt["label"], strict=True)])
+# The same street from its ground truth, each vehicle with the simulator's class
+# (its ``vehicle_class`` column).
+truth = run.gt
 true_table = census(truth, distances, segment_length=50.0)
 fig, ax = plt.subplots(figsize=(12, 3.5), layout="constrained")
 plot_census(true_table, parked_extents(truth, distances), ax=ax, title="ground truth")
-print(f"parked vehicles: {table['parked'].sum()} detected, "
-      f"{true_table['parked'].sum()} in the ground truth "
-      f"({', '.join(f'{true_table[c].sum()} {c}' for c in ('car', 'van', 'motorbike'))})")
+for name, t in (("detected", table), ("in the ground truth", true_table)):
+    print(f"parked vehicles {name}: {t['parked'].sum()} "
+          f"({', '.join(f'{t[c].sum()} {c}' for c in ('car', 'van', 'motorbike'))})")
 
 # sphinx_gallery_start_ignore
 # Run as a plain script, the example saves its figures as PNG files into the folder

@@ -51,7 +51,8 @@ def test_every_scenario_runs(scenario, global_random_seed):
     assert np.all(np.diff(stamps) > 0)
     assert np.isclose(np.median(np.diff(stamps)), 1 / 75, rtol=0.05)
     gt = run.gt
-    assert list(gt.columns) == list(RUN_GT_COLUMNS)
+    assert list(gt.columns) == [*RUN_GT_COLUMNS, "vehicle_class"]
+    assert set(gt["vehicle_class"]) <= {"car", "van", "motorbike"}
     assert [str(t) for t in gt.dtypes[:3]] == ["int64"] * 3
     assert set(gt["label"]) <= {"parked", "passing"}
     assert (gt["label"] == "parked").any()

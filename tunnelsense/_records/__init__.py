@@ -20,28 +20,34 @@ Frame numbers are 1-based, as in MOTChallenge's ``gt.txt``; scan numbers are 0-b
 in ``gt.csv``.
 """
 
-from tunnelsense._records._bundles import Run, Tour, empty_mot_gt, empty_run_gt, to_xy
-from tunnelsense._records._checks import check_frames, check_scans
-from tunnelsense._records._frames import (
-    MOT_GT_COLUMNS,
-    OBJECT_CLASSES,
-    DecodedImage,
-    FrameRecord,
-    ImageFile,
-    VideoFrame,
-    decode_once,
-    release_image,
-)
-from tunnelsense._records._scans import (
-    GEOMETRY_FIELDS,
-    GEOMETRY_RULES,
-    RUN_GT_COLUMNS,
-    RUN_LABELS,
-    LaserGeometry,
-    ScanRecord,
-    geometry_problem,
-)
-from tunnelsense._records._sequences import FrameSequence, ScanSequence
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "Run": "_bundles",
+    "Tour": "_bundles",
+    "empty_mot_gt": "_bundles",
+    "empty_run_gt": "_bundles",
+    "to_xy": "_bundles",
+    "check_frames": "_checks",
+    "check_scans": "_checks",
+    "MOT_GT_COLUMNS": "_frames",
+    "OBJECT_CLASSES": "_frames",
+    "DecodedImage": "_frames",
+    "FrameRecord": "_frames",
+    "ImageFile": "_frames",
+    "VideoFrame": "_frames",
+    "decode_once": "_frames",
+    "release_image": "_frames",
+    "GEOMETRY_FIELDS": "_scans",
+    "GEOMETRY_RULES": "_scans",
+    "RUN_GT_COLUMNS": "_scans",
+    "RUN_LABELS": "_scans",
+    "LaserGeometry": "_scans",
+    "ScanRecord": "_scans",
+    "geometry_problem": "_scans",
+    "FrameSequence": "_sequences",
+    "ScanSequence": "_sequences",
+}
 
 __all__ = [
     "GEOMETRY_FIELDS",
@@ -69,3 +75,5 @@ __all__ = [
     "release_image",
     "to_xy",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

@@ -6,8 +6,6 @@ import os
 import time
 from pathlib import Path
 
-from tunnelsense._progress import Progress
-from tunnelsense.io import save_model
 from tunnelsense.io._keys import (
     KEY_ENV,
     VERIFY_KEY_ENV,
@@ -15,12 +13,13 @@ from tunnelsense.io._keys import (
     read_public_key,
     read_secret,
 )
-from tunnelsense.io._output import check_draw_dir, check_output, input_files
-from tunnelsense.io._trust import PICKLE_SUFFIXES, check_model_path, load_trusted_model
+
+# The command line imports only what a command needs: the modules behind the
+# functions below (scikit-learn, tqdm, ...) are imported by the function that uses
+# them, so that building the parser (and --version, --help) costs no start-up time.
 
 __all__ = [
     "CPUS",
-    "PICKLE_SUFFIXES",
     "add_colour_arguments",
     "add_model_arguments",
     "add_output_arguments",
@@ -112,6 +111,8 @@ def colour(args):
 
 def progress(args, total, desc, **kwargs):
     """A progress bar on stderr, or None with ``--quiet``."""
+    from tunnelsense._progress import Progress
+
     return None if getattr(args, "quiet", False) else Progress(total, desc, **kwargs)
 
 
@@ -127,6 +128,8 @@ class _StageBars:
         if group != self._stage:
             self.close()
             self._stage = group
+            from tunnelsense._progress import Progress
+
             self._bar = Progress(total, stage, unit="fit" if "fits" in stage else "it")
         self._bar.describe(stage)
         self._bar.update(done)
@@ -145,6 +148,8 @@ def stage_progress(args):
 
 def cli_model(args, kind):
     """The model of ``--model`` for the ``kind`` detector ("tunnel" or "street")."""
+    from tunnelsense.io._trust import load_trusted_model
+
     last_step, command = _MODELS[kind]
     return load_trusted_model(args.model, last_step=last_step, command=command,
                               trust_pickle=args.trust_pickle, **verify_keys(args))
@@ -157,6 +162,9 @@ def key_files(args):
 
 def check_model_output(args, sources):
     """Refuse a ``--model`` to write before any work; return the signing keys."""
+    from tunnelsense.io._output import input_files
+    from tunnelsense.io._trust import check_model_path
+
     inputs = [f for d in sources for f in input_files(d)]
     check_model_path(args.model, overwrite=args.force, inputs=[*inputs, *key_files(args)])
     if args.sign_key is not None:
@@ -169,6 +177,8 @@ def check_model_output(args, sources):
 def save_cli_model(model, args, *, summary, key, start):
     """Write the trained model of ``--model`` and say so (``key``: the dict of
     :func:`check_model_output`)."""
+    from tunnelsense.io._model import save_model
+
     save_model(model, args.model, summary=summary, overwrite=args.force, **key)
     kind = "safe skops" if Path(args.model).suffix.lower() == ".skops" else "pickle"
     how = (", signed (Ed25519)" if key.get("sign_key") is not None
@@ -178,6 +188,8 @@ def save_cli_model(model, args, *, summary, key, start):
 
 def check_detect_outputs(args, source, outputs) -> None:
     """Refuse ``--out`` files (and a ``--draw`` folder) before any work."""
+    from tunnelsense.io._output import check_draw_dir, check_output, input_files
+
     inputs = [args.model, *input_files(source), *key_files(args)]
     for path in outputs:
         check_output(path, overwrite=args.force or args.resume, inputs=inputs,

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import importlib.util
 
-from tunnelsense.io._rosbag import is_bag
-
 __all__ = ["EXTRAS", "require_extra", "require_extras_for_runs"]
 
 #: The optional extras the commands use: extra name -> the module it installs.
@@ -29,6 +27,8 @@ def require_extra(extra, why) -> None:
 
 def require_extras_for_runs(paths, *, draw=False) -> None:
     """The extras of a street command: rosbags for a bag, matplotlib for ``--draw``."""
+    from tunnelsense.io._rosbag import is_bag
+
     for path in paths:
         if is_bag(path):
             require_extra("rosbag", f"reading the ROS bag {path}")

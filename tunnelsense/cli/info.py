@@ -7,14 +7,16 @@ from pathlib import Path
 
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extras_for_runs
-from tunnelsense.io import describe, format_description
 
 _HELP = ("describe a tour (MOTChallenge folder, image folder, video), a laser run or "
          "a model file (.skops, .joblib)")
 
 
 def _cmd_info(args) -> int:
-    if Path(args.source).suffix.lower() in (".skops", *common.PICKLE_SUFFIXES):
+    from tunnelsense.io import describe, format_description
+    from tunnelsense.io._trust import PICKLE_SUFFIXES
+
+    if Path(args.source).suffix.lower() in (".skops", *PICKLE_SUFFIXES):
         from tunnelsense.io import describe_model
 
         facts = describe_model(args.source, **common.verify_keys(args))

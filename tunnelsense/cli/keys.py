@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from tunnelsense.io._keys import generate_key_pair
-
 __all__ = ["register_top"]
 
 
 def _cmd_keygen(args) -> int:
+    from tunnelsense.io._keys import generate_key_pair
+
     private, public = generate_key_pair(args.private, overwrite=args.force)
     print(f"wrote {private} (private key: keep it on the machine that trains, "
           f"sign with 'train ... --sign-key {private}') and {public} (public key: "

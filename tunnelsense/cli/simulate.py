@@ -5,12 +5,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from tunnelsense._progress import Progress
-from tunnelsense.datasets import STREET_SCENARIOS, TUNNEL_SCENARIOS
-from tunnelsense.datasets._simulate import simulate_to_folder
+from tunnelsense.datasets._scenarios import STREET_SCENARIOS, TUNNEL_SCENARIOS
 
 
 def _cmd_simulate(args) -> int:
+    from tunnelsense._progress import Progress
+    from tunnelsense.datasets._simulate import simulate_to_folder
+
     start = time.perf_counter()
     what = simulate_to_folder(
         args.kind, args.outdir, args.frames if args.kind == "tunnel" else args.scans,

@@ -7,24 +7,16 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extras_for_runs
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.io import open_run_stream, read_objects, read_run, read_run_gt
-from tunnelsense.io._rosbag import is_bag
-from tunnelsense.metrics import street_report, street_scores
-from tunnelsense.plotting import draw_run
-from tunnelsense.street import (
-    format_objects_written,
-    format_runs,
-    format_training,
-    train_detector,
-    write_objects,
-)
 
 __all__ = ["register"]
 
 
 def _read_runs(paths, args):
+    from tunnelsense.io import read_run
+
     runs = []
     for p in paths:
         runs.append(read_run(p, range_unit=args.range_unit, topic=args.topic,
@@ -37,6 +29,8 @@ def _read_runs(paths, args):
 def _check_bag_speed(path, info, model=None) -> None:
     """Refuse a bag that gives no ego speed when the model fixes none: its lengths
     would come from an assumed 40 km/h."""
+    from tunnelsense.io._rosbag import is_bag
+
     if not is_bag(path) or "speed" in info or "speed_topic" in info:
         return
     if model is not None and getattr(model[-1], "speed", None) is not None:
@@ -47,7 +41,19 @@ def _check_bag_speed(path, info, model=None) -> None:
         "pass --speed M/S (e.g. --speed 11.1 at 40 km/h)")
 
 
+def _check_bags(paths, reading, model) -> None:
+    """:func:`_check_bag_speed` of every ROS bag of a fleet, before any detection."""
+    from tunnelsense.io._laser import open_run_stream
+    from tunnelsense.io._rosbag import is_bag
+
+    for path in paths:
+        if is_bag(path):
+            _check_bag_speed(path, open_run_stream(path, **reading).info, model)
+
+
 def _cmd_train(args) -> int:
+    from tunnelsense.street._run import format_runs, format_training, train_detector
+
     start = time.perf_counter()
     require_extras_for_runs(args.rundirs)
     key = common.check_model_output(args, args.rundirs)
@@ -64,20 +70,34 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
-    require_extras_for_runs([args.rundir], draw=args.draw)
-    common.check_detect_outputs(args, args.rundir, [args.out])
+    sources = fleet.fleet_sources(args)
+    if sources is not None:
+        require_extras_for_runs(sources)
+        reading = {"range_unit": args.range_unit, "topic": args.topic,
+                   "mount_height": args.mount_height, "speed": args.speed,
+                   "speed_topic": args.speed_topic}
+        return fleet.run_fleet(args, "street", sources,
+                               {"all_objects": args.all_objects, **reading},
+                               check=lambda model: _check_bags(sources, reading, model))
+    from tunnelsense.io._laser import open_run_stream
+    from tunnelsense.street._run import format_objects_written, write_objects
+
+    require_extras_for_runs([args.source], draw=args.draw)
+    common.check_detect_outputs(args, args.source, [args.out])
     model = common.cli_model(args, "street")
-    source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
+    source = open_run_stream(args.source, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
-                             speed_topic=args.speed_topic)
-    _check_bag_speed(args.rundir, source.info, model)
+                             speed_topic=args.speed_topic, ground_truth=False)
+    _check_bag_speed(args.source, source.info, model)
     counts, resumed = write_objects(
         model, source, args.out, all_objects=args.all_objects, resume=args.resume,
         overwrite=args.force, progress=common.progress(
             args, source.n_scans, f"{source.name}: detecting", unit="scan"))
     print(format_objects_written(source.name, counts, args.out, resumed))
     if args.draw:
-        run = _read_runs([args.rundir], args)[0]
+        from tunnelsense.plotting import draw_run
+
+        run = _read_runs([args.source], args)[0]
         head = model[:-1].transform(run.scans) if len(model.steps) > 1 else run.scans
         written = draw_run(run, model[-1], args.draw, X=head)
         print(f"drew {len(written)} pictures in {args.draw}")
@@ -85,10 +105,19 @@ def _cmd_detect(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
+    from tunnelsense.io import read_objects, read_run_gt
+    from tunnelsense.metrics import street_class_scores, street_report, street_scores
+
     rundir = Path(args.rundir)
     gt = read_run_gt(rundir / "gt.csv" if rundir.is_dir() else rundir)
     detected = read_objects(args.objects)
     scores = street_scores(gt, detected, min_iou=args.min_iou, zero_division=None)
+    if args.json and "vehicle_class" in gt and "vehicle_class" in detected:
+        classes = street_class_scores(gt, detected, min_iou=args.min_iou)
+        scores["parked_classes"] = {
+            "classes": classes["classes"], "accuracy": classes["accuracy"],
+            "confusion": {truth: {k: int(v) for k, v in row.items()}
+                          for truth, row in classes["confusion"].iterrows()}}
     print(json.dumps(scores, indent=2) if args.json
           else street_report(gt, detected, min_iou=args.min_iou))
     return 0
@@ -129,13 +158,15 @@ def register(verbs) -> None:
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser("street", help="detect parked and passing vehicles")
-    p.add_argument("rundir", metavar="RUN",
+    p.add_argument("source", nargs="*", metavar="RUN",
                    help="a laser run folder (scans.npz), a ROS 1 .bag file or a ROS 2 "
-                   "bag folder of sensor_msgs/LaserScan")
+                   "bag folder of sensor_msgs/LaserScan (several: a fleet, see "
+                   "--tours-from)")
     common.add_model_arguments(p, help_model="a model saved by train street (.skops, "
                                "or a .joblib pickle with --trust-pickle)")
     p.add_argument("--out", required=True, metavar="OBJECTS.csv",
-                   help="object table to write")
+                   help="object table to write (several runs: the folder of their "
+                   "object tables)")
     p.add_argument("--all-objects", action="store_true",
                    help="also write roadside objects and non-vehicles ('other')")
     p.add_argument("--resume", action="store_true",
@@ -145,9 +176,15 @@ def register(verbs) -> None:
     _add_range_unit(p)
     p.add_argument("--draw", metavar="DIR",
                    help="draw the range image, a scan and its dendrogram into DIR")
+    p.add_argument("--jobs", type=int, default=common.CPUS,
+                   help="several runs: runs detected at once (default: the number of "
+                   "CPUs)")
+    fleet.add_fleet_arguments(p, "run")
     p.set_defaults(func=_cmd_detect)
 
-    p = verbs["evaluate"].add_parser("street", help="score an object table")
+    p = verbs["evaluate"].add_parser(
+        "street", help="score an object table (per vehicle class when both tables "
+        "have a vehicle_class column)")
     p.add_argument("rundir", metavar="RUNDIR", help="the run folder (its gt.csv)")
     p.add_argument("objects", metavar="OBJECTS.csv", help="written by detect street")
     p.add_argument("--json", action="store_true",

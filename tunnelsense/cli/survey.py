@@ -5,15 +5,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extra, require_extras_for_runs
 from tunnelsense.cli.position import _positive
 from tunnelsense.cli.street import _add_range_unit, _check_bag_speed
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.io import open_run_stream, read_objects
 from tunnelsense.io._output import atomic_write, check_output, input_files
 
 __all__ = ["register_top"]
@@ -53,6 +49,8 @@ def _scans(source, bar, stamps, speeds):
 
 def _speeds(args, speeds, model):
     """The ego speed of every scan: the run's (or ``--speed``), else the model's."""
+    import numpy as np
+
     speeds = np.asarray(speeds, dtype=np.float64)
     if not np.isnan(speeds).any():
         return speeds
@@ -68,6 +66,8 @@ def _speeds(args, speeds, model):
 
 def _check_objects_file(args, objects, n_scans):
     """Refuse an object table of ``--objects`` whose scans are beyond the run's."""
+    import numpy as np
+
     beyond = np.flatnonzero(objects["last_scan"].to_numpy() >= n_scans)
     if beyond.size:
         raise InputFormatError(
@@ -77,6 +77,9 @@ def _check_objects_file(args, objects, n_scans):
 
 
 def _cmd_survey_street(args) -> int:
+    import pandas as pd
+
+    from tunnelsense.io import open_run_stream, read_objects
     from tunnelsense.street import (
         CENSUS_CLASSES,
         OBJECT_COLUMNS,
@@ -155,8 +158,8 @@ def register_top(sub) -> None:
         "street", help="parked vehicles per street segment, by class, and the kerb "
         "occupancy",
         description="A parking census of a laser run: per street segment, the parked "
-        "vehicles by class (car, van, motorbike; 'unclassified' when the detector "
-        "gives no class), their length and the fraction of the kerb they cover. "
+        "vehicles by class (car, van, motorbike, as the detector tells them; "
+        "'unclassified' for an object table without classes), their length and the fraction of the kerb they cover. "
         "Distance along the street comes from the ego speed of each scan (the run's "
         "own, a ROS bag's odometry, or --speed) times the time between scans. Detect "
         "with --model, or count an object table of 'detect street' (--objects).")

@@ -9,23 +9,16 @@ import time
 from pathlib import Path
 
 from tunnelsense.cli import _common as common
+from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extra
-from tunnelsense.io import clusters_path, read_tour
-from tunnelsense.metrics import results_scores, tunnel_report
-from tunnelsense.tunnel import (
-    detect_to_files,
-    fit_indicator_detector,
-)
-from tunnelsense.tunnel._detect import SEARCH_GRID
-from tunnelsense.tunnel._reports import (
-    format_detection,
-    format_tours,
-    format_training,
-    run_demo,
-)
+from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 
 def _cmd_train(args) -> int:
+    from tunnelsense.io import read_tour
+    from tunnelsense.tunnel import fit_indicator_detector
+    from tunnelsense.tunnel._reports import format_tours, format_training
+
     start = time.perf_counter()
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
@@ -44,6 +37,14 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    sources = fleet.fleet_sources(args)
+    if sources is not None:
+        return fleet.run_fleet(args, "tunnel", sources,
+                               {"colour": common.colour(args)})
+    from tunnelsense.io import clusters_path
+    from tunnelsense.tunnel import detect_to_files
+    from tunnelsense.tunnel._reports import format_detection
+
     start, out = time.perf_counter(), Path(args.out)
     common.check_detect_outputs(args, args.source, [out, clusters_path(out)])
     if args.draw_video:
@@ -68,6 +69,7 @@ def _cmd_detect(args) -> int:
 def _check_video_output(args, out) -> None:
     """Refuse a --draw-video file before any work: a .mp4/.avi name, not an input,
     not another output of the run, and an existing file only with --force."""
+    from tunnelsense.io import clusters_path
     from tunnelsense.io._output import check_output, input_files
     from tunnelsense.io._video_out import check_video_path
 
@@ -84,6 +86,9 @@ def _check_video_output(args, out) -> None:
 
 
 def _cmd_evaluate(args) -> int:
+    from tunnelsense.io import read_tour
+    from tunnelsense.metrics import results_scores, tunnel_report
+
     tour = read_tour(args.seqdir)
     scores = results_scores(args.results, tour, min_height=args.min_height)
     print(json.dumps(scores, indent=2) if args.json
@@ -92,6 +97,8 @@ def _cmd_evaluate(args) -> int:
 
 
 def _cmd_demo(args) -> int:
+    from tunnelsense.tunnel._reports import run_demo
+
     for text in run_demo(args.frames, random_state=args.seed, min_height=args.min_height,
                          progress=lambda total, desc: common.progress(args, total, desc)):
         print(text)
@@ -124,8 +131,10 @@ def register(verbs) -> None:
         "MOTChallenge results and every keypoint cluster beside them (.clusters.csv).")
     common.add_model_arguments(p, help_model="model written by 'train tunnel' (.skops, "
                                "or a .joblib pickle with --trust-pickle)")
-    p.add_argument("source", help="MOTChallenge folder, image folder or video file")
-    p.add_argument("--out", required=True, help="MOTChallenge results file to write")
+    p.add_argument("source", nargs="*", metavar="SOURCE", help="MOTChallenge folder, "
+                   "image folder or video file (several: a fleet, see --tours-from)")
+    p.add_argument("--out", required=True, help="MOTChallenge results file to write "
+                   "(several sources: the folder of their results files)")
     p.add_argument("--draw", metavar="DIR", help="also draw frames into DIR (clusters, "
                    "trajectories, a legend and the frame number)")
     p.add_argument("--draw-every", type=int, default=1, metavar="N", help="with --draw, "
@@ -140,8 +149,10 @@ def register(verbs) -> None:
     common.add_output_arguments(p, quiet=True)
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode the next frames while the detector works (0: decode in the "
-                   "detector's thread; default: the number of CPUs)")
+                   "detector's thread; several sources: tours detected at once; "
+                   "default: the number of CPUs)")
     common.add_colour_arguments(p)
+    fleet.add_fleet_arguments(p, "tour")
     p.set_defaults(func=_cmd_detect)
 
     p = verbs["evaluate"].add_parser(

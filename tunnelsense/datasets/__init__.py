@@ -4,15 +4,19 @@ No public data of either kind exists, so tunnelsense makes its own, grounded in 
 geometry of the sensors and the scenes the papers describe.
 """
 
-from tunnelsense.datasets._odometry import (
-    TourKinematics,
-    make_tunnel_kinematics,
-    make_tunnel_odometry,
-    simulate_indicator_detections,
-)
-from tunnelsense.datasets._simulate import simulate_to_folder
-from tunnelsense.datasets._street import STREET_SCENARIOS, make_street_scans
-from tunnelsense.datasets._tunnel import TUNNEL_SCENARIOS, make_tunnel_tour
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "TourKinematics": "_odometry",
+    "make_tunnel_kinematics": "_odometry",
+    "make_tunnel_odometry": "_odometry",
+    "simulate_indicator_detections": "_odometry",
+    "simulate_to_folder": "_simulate",
+    "STREET_SCENARIOS": "_street",
+    "make_street_scans": "_street",
+    "TUNNEL_SCENARIOS": "_tunnel",
+    "make_tunnel_tour": "_tunnel",
+}
 
 __all__ = [
     "simulate_to_folder",
@@ -25,3 +29,5 @@ __all__ = [
     "make_tunnel_tour",
     "simulate_indicator_detections",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

@@ -32,6 +32,12 @@ from tunnelsense.datasets._street_sensor import (
 
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
 
+#: The simulator's kinds of vehicle as vehicle classes
+#: (:data:`~tunnelsense.street.VEHICLE_CLASSES`): a small car is a car, a long low
+#: lorry or trailer a van.
+KIND_CLASS = {"car": "car", "small": "car", "van": "van", "long": "van",
+              "motorbike": "motorbike"}
+
 
 # --------------------------------------------------------------------------------------
 # The generator
@@ -135,6 +141,8 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         "last_scan": pd.Series([r[1] for r in rows], dtype="int64"),
         "label": pd.Series([r[2] for r in rows], dtype="object"),
     })[list(RUN_GT_COLUMNS)]
+    gt["vehicle_class"] = pd.Series([KIND_CLASS[objects[r[3]]["kind"]] for r in rows],
+                                    dtype="object")
     for k, r in enumerate(rows, start=1):
         objects[r[3]]["id"] = k
 
@@ -276,7 +284,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
     -------
     run : Run
         Scans with the nominal :class:`~tunnelsense.LaserGeometry` (the true roll is
-        not in it), ground truth ``id,first_scan,last_scan,label`` with one row per
+        not in it), ground truth ``id,first_scan,last_scan,label,vehicle_class``
+        (``car``, ``van`` or ``motorbike``: :data:`KIND_CLASS` of the vehicle's
+        kind) with one row per
         parked or passing vehicle (motorbikes included) that the scanner sees
         between 0.1 m and 2 m above the road in at least 3 scans, over the scans
         during which its body crosses the scan plane, and ``info``

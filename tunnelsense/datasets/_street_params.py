@@ -14,7 +14,7 @@ import numbers
 __all__ = ["STREET_SCENARIOS", "resolve_params"]
 
 #: Names of the street scenarios of :func:`make_street_scans`.
-STREET_SCENARIOS = ("sparse", "dense", "tilted", "crowded", "hard", "randomized")
+from tunnelsense.datasets._scenarios import STREET_SCENARIOS  # noqa: E402
 
 # Physical parameters (the documented ``**overrides``): default, lower and upper bound.
 # ``None`` as a scenario value means "drawn at random for every run".

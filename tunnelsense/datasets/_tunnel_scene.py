@@ -10,7 +10,7 @@ import numpy as np
 
 __all__ = ["INDICATOR", "LAMP", "SHADOW", "TUNNEL_SCENARIOS", "VEHICLE"]
 
-TUNNEL_SCENARIOS = ("light", "heavy", "curved", "randomized")
+from tunnelsense.datasets._scenarios import TUNNEL_SCENARIOS  # noqa: E402
 
 INDICATOR, LAMP, VEHICLE, SHADOW = 1, 2, 3, 4
 

@@ -11,50 +11,55 @@
   summary and a checksum inside) or plain ``.joblib`` pickles.
 """
 
-from tunnelsense.io._bag_writer import write_run_bag
-from tunnelsense.io._describe import describe, format_description, open_source
-from tunnelsense.io._images import iter_video, read_image
-from tunnelsense.io._keys import (
-    generate_key_pair,
-    read_private_key,
-    read_public_key,
-    read_secret,
-)
-from tunnelsense.io._laser import (
-    RunStream,
-    ego_speed,
-    open_run_stream,
-    read_objects,
-    read_run,
-    read_run_gt,
-    write_run,
-    write_run_gt,
-)
-from tunnelsense.io._model import (
-    MAX_MODEL_BYTES,
-    TRUSTED_TYPES,
-    ModelVersionWarning,
-    UntrustedModelError,
-    describe_model,
-    load_model,
-    save_model,
-)
-from tunnelsense.io._mot import read_tour, write_tour
-from tunnelsense.io._results import (
-    CLUSTERS_HEADER,
-    CLUSTERS_SUFFIX,
-    MOT_RESULT_COLUMNS,
-    cluster_lines,
-    clusters_path,
-    mot_result_lines,
-    read_hypotheses,
-    read_mot_results,
-    write_mot_results,
-)
-from tunnelsense.io._sources import open_tour, read_image_folder, read_video
-from tunnelsense.io._tables import read_mot_gt, write_mot_gt
-from tunnelsense.io._trust import check_model_path, load_trusted_model, read_signing_key
-from tunnelsense.io._writer import ResultsWriter
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "write_run_bag": "_bag_writer",
+    "describe": "_describe",
+    "format_description": "_describe",
+    "open_source": "_describe",
+    "iter_video": "_images",
+    "read_image": "_images",
+    "generate_key_pair": "_keys",
+    "read_private_key": "_keys",
+    "read_public_key": "_keys",
+    "read_secret": "_keys",
+    "RunStream": "_laser",
+    "ego_speed": "_laser",
+    "open_run_stream": "_laser",
+    "read_objects": "_laser",
+    "read_run": "_laser",
+    "read_run_gt": "_laser",
+    "write_run": "_laser",
+    "write_run_gt": "_laser",
+    "MAX_MODEL_BYTES": "_model",
+    "TRUSTED_TYPES": "_model",
+    "ModelVersionWarning": "_model",
+    "UntrustedModelError": "_model",
+    "describe_model": "_model",
+    "load_model": "_model",
+    "save_model": "_model",
+    "read_tour": "_mot",
+    "write_tour": "_mot",
+    "CLUSTERS_HEADER": "_results",
+    "CLUSTERS_SUFFIX": "_results",
+    "MOT_RESULT_COLUMNS": "_results",
+    "cluster_lines": "_results",
+    "clusters_path": "_results",
+    "mot_result_lines": "_results",
+    "read_hypotheses": "_results",
+    "read_mot_results": "_results",
+    "write_mot_results": "_results",
+    "open_tour": "_sources",
+    "read_image_folder": "_sources",
+    "read_video": "_sources",
+    "read_mot_gt": "_tables",
+    "write_mot_gt": "_tables",
+    "check_model_path": "_trust",
+    "load_trusted_model": "_trust",
+    "read_signing_key": "_trust",
+    "ResultsWriter": "_writer",
+}
 
 __all__ = [
     "MAX_MODEL_BYTES",
@@ -103,3 +108,5 @@ __all__ = [
     "write_run_gt",
     "write_tour",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

@@ -186,7 +186,8 @@ def ego_speed(info):
     return None
 
 
-def _open_run(path, *, lazy, range_unit="m", speed=None, speed_topic=None):
+def _open_run(path, *, lazy, range_unit="m", speed=None, speed_topic=None,
+              ground_truth=True):
     _check_range_unit(range_unit)
     if speed_topic is not None:
         raise InputFormatError(f"{path}: speed_topic applies to a ROS bag; a run "
@@ -212,7 +213,7 @@ def _open_run(path, *, lazy, range_unit="m", speed=None, speed_topic=None):
     if speed is not None:
         info["speed"] = speed  # ego_speed reads "speed" first
     name = str(info.pop("name", folder.resolve().name))
-    gt = _read_gt_of(folder, n_scans=ranges.shape[0])
+    gt = _read_gt_of(folder, n_scans=ranges.shape[0]) if ground_truth else None
     return name, ranges, stamps, geometry, gt, info
 
 
@@ -240,7 +241,8 @@ class RunStream:
     ----------
     name : str
     geometry : LaserGeometry
-    gt : DataFrame
+    gt : DataFrame or None
+        None when opened with ``ground_truth=False``.
     info : dict
     n_scans : int
     """
@@ -269,7 +271,8 @@ class RunStream:
 
 
 def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
-                    mount_height=None, speed=None, speed_topic=None) -> RunStream:
+                    mount_height=None, speed=None, speed_topic=None,
+                    ground_truth=True) -> RunStream:
     """Open a laser run for reading scan by scan (bounded memory).
 
     The same checks as :func:`read_run` are made up front, from the file's headers;
@@ -290,6 +293,9 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
         For a ROS bag (then the scans are read message by message).
     speed : float, default=None
         The ego speed (m/s) of every scan (see :func:`read_run`).
+    ground_truth : bool, default=True
+        Read and check the run's ``gt.csv``.  False (detection, which never uses
+        it): ``gt`` is None, and the file is not read.
 
     Returns
     -------
@@ -336,7 +342,8 @@ def open_run_stream(path, *, chunk_scans=1024, range_unit="m", topic=None,
         return open_bag_run(path, topic=topic, mount_height=mount_height, speed=speed,
                             speed_topic=speed_topic)
     name, ranges, stamps, geometry, gt, info = _open_run(
-        path, lazy=True, range_unit=range_unit, speed=speed, speed_topic=speed_topic)
+        path, lazy=True, range_unit=range_unit, speed=speed, speed_topic=speed_topic,
+        ground_truth=ground_truth)
     return RunStream(name, ranges, stamps, geometry, gt, info, int(chunk_scans),
                      scale)
 

@@ -25,8 +25,9 @@ __all__ = ["read_objects", "read_run_gt", "write_run_gt"]
 def read_run_gt(path) -> pd.DataFrame:
     """Read a laser run's ``gt.csv`` (``id,first_scan,last_scan,label``).
 
-    The first line is the header; further columns are allowed and left out; blank
-    lines are skipped.  A row with more non-empty fields than the header is refused
+    The first line is the header; an optional ``vehicle_class`` column (``car``,
+    ``van``, ``motorbike`` or empty) is kept, further columns are allowed and left
+    out; blank lines are skipped.  A row with more non-empty fields than the header is refused
     (never shifted).
 
     Parameters
@@ -37,7 +38,8 @@ def read_run_gt(path) -> pd.DataFrame:
     Returns
     -------
     gt : DataFrame
-        ``id``, ``first_scan``, ``last_scan`` as int64 and ``label`` as strings;
+        ``id``, ``first_scan``, ``last_scan`` as int64 and ``label`` (and
+        ``vehicle_class`` when the file has it) as strings;
         ``gt.attrs["lines"]`` holds the file line of each row.
 
     Raises
@@ -77,6 +79,17 @@ def read_run_gt(path) -> pd.DataFrame:
                 "0 <= first_scan <= last_scan"
             )
     table = pd.DataFrame({**out, "label": pd.Series(labels, dtype=str)})
+    if "vehicle_class" in header:
+        from tunnelsense.street._census import VEHICLE_CLASSES  # (no import circle)
+
+        at = header.index("vehicle_class")
+        kinds = [row[at].strip() for row in rows]
+        for i, kind in zip(lines, kinds, strict=True):
+            if kind not in ("", *VEHICLE_CLASSES):
+                raise InputFormatError(
+                    f"{path}, line {i}: vehicle_class is {kind!r}, expected one of "
+                    f"{', '.join(VEHICLE_CLASSES)} or empty")
+        table["vehicle_class"] = pd.Series(kinds, dtype=object)
     table.attrs["lines"] = LineNumbers(lines)
     return table
 
@@ -156,6 +169,9 @@ def read_objects(path) -> pd.DataFrame:
     Returns
     -------
     objects : DataFrame
+        Its optional ``vehicle_class`` column (``car``, ``van``, ``motorbike``, or
+        empty for an object of no class) as strings; a table written before the
+        detector gave classes has none, and reads as it is.
 
     Raises
     ------
@@ -163,15 +179,16 @@ def read_objects(path) -> pd.DataFrame:
         The file is missing.
     InputFormatError
         It is not a CSV table, lacks a column, or a row's scans are not integers
-        ``0 <= first_scan <= last_scan`` (of at most 18 digits) or its label is
-        empty; the message names the file and the line.
+        ``0 <= first_scan <= last_scan`` (of at most 18 digits), its label is
+        empty or its ``vehicle_class`` is not a vehicle class; the message names
+        the file and the line.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: objects file not found")
     try:
         objects = pd.read_csv(path, dtype={c: str for c in ("first_scan", "last_scan",
-                                                           "label")})
+                                                           "label", "vehicle_class")})
     except (pd.errors.ParserError, UnicodeDecodeError, pd.errors.EmptyDataError,
             ValueError, OSError) as exc:
         raise InputFormatError(f"{path}: not a CSV object table ({exc})") from None
@@ -195,6 +212,17 @@ def read_objects(path) -> pd.DataFrame:
         if bad.any():
             row = int(np.flatnonzero(bad.to_numpy())[0])
             raise InputFormatError(f"{path}, line {row + 2}: {what}")
+    if "vehicle_class" in objects:
+        from tunnelsense.street._census import VEHICLE_CLASSES  # (no import circle)
+
+        kind = objects["vehicle_class"].fillna("").astype(str).str.strip()
+        bad = ~kind.isin(("", *VEHICLE_CLASSES))
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise InputFormatError(
+                f"{path}, line {row + 2}: vehicle_class is {kind.iloc[row]!r}, expected "
+                f"one of {', '.join(VEHICLE_CLASSES)} or empty")
+        objects["vehicle_class"] = kind.astype(object)
     return objects
 
 
@@ -204,7 +232,8 @@ def write_run_gt(gt: pd.DataFrame, path) -> None:
     Parameters
     ----------
     gt : DataFrame
-        With the columns ``id,first_scan,last_scan,label``.
+        With the columns ``id,first_scan,last_scan,label`` (and ``vehicle_class``,
+        written when present).
     path : str or Path
         The file to write (its folder is created).
     """
@@ -212,4 +241,5 @@ def write_run_gt(gt: pd.DataFrame, path) -> None:
     if missing:
         raise ValueError(f"cannot write {path}: the table lacks columns {missing}")
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    gt[list(RUN_GT_COLUMNS)].to_csv(path, index=False, lineterminator="\n")
+    columns = list(RUN_GT_COLUMNS) + (["vehicle_class"] if "vehicle_class" in gt else [])
+    gt[columns].to_csv(path, index=False, lineterminator="\n")

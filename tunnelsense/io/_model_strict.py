@@ -253,12 +253,17 @@ def _check_keypoints(est):
         if not (isinstance(shape, tuple | list) and len(shape) == 2
                 and all(_int(v, 1) and v <= 65535 for v in shape)):
             return "frame_shape_ must be (height, width), positive integers"
-    if est.radiometry == "frame":
+    if est.radiometry in ("frame", "contrast"):
         if not (_finite(est.ref_level_) and _finite(est.ref_spread_)
                 and est.ref_spread_ > 0):
             return "ref_level_ and ref_spread_ must be finite with ref_spread_ > 0"
         if not (_finite(est.gain_tolerance_) and est.gain_tolerance_ >= 0):
             return "gain_tolerance_ must be finite and >= 0"
+    if est.radiometry == "contrast":
+        lo, hi = est.contrast_low_, est.contrast_high_
+        if not (_finite(lo) and _finite(hi) and lo <= hi):
+            return ("contrast_low_ and contrast_high_ must be finite with "
+                    "contrast_low_ <= contrast_high_")
     return None
 
 
@@ -349,7 +354,9 @@ _FITTED = {
         lambda e: ("pixel_dtype_", "low_", "high_", "n_frames_fit_",
                    *(("frame_shape_",) if e.frame_size == "training" else ()),
                    *(("ref_level_", "ref_spread_", "gain_tolerance_")
-                     if e.radiometry == "frame" else ())),
+                     if e.radiometry in ("frame", "contrast") else ()),
+                   *(("contrast_low_", "contrast_high_")
+                     if e.radiometry == "contrast" else ())),
         lambda e: _check_frames_fit(e) or _check_keypoints(e)),
     "KMeansHistogramVerifier": (
         ("positive_centers_", "negative_centers_", "center_scores_", "centers_",

@@ -191,7 +191,7 @@ def _sequence_files(path, image_dir, seq) -> list:
     return files
 
 
-def read_tour(path, *, colour=None) -> Tour:
+def read_tour(path, *, colour=None, ground_truth=True) -> Tour:
     """Read a MOTChallenge sequence folder as a :class:`~tunnelsense.Tour`.
 
     Frames are not decoded here: each :class:`~tunnelsense.FrameRecord` decodes its
@@ -207,6 +207,9 @@ def read_tour(path, *, colour=None) -> Tour:
     colour : int, "luminance" or None, default=None
         How colour frames become grey: refused (None), one channel, or luminance
         (see :func:`~tunnelsense.io.read_image`).
+    ground_truth : bool, default=True
+        Read and check ``gt/gt.txt``.  False (detection, which never uses it): the
+        tour's ``gt`` is None, and the file is not read.
 
     Returns
     -------
@@ -236,6 +239,8 @@ def read_tour(path, *, colour=None) -> Tour:
         for i, f in enumerate(files, 1)
     )
     gt_path = path / "gt" / "gt.txt"
+    if not ground_truth:
+        return Tour(seq["name"], frames, None, seq["frameRate"], dict(seq["extra"]))
     gt = read_mot_gt(gt_path) if gt_path.exists() else empty_mot_gt()
     if len(gt):
         bad = np.flatnonzero((gt["frame"] < 1) | (gt["frame"] > seq["seqLength"]))

@@ -19,7 +19,6 @@ import tempfile
 from pathlib import Path
 
 from tunnelsense.exceptions import OutputExistsError
-from tunnelsense.io._rosbag import is_bag
 
 __all__ = [
     "atomic_write",
@@ -185,6 +184,8 @@ def input_files(source) -> list[Path]:
     ['gt']
     """
     source = Path(source)
+    from tunnelsense.io._rosbag import is_bag  # numpy: only when a run is read
+
     if not source.is_dir() or is_bag(source):
         return [source]  # a file, or a ROS 2 bag folder: every file in it
     names = ["seqinfo.ini", "gt", "img1", "scans.npz", "gt.csv", "metadata.yaml"]

@@ -187,7 +187,7 @@ def read_video(path, *, check_length=True, colour=None) -> Tour:
     return Tour(name, frames, empty_mot_gt(), rate, {"source": str(path)})
 
 
-def open_tour(source, *, colour=None) -> Tour:
+def open_tour(source, *, colour=None, ground_truth=True) -> Tour:
     """Read a tour from a MOTChallenge folder, an image folder or a video file.
 
     Parameters
@@ -198,6 +198,9 @@ def open_tour(source, *, colour=None) -> Tour:
     colour : int, "luminance" or None, default=None
         How colour frames become grey: refused (None), one channel, or luminance
         (see :func:`~tunnelsense.io.read_image`).
+    ground_truth : bool, default=True
+        Read a MOTChallenge folder's ``gt/gt.txt`` (see :func:`read_tour`); False:
+        its ``gt`` is None.
 
     Returns
     -------
@@ -214,7 +217,7 @@ def open_tour(source, *, colour=None) -> Tour:
     source = Path(source)
     if source.is_dir():
         if (source / "seqinfo.ini").exists():
-            return read_tour(source, colour=colour)
+            return read_tour(source, colour=colour, ground_truth=ground_truth)
         return read_image_folder(source, colour=colour)
     if source.is_file():
         if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):

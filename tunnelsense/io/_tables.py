@@ -16,10 +16,18 @@ import pandas as pd
 from tunnelsense._records import MOT_GT_COLUMNS
 from tunnelsense.exceptions import InputFormatError
 
-#: Read floats back exactly as written: pandas 3 does by default (and deprecates the
-#: argument), pandas 2's C parser only when asked.
-ROUND_TRIP = ({} if int(pd.__version__.split(".")[0]) >= 3
-              else {"float_precision": "round_trip"})
+
+def _round_trip() -> dict:
+    """Read floats back exactly as written: pandas 3 does by default (and deprecates
+    the argument), pandas 2's C parser only when asked."""
+    return {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision":
+                                                               "round_trip"}
+
+
+def __getattr__(name):  # ROUND_TRIP: asks pandas its version when first used
+    if name == "ROUND_TRIP":
+        return _round_trip()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = ["LineNumbers", "read_mot_gt", "read_table", "write_mot_gt"]
 
@@ -111,7 +119,7 @@ def _parse_fast(numbered, columns):
             dtype=np.float64,
             skip_blank_lines=True,
             skipinitialspace=True,
-            **ROUND_TRIP,
+            **_round_trip(),
         )
     except (ValueError, pd.errors.ParserError):
         return None

@@ -1,27 +1,26 @@
 """Scores of the detectors against their ground truth."""
 
-from tunnelsense.metrics._street import (
-    interval_iou,
-    make_street_scorer,
-    match_objects,
-    objects_from_targets,
-    street_confusion_matrix,
-    street_report,
-    street_scores,
-)
-from tunnelsense.metrics._tunnel import (
-    HYPOTHESIS_COLUMNS,
-    gt_from_boxes,
-    hypotheses_from_records,
-    indicator_scores,
-    tunnel_scores,
-)
-from tunnelsense.metrics._tunnel_scoring import (
-    TUNNEL_SCORER_METRICS,
-    make_tunnel_scorer,
-    results_scores,
-    tunnel_report,
-)
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "interval_iou": "_street",
+    "make_street_scorer": "_street",
+    "match_objects": "_street",
+    "objects_from_targets": "_street",
+    "street_class_scores": "_street",
+    "street_confusion_matrix": "_street",
+    "street_report": "_street",
+    "street_scores": "_street",
+    "HYPOTHESIS_COLUMNS": "_tunnel",
+    "gt_from_boxes": "_tunnel",
+    "hypotheses_from_records": "_tunnel",
+    "indicator_scores": "_tunnel",
+    "tunnel_scores": "_tunnel",
+    "TUNNEL_SCORER_METRICS": "_tunnel_scoring",
+    "make_tunnel_scorer": "_tunnel_scoring",
+    "results_scores": "_tunnel_scoring",
+    "tunnel_report": "_tunnel_scoring",
+}
 
 __all__ = [
     "HYPOTHESIS_COLUMNS",
@@ -37,7 +36,10 @@ __all__ = [
     "make_street_scorer",
     "match_objects",
     "objects_from_targets",
+    "street_class_scores",
     "street_confusion_matrix",
     "street_report",
     "street_scores",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

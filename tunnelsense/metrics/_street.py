@@ -22,6 +22,7 @@ __all__ = [
     "make_street_scorer",
     "match_objects",
     "objects_from_targets",
+    "street_class_scores",
     "street_confusion_matrix",
     "street_report",
     "street_scores",
@@ -198,6 +199,104 @@ def street_scores(gt, detected, *, min_iou=0.5, labels=_LABELS, zero_division=0.
     return out
 
 
+def _classes_of(table, name):
+    """The ``vehicle_class`` column of an object table as stripped strings."""
+    values = table["vehicle_class"].reset_index(drop=True)
+    return values.fillna("").astype(str).str.strip().to_numpy(dtype=object)
+
+
+def street_class_scores(gt, detected, *, label="parked", min_iou=0.5, classes=None):
+    """Per vehicle class: recall, class accuracy and the class confusion matrix.
+
+    The objects of ``label`` are matched as in :func:`street_scores`; then, per class
+    of the ground truth (its ``vehicle_class`` column):
+
+    * ``recall``: the fraction of its objects matched to a detection of ``label``
+      (whatever the detection's class);
+    * ``accuracy``: the fraction of those matched whose detection has the same class.
+
+    Parameters
+    ----------
+    gt, detected : DataFrame
+        Object tables (see :func:`match_objects`), both with a ``vehicle_class``
+        column (empty: no class).
+    label : str, default="parked"
+    min_iou : float, default=0.5
+    classes : sequence of str, default=None
+        The classes, in order; None: :data:`tunnelsense.street.VEHICLE_CLASSES`.
+
+    Returns
+    -------
+    scores : dict
+        ``{"classes": {class: {"n", "matched", "correct", "recall", "accuracy"}},
+        "accuracy": float or None, "confusion": DataFrame}``: the overall class
+        accuracy of the matched objects, and the counts of truth (rows, ``classes``)
+        against detected class (columns: ``classes``, ``"none"`` for a detection
+        without a class, ``"missed"`` for no detection); rates of no object are None.
+
+    Raises
+    ------
+    ValueError
+        A table lacks the ``vehicle_class`` column (an object table written before
+        the detector gave classes).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from tunnelsense.metrics import street_class_scores
+    >>> gt = pd.DataFrame({"first_scan": [0, 20, 40], "last_scan": [9, 29, 49],
+    ...                    "label": ["parked"] * 3,
+    ...                    "vehicle_class": ["car", "motorbike", "van"]})
+    >>> det = pd.DataFrame({"first_scan": [0, 21], "last_scan": [9, 29],
+    ...                     "label": ["parked"] * 2, "vehicle_class": ["car", "car"]})
+    >>> s = street_class_scores(gt, det)
+    >>> s["classes"]["motorbike"]
+    {'n': 1, 'matched': 1, 'correct': 0, 'recall': 1.0, 'accuracy': 0.0}
+    >>> s["confusion"].loc["van"].tolist()  # car, van, motorbike, none, missed
+    [0, 0, 0, 0, 1]
+    """
+    if classes is None:
+        from tunnelsense.street._census import VEHICLE_CLASSES as classes
+    classes = tuple(classes)
+    for table, name in ((gt, "gt"), (detected, "detected")):
+        if isinstance(table, pd.DataFrame) and "vehicle_class" not in table:
+            raise ValueError(
+                f"{name} has no vehicle_class column: per-class scores need the "
+                "classes of both tables (an object table written before the "
+                "detector gave classes has none)")
+    g = _as_table(gt, "gt")
+    d = _as_table(detected, "detected")
+    if "run" not in gt or "run" not in detected:
+        g["run"] = ""
+        d["run"] = ""
+    gc, dc = _classes_of(gt, "gt"), _classes_of(detected, "detected")
+    m = match_objects(g, d, min_iou=min_iou)
+    gi, di = m["gt"].to_numpy(), m["detected"].to_numpy()
+    ok = (g["label"].to_numpy()[gi] == label) & (d["label"].to_numpy()[di] == label)
+    found = np.full(len(g), None, dtype=object)
+    found[gi[ok]] = [c if c in classes else "none" for c in dc[di[ok]]]
+    columns = [*classes, "none", "missed"]
+    confusion = pd.DataFrame(0, index=pd.Index(list(classes), name="truth"),
+                             columns=pd.Index(columns, name="detected"), dtype=np.int64)
+    out = {}
+    mine = g["label"].to_numpy() == label
+    for c in classes:
+        rows = mine & (gc == c)
+        hits = found[rows]
+        matched = int(sum(h is not None for h in hits))
+        correct = int(sum(h == c for h in hits))
+        for column in columns[:-1]:
+            confusion.loc[c, column] = int(sum(h == column for h in hits))
+        confusion.loc[c, "missed"] = int(rows.sum()) - matched
+        out[c] = {"n": int(rows.sum()), "matched": matched, "correct": correct,
+                  "recall": matched / int(rows.sum()) if rows.sum() else None,
+                  "accuracy": correct / matched if matched else None}
+    matched = sum(v["matched"] for v in out.values())
+    correct = sum(v["correct"] for v in out.values())
+    return {"classes": out, "accuracy": correct / matched if matched else None,
+            "confusion": confusion}
+
+
 def street_confusion_matrix(gt, detected, *, label="parked", min_iou=0.5):
     """The paper's confusion matrix (TABLE 1) of one label.
 
@@ -236,7 +335,9 @@ def street_confusion_matrix(gt, detected, *, label="parked", min_iou=0.5):
 def street_report(gt, detected, *, min_iou=0.5, label="parked"):
     """Scores per label and the confusion matrix of ``label``, as text.
 
-    A rate without a denominator (no ground truth, no detection) and the undefined
+    When both tables have a ``vehicle_class`` column, the class confusion matrix of
+    ``label`` follows, with every class's recall and accuracy
+    (:func:`street_class_scores`).  A rate without a denominator (no ground truth, no detection) and the undefined
     true negatives print as ``n/a``.
 
     Parameters
@@ -279,6 +380,17 @@ def street_report(gt, detected, *, min_iou=0.5, label="parked"):
     for name, values in matrix.iterrows():
         cells = ["n/a" if v != v else str(int(v)) for v in values]
         lines.append(f"{name:18s} {cells[0]:>8s}  {cells[1]:>8s}")
+    if "vehicle_class" in gt and "vehicle_class" in detected:
+        s = street_class_scores(gt, detected, label=label, min_iou=min_iou)
+        lines += ["", f"{label} vehicles by class (rows: truth; accuracy: of those "
+                  "found):"]
+        lines.append("truth \\ detected  " + "".join(
+            f"{c:>10s}" for c in s["confusion"].columns) + "    recall  accuracy")
+        for name, values in s["confusion"].iterrows():
+            v = s["classes"][name]
+            lines.append(f"{name:18s}" + "".join(f"{int(x):10d}" for x in values)
+                         + f"    {rate(v['recall'])}     {rate(v['accuracy'])}")
+        lines.append(f"class accuracy {rate(s['accuracy'])}")
     return "\n".join(lines)
 
 

@@ -5,21 +5,24 @@
 ``tunnelsense`` stays fast.
 """
 
-from tunnelsense.plotting._census import VEHICLE_CLASS_COLOURS, plot_census
-from tunnelsense.plotting._detections import DRAW_COLOURS, draw_detections
-from tunnelsense.plotting._frames import CLASS_COLORS, plot_frame
-from tunnelsense.plotting._scans import (
-    interval_bars,
-    plot_range_image,
-    plot_scan,
-    scan_points,
-)
-from tunnelsense.plotting._street import (
-    draw_run,
-    plot_clusters,
-    plot_dendrogram,
-    plot_objects,
-)
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "VEHICLE_CLASS_COLOURS": "_census",
+    "plot_census": "_census",
+    "DRAW_COLOURS": "_detections",
+    "draw_detections": "_detections",
+    "CLASS_COLORS": "_frames",
+    "plot_frame": "_frames",
+    "interval_bars": "_scans",
+    "plot_range_image": "_scans",
+    "plot_scan": "_scans",
+    "scan_points": "_scans",
+    "draw_run": "_street",
+    "plot_clusters": "_street",
+    "plot_dendrogram": "_street",
+    "plot_objects": "_street",
+}
 
 __all__ = [
     "CLASS_COLORS",
@@ -37,3 +40,5 @@ __all__ = [
     "plot_scan",
     "scan_points",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

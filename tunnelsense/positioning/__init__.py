@@ -7,28 +7,34 @@ fuses the two with a 1-D Kalman filter over distance, from a given start or, wit
 one, by locking on to the map from the spacing of the indicators passed.
 """
 
-from tunnelsense.positioning._evaluate import (
-    dead_reckoning,
-    errors_table,
-    format_errors,
-    position_errors,
-)
-from tunnelsense.positioning._filter import forward, rts_smooth
-from tunnelsense.positioning._fixes import detection_table, estimate_pass
-from tunnelsense.positioning._online import locate_online
-from tunnelsense.positioning._plot import plot_positioning
-from tunnelsense.positioning._positioner import TunnelPositioner
-from tunnelsense.positioning._run import evaluate_positions, position_tour, tour_tables
-from tunnelsense.positioning._stream import FIX_COLUMNS, Position, PositionStream
-from tunnelsense.positioning._tables import (
-    ESTIMATE_COLUMNS,
-    check_indicator_map,
-    check_odometry,
-    check_positions,
-    read_indicator_map,
-    read_odometry,
-    read_positions,
-)
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "dead_reckoning": "_evaluate",
+    "errors_table": "_evaluate",
+    "format_errors": "_evaluate",
+    "position_errors": "_evaluate",
+    "forward": "_filter",
+    "rts_smooth": "_filter",
+    "detection_table": "_fixes",
+    "estimate_pass": "_fixes",
+    "locate_online": "_online",
+    "plot_positioning": "_plot",
+    "TunnelPositioner": "_positioner",
+    "evaluate_positions": "_run",
+    "position_tour": "_run",
+    "tour_tables": "_run",
+    "FIX_COLUMNS": "_stream",
+    "Position": "_stream",
+    "PositionStream": "_stream",
+    "ESTIMATE_COLUMNS": "_tables",
+    "check_indicator_map": "_tables",
+    "check_odometry": "_tables",
+    "check_positions": "_tables",
+    "read_indicator_map": "_tables",
+    "read_odometry": "_tables",
+    "read_positions": "_tables",
+}
 
 __all__ = [
     "ESTIMATE_COLUMNS",
@@ -56,3 +62,5 @@ __all__ = [
     "rts_smooth",
     "tour_tables",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

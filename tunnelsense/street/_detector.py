@@ -44,6 +44,7 @@ OBJECT_COLUMNS = (
     "length",
     "top_height",
     "n_points",
+    "vehicle_class",
 )
 
 class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
@@ -173,6 +174,18 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Lowest top (m) of a motorbike across the kerb (handlebars and screen,
         1.05-1.4 m); the bonnet or boot of a car, broken off its body by a
         pedestrian or a post in front, stays lower.
+    van_height : float, default=1.8
+        Vehicle classes (the ``vehicle_class`` column, see
+        :func:`~tunnelsense.street.vehicle_class` and ``docs/street.md``): the lowest
+        height (m) of a van's body over most of its length (a car's roof covers less
+        than half of it); a vehicle whose near face continues above ``max_height``
+        is a van too.
+    van_length : float, default=7.0
+        Longest car (m); a longer vehicle is a ``"van"`` (lorries, trailers).
+    motorbike_width : float, default=1.2
+        Narrowest car (m; city cars are 1.5 m wide): a vehicle without a roof-wide top
+        surface that is narrower than this one way (along the street or across it),
+        or shorter than ``min_car_length``, is a ``"motorbike"``.
 
     Attributes
     ----------
@@ -233,6 +246,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
         "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
+        "van_height": [Interval(numbers.Real, None, None, closed="neither")],
+        "van_length": [Interval(numbers.Real, 0, None, closed="neither")],
+        "motorbike_width": [Interval(numbers.Real, 0, None, closed="left")],
     }
 
     def __init__(
@@ -267,6 +283,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_across_length=0.5,
         min_across_raised=0.3,
         min_across_top=1.05,
+        van_height=1.8,
+        van_length=7.0,
+        motorbike_width=1.2,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -298,6 +317,15 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_across_length = min_across_length
         self.min_across_raised = min_across_raised
         self.min_across_top = min_across_top
+        self.van_height = van_height
+        self.van_length = van_length
+        self.motorbike_width = motorbike_width
+
+    def _class_params(self):
+        """The keywords of :func:`~tunnelsense.street.vehicle_class`."""
+        return dict(van_height=self.van_height, van_length=self.van_length,
+                    motorbike_width=self.motorbike_width,
+                    min_car_length=self.min_car_length)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -410,7 +438,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
                               "last_scan": np.int64, "mean_depth": np.float64,
                               "region": np.int64, "length": np.float64,
                               "top_height": np.float64, "n_points": np.int64,
-                              "run": object, "label": object})
+                              "run": object, "label": object,
+                              "vehicle_class": object})
         return out, table
 
     # ------------------------------------------------------------- outputs

@@ -23,6 +23,7 @@ __all__ = [
     "is_vehicle",
     "merge_fragments",
     "near_side",
+    "see_through",
 ]
 
 #: Bits of the per-cluster evidence flags that show a vehicle body: roof, wall, raised.
@@ -31,6 +32,10 @@ BODY_FLAGS = 0b0111
 RAISED_FLAG = 0b0100
 #: Bit of the per-cluster evidence flags of a cluster whose lower part is hidden.
 HIDDEN_FLAG = 0b1000
+#: Bit of the per-cluster evidence flags of a cluster a beam passes under
+#: (:func:`~tunnelsense.street.passed_under`): counts as raised for a motorbike
+#: across the kerb only.
+PASSED_FLAG = 0b10000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
 #: Lowest height (m) of the points that give a cluster's near side: above kerbs,
@@ -181,6 +186,41 @@ def _held(seen, link_distance, short):
                                     link_distance)[0])
 
 
+def see_through(horizon, step, depth, top, fraction=0.5):
+    """Whether every scan of a gap sees through it: beams pass ``depth`` below
+    ``fraction`` of ``top`` (the lower top of the two fragments beside the gap).
+
+    A gap between two fragments that the beams see through, below the bodies'
+    height, is the space between two vehicles standing close (a motorbike across
+    the kerb beside a car), not a stretch of one body that returned nothing
+    (dropouts prove nothing: they do not enter the horizon).
+
+    Parameters
+    ----------
+    horizon : ndarray of shape (n_gap_scans, n_depths)
+        The gap scans' rows of :func:`~tunnelsense.street._geometry.horizon`.
+    step : float
+        Its depth step (m).
+    depth : float
+        The fragments' depth (m).
+    top : float
+        The lower of the two fragments' tops (m).
+    fraction : float, default=0.5
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import see_through
+    >>> h = np.array([[0.0, 0.1, 0.2], [0.0, 0.2, 0.3]])  # the road seen at 2 m
+    >>> see_through(h, 1.0, 2.0, 1.2), see_through(h[:, :2] + 1.0, 1.0, 2.0, 1.2)
+    (True, False)
+    """
+    if not len(horizon):
+        return False
+    j = min(max(int(np.ceil(depth / step)), 1), horizon.shape[1]) - 1
+    return bool(np.all(horizon[:, j] < fraction * top))
+
+
 def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
             merge_gap, occlusion_margin, bridge_occluded, alike=True, seen=None,
             horizon=None, step=None, tops=None, bridge_gap=None):
@@ -189,7 +229,8 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     The first ends before scan ``after``, the second starts at scan ``before``.
     They join when the first's last and the second's first mean depths differ by less
     than ``link_distance`` and the gap between them (``cum[before] - cum[after]``
-    metres) is at most ``merge_gap``, or (``bridge_occluded``, and the two ``alike``:
+    metres) is at most ``merge_gap`` (with ``horizon``, unless every scan of the gap
+    sees through it, :func:`see_through`: two vehicles standing close), or (``bridge_occluded``, and the two ``alike``:
     both show a body above kerb height or neither does) every scan of the gap shows
     something at least ``occlusion_margin`` nearer.  With ``seen`` (the first's last
     and the second's first scan: ``(span and occluder, hidden)`` each, see
@@ -220,8 +261,10 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
     if not abs(end_depth - start_depth) < link_distance and not (
             seen is not None and _held(seen, link_distance, short)):
         return False
-    if short:
-        return True
+    if short:  # unless the beams see through the gap: two vehicles standing close
+        return not (horizon is not None and tops is not None and before > after
+                    and see_through(horizon[after:before], step,
+                                    min(end_depth, start_depth), min(tops)))
     if bridge_gap is not None and cum[before] - cum[after] > bridge_gap:
         return False
     depth = min(end_depth, start_depth)
@@ -351,7 +394,7 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
                min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
-               top=np.inf, min_across_top=0.0):
+               top=np.inf, min_across_top=0.0, inside=True):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -364,8 +407,12 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     wheelie bins and people stand on the ground).  Shorter than ``min_length`` but
     at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
     motorbike at right angles to the kerb when at least ``min_across_raised`` of its
-    scans show a body raised between wheels and its ``top`` reaches
-    ``min_across_top`` (handlebars and screen; ``None``: never).
+    scans show a body raised between wheels or a beam passing under it
+    (``PASSED_FLAG``) and its ``top`` reaches
+    ``min_across_top`` (handlebars and screen; ``None``: never); a beam passing
+    under it counts as that evidence only when it lies ``inside`` its stretch of
+    consecutive scans (a run's first or last scans cut what they show: a van's end
+    is not a motorbike).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -389,7 +436,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     elif (not vehicle and min_across_length is not None and hidden_length == 0
           and min_across_length <= length < min_length and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
-        vehicle = raised >= min_across_raised  # a motorbike across the kerb
+        evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
+        under = float(np.mean((flags & evidence) > 0))
+        vehicle = under >= min_across_raised  # a motorbike across the kerb
+        body = max(body, under)  # its body: raised, or a beam passing under it
     return bool(vehicle and body >= min_body_fraction)
 
 

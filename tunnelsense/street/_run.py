@@ -274,12 +274,12 @@ def format_object(row):
     Examples
     --------
     >>> from tunnelsense.street import format_object
-    >>> format_object(("r", 1, 10, 39, "parked", 5.0, 2, 4.4, 1.45, 812))
-    '1,10,39,parked,5.0000,2,4.4000,1.4500,812'
+    >>> format_object(("r", 1, 10, 39, "parked", 5.0, 2, 4.4, 1.45, 812, "car"))
+    '1,10,39,parked,5.0000,2,4.4000,1.4500,812,car'
     """
-    _run, oid, first, last, label, depth, region, length, top, n_points = row
+    _run, oid, first, last, label, depth, region, length, top, n_points, kind = row
     return (f"{oid},{first},{last},{label},{depth:.4f},{region},{length:.4f},"
-            f"{top:.4f},{n_points}")
+            f"{top:.4f},{n_points},{kind}")
 
 
 def write_objects(pipeline, scans, path, *, all_objects=False, resume=False,

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["section_evidence"]
+__all__ = ["passed_under", "section_evidence"]
 
 #: How much farther (m) the beam below a raised body must return than the body.
 _UNDER_MARGIN = 0.1
@@ -135,3 +135,50 @@ def section_evidence(depth, height, cluster, beam, above, below, *, n_clusters=N
         hidden[has] = below[b, 0] < depth[b] - _UNDER_MARGIN
     np.logical_or.at(raised, cluster[under], True)
     return roof, wall, raised, hidden
+
+
+def passed_under(height, cluster, below_passes, *, n_clusters, min_clearance=0.2):
+    """Per intra-cluster: does a beam pass under it, returning nothing within range?
+
+    A beam just below a cluster's lowest point, at least ``min_clearance`` high,
+    that returns nothing within range (it passed everything; a dropout is not that)
+    shows the space under the cluster empty as far as the sensor reaches (under a
+    person's body, between the legs, the lowest point is a foot on the ground): seen from the road, a motorbike
+    across the kerb, its screen and body over the gap between its wheels.  This is
+    weaker evidence than a raised body (the beam may pass under an overhang, or over
+    a car's bonnet at the edge of a roof), so the detector counts it only for an
+    object too short for anything but a motorbike across the kerb, seen whole.
+
+    Parameters
+    ----------
+    height : ndarray of shape (n_points,)
+        Region-of-interest heights (m).
+    cluster : ndarray of shape (n_points,) of int
+        Intra-cluster number of every point.
+    below_passes : ndarray of shape (n_points,) of bool
+        Whether the next beam down returned nothing within range.
+    n_clusters : int
+    min_clearance : float, default=0.2
+
+    Returns
+    -------
+    passed : ndarray of shape (n_clusters,) of bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street import passed_under
+    >>> passed_under(np.array([0.8, 1.1, 0.05, 0.5]), np.array([0, 0, 1, 1]),
+    ...              np.array([True, False, False, True]), n_clusters=2).tolist()
+    [True, False]
+    """
+    height = np.asarray(height, dtype=np.float64)
+    cluster = np.asarray(cluster, dtype=np.int64)
+    passed = np.zeros(int(n_clusters), dtype=bool)
+    if not len(cluster):
+        return passed
+    lowest = np.lexsort((height, cluster))  # by cluster, then height
+    lowest = lowest[np.r_[True, cluster[lowest][1:] != cluster[lowest][:-1]]]
+    passes = np.asarray(below_passes, dtype=bool)[lowest]
+    passed[cluster[lowest]] = passes & (height[lowest] >= min_clearance)
+    return passed

@@ -33,6 +33,7 @@ import numpy as np
 from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
+from tunnelsense.street._classes import class_features, vehicle_class
 from tunnelsense.street._clustering import (
     components,
     concat,
@@ -304,6 +305,7 @@ class _RunState(ScanWindow):
                 cum[last + 1 + after] - cum[last + 1])
             region = int(depth_region(region_depth[o], est.region_edges_))
             parked = est.labels_[region] == "parked"  # motorbikes across park
+            inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             vehicle = is_vehicle(
                 prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
                 self.near, min_length=est.min_length, max_length=est.max_length,
@@ -313,8 +315,13 @@ class _RunState(ScanWindow):
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top)
-            inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
+                min_across_top=est.min_across_top, inside=inside)
+            of = objects == o if prof.n > 1 else slice(None)
+            mine = clusters[of]
+            # (a passing vehicle's seen length follows the two speeds, not its body)
+            features = class_features(
+                prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
+                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan)
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
                 "last": self.base + last, "before": before, "after": after,
@@ -324,8 +331,8 @@ class _RunState(ScanWindow):
                 "region": region,
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
-                "clusters": (clusters[objects == o] if prof.n > 1 else clusters)
-                + self.cluster_base,
+                "clusters": mine + self.cluster_base,
+                "features": features,
             })
         self.queue.sort(key=lambda q: q["key"])
 
@@ -344,13 +351,15 @@ class _RunState(ScanWindow):
             next_id += 1
             self.object_id[q["clusters"] - self.cluster_base] = next_id
             label = est.labels_[q["region"]] if q["vehicle"] else "other"
+            kind = vehicle_class(q["features"], **est._class_params()) if q[
+                "vehicle"] else ""
             if q["vehicle"]:
                 self.numbered.append((q["region"], last))
             self.rows.append((
                 self.name, next_id, int(self.scans[first - base]),
                 int(self.scans[last - base]), label, q["depth"], q["region"] + 1,
                 float(cum[last - base + 1] - cum[first - base]), q["top"],
-                q["n_points"]))
+                q["n_points"], kind))
             code = RUN_LABELS.get(label)
             if code is not None:
                 self.spans.append((first, last, next_id, code))

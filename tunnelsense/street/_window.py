@@ -14,7 +14,7 @@ import numpy as np
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT
-from tunnelsense.street._sections import section_evidence
+from tunnelsense.street._sections import passed_under, section_evidence
 
 __all__ = ["SIDE_HEIGHT", "ScanWindow"]
 
@@ -207,8 +207,11 @@ class ScanWindow:
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
             min_clearance=est.min_clearance, min_roof_height=est.min_roof_height)
+        passed = passed_under(y, cluster, roi.passes[:, 1], n_clusters=k,
+                              min_clearance=est.min_clearance)
         flags = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
-                 | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3))
+                 | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3)
+                 | (passed.astype(np.int8) << 4))
         near = np.full(n, np.inf)
         np.minimum.at(near, position, depth)
         # inter-scan links: the previous scan's clusters against the block's

@@ -9,45 +9,40 @@ the verifier, the clusterer and the appearance machine also take 2-D arrays.  Us
 guide: :doc:`/tunnel-stages`, :doc:`/tunnel-detector`.
 """
 
-from tunnelsense.tunnel._appearance import (
-    WeightedAdaBoost,
-    box_histograms,
-    centres_in_boxes,
-)
-from tunnelsense.tunnel._clustering import (
-    MSTClusterer,
-    cluster_boxes,
-    mst_partition,
-    region_boxes,
-)
-from tunnelsense.tunnel._detect import (
-    detect_to_files,
-    detect_tour,
-    fit_indicator_detector,
-    stream_detect,
-)
-from tunnelsense.tunnel._keypoints import (
-    IntensityKeypointSampler,
-    indicator_band,
-    sample_keypoints,
-)
-from tunnelsense.tunnel._motion import PCCVerifier, curve_fit_r, pearson_r, straightness
-from tunnelsense.tunnel._pipeline import make_indicator_pipeline
-from tunnelsense.tunnel._reports import (
-    format_detection,
-    format_tours,
-    format_training,
-    run_demo,
-)
-from tunnelsense.tunnel._tracking import TrajectoryLinker
-from tunnelsense.tunnel._verification import (
-    KMeansHistogramVerifier,
-    fit_kmeans,
-    keypoint_descriptors,
-    patch_histograms,
-    rank_positive_centers,
-    verify_histograms,
-)
+from tunnelsense._lazy import attach
+
+_NAMES = {
+    "WeightedAdaBoost": "_appearance",
+    "box_histograms": "_appearance",
+    "centres_in_boxes": "_appearance",
+    "MSTClusterer": "_clustering",
+    "cluster_boxes": "_clustering",
+    "mst_partition": "_clustering",
+    "region_boxes": "_clustering",
+    "detect_to_files": "_detect",
+    "detect_tour": "_detect",
+    "fit_indicator_detector": "_detect",
+    "stream_detect": "_detect",
+    "IntensityKeypointSampler": "_keypoints",
+    "indicator_band": "_keypoints",
+    "sample_keypoints": "_keypoints",
+    "PCCVerifier": "_motion",
+    "curve_fit_r": "_motion",
+    "pearson_r": "_motion",
+    "straightness": "_motion",
+    "make_indicator_pipeline": "_pipeline",
+    "format_detection": "_reports",
+    "format_tours": "_reports",
+    "format_training": "_reports",
+    "run_demo": "_reports",
+    "TrajectoryLinker": "_tracking",
+    "KMeansHistogramVerifier": "_verification",
+    "fit_kmeans": "_verification",
+    "keypoint_descriptors": "_verification",
+    "patch_histograms": "_verification",
+    "rank_positive_centers": "_verification",
+    "verify_histograms": "_verification",
+}
 
 __all__ = [
     "format_detection",
@@ -81,3 +76,5 @@ __all__ = [
     "sample_keypoints",
     "stream_detect",
 ]
+
+__getattr__, __dir__, _ = attach(__name__, _NAMES, __all__)

@@ -15,12 +15,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from sklearn.model_selection import GroupKFold
 from threadpoolctl import threadpool_limits
 
-from tunnelsense._fitting import counted, fit_pipeline, search_ticks
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
-from tunnelsense._search import PrefixGridSearch
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
@@ -33,9 +30,9 @@ from tunnelsense.io._results import (
 from tunnelsense.io._sources import decode_ahead, open_tour
 from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
-from tunnelsense.metrics import indicator_scores, make_tunnel_scorer
 from tunnelsense.plotting._detections import draw_detections
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
+from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 __all__ = [
     "SEARCH_GRID",
@@ -46,12 +43,6 @@ __all__ = [
     "stream_detect",
 ]
 
-#: The small grid ``fit_indicator_detector(search=True)`` explores.
-SEARCH_GRID = {
-    "appearance__positive_weight": [1.0, 7.0],
-    "motion__min_r": [0.9, 0.95],
-    "motion__min_length": [5, 10],
-}
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
@@ -102,6 +93,8 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     >>> summary["tours"][0]["frames"]
     60
     """
+    from tunnelsense._fitting import counted, fit_pipeline, search_ticks
+
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
     X, y, groups = to_xy(tours)
@@ -117,6 +110,12 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     model = make_indicator_pipeline(random_state=random_state)
     found = None
     if search:
+        # model selection and scoring (they import SciPy's stats) only for a search
+        from sklearn.model_selection import GroupKFold
+
+        from tunnelsense._search import PrefixGridSearch
+        from tunnelsense.metrics import make_tunnel_scorer
+
         # keypoints, verifier and clusters (the k-means) are fitted once per fold
         found = PrefixGridSearch(
             model, SEARCH_GRID, cv=GroupKFold(n_splits=min(len(tours), 3)),
@@ -150,6 +149,8 @@ def _dask(address):
 
 def _summary(tours, model, output, y, search) -> dict:
     """Tours, parameters and scores stored in a model file (``tunnelsense info``)."""
+    from tunnelsense.metrics import indicator_scores
+
     kp = model.named_steps["keypoints"]
     summary = {
         "detector": "tunnel indicator (make_indicator_pipeline)",
@@ -240,7 +241,7 @@ def open_frames(source, *, colour=None):
     """
     source = Path(source)
     if not source.is_file():
-        tour = open_tour(source, colour=colour)
+        tour = open_tour(source, colour=colour, ground_truth=False)
         if len(tour):
             _ = tour.frames[0].image
         return iter(tour.frames), len(tour)

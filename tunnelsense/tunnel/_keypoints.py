@@ -33,6 +33,11 @@ from tunnelsense._records import (
 )
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel._common import one_frame_shape, require_boxes
+from tunnelsense.tunnel._contrast import (
+    background_cells,
+    contrast_band,
+    sample_contrast_keypoints,
+)
 from tunnelsense.tunnel._intensity import (
     background_levels,
     beyond_tolerance,
@@ -130,7 +135,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         Row of the first grid point.
     col_offset : int, default=0
         Column of the first grid point.
-    radiometry : {"raw", "frame"}, default="raw"
+    radiometry : {"raw", "frame", "contrast"}, default="raw"
         ``"raw"``: the paper's, grey levels as the camera gives them.  ``"frame"``:
         every frame's grey levels are first mapped affinely so that its background
         level and spread (:func:`~tunnelsense.tunnel._intensity.background_levels`:
@@ -138,6 +143,15 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         training frames; the band is learned and applied on such frames, and the
         later stages read them.  A unit's gain and offset, or an automatic gain
         control acting frame by frame, then change nothing but rounding.
+        ``"contrast"``: frames mapped as with ``"frame"``, but the keypoints are the
+        grid points whose **local contrast** (the frame minus its background: the
+        frame averaged over a coarse grid of cells and median-filtered over 5 x 5
+        cells, :func:`~tunnelsense.tunnel._contrast.background_cells`), in units of
+        the frame's background spread, lies in a band learned from the indicators
+        (``band="learned"`` is required).  A warmer lining lowers a sign's contrast
+        without moving its grey level: ``min_contrast`` and ``max_contrast`` widen
+        the learned contrast band, and a background that is warmer or cooler as a
+        whole does not move the band.
     frame_size : {"native", "training"}, default="native"
         ``"training"``: a frame of another size than the training frames (the same
         aspect ratio within 2 %) is resampled to their size first, so that every
@@ -149,7 +163,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         A learned band's lower end moved toward the background level: ``low = level +
         min_contrast * (low_learned - level)``, so that signs seen with down to
         ``min_contrast`` times the training contrast above their background (warmer
-        air, another emissivity) are still sampled.  1 keeps the learned band.
+        air, another emissivity) are still sampled.  1 keeps the learned band.  With
+        ``radiometry="contrast"``: ``contrast_low_ = min_contrast * low_learned``.
+    max_contrast : float, default=1.0
+        With ``radiometry="contrast"``: the learned contrast band's upper end
+        multiplied by this (at least 1), ``contrast_high_ = max_contrast *
+        high_learned``, so that signs seen with more contrast than in training are
+        still sampled.  Ignored by the other radiometries.
     gain_tolerance : "learned" or float, default="learned"
         With ``radiometry="frame"``: a frame's gain (its spread against the training
         frames') is corrected only by what exceeds this, in log units.
@@ -163,7 +183,12 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
     n_frames_fit_ : int
         Number of frames seen by ``fit``.
     ref_level_, ref_spread_ : float
-        The training frames' background level and spread (``radiometry="frame"``).
+        The training frames' background level and spread (``radiometry="frame"`` or
+        ``"contrast"``).
+    contrast_low_, contrast_high_ : float
+        The band of local contrast in use, in units of ``ref_spread_``
+        (``radiometry="contrast"``); ``low_, high_`` are then the grey levels
+        ``ref_level_ + contrast * ref_spread_``, read by ``MSTClusterer(box="region")``.
     gain_tolerance_ : float
         How much (median absolute log ratio) the training frames' spreads vary about
         ``ref_spread_`` with the scene: a frame's gain is corrected only by what
@@ -218,9 +243,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         "col_stride": [Interval(numbers.Integral, 1, None, closed="left")],
         "row_offset": [Interval(numbers.Integral, 0, None, closed="left")],
         "col_offset": [Interval(numbers.Integral, 0, None, closed="left")],
-        "radiometry": [StrOptions({"raw", "frame"})],
+        "radiometry": [StrOptions({"raw", "frame", "contrast"})],
         "frame_size": [StrOptions({"native", "training"})],
         "min_contrast": [Interval(numbers.Real, 0, 1, closed="right")],
+        "max_contrast": [Interval(numbers.Real, 1, None, closed="left")],
         "gain_tolerance": [StrOptions({"learned"}),
                            Interval(numbers.Real, 0, None, closed="left")],
     }
@@ -243,6 +269,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         radiometry="raw",
         frame_size="native",
         min_contrast=1.0,
+        max_contrast=1.0,
         gain_tolerance="learned",
     ):
         self.low = low
@@ -257,13 +284,14 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         self.radiometry = radiometry
         self.frame_size = frame_size
         self.min_contrast = min_contrast
+        self.max_contrast = max_contrast
         self.gain_tolerance = gain_tolerance
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.two_d_array = False
         tags.transformer_tags.preserves_dtype = []
-        if self.band == "learned":
+        if self.band == "learned" or self.radiometry == "contrast":
             tags.target_tags.required = True
         return tags
 
@@ -285,12 +313,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
-        for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_"):
+        for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_",
+                     "contrast_low_", "contrast_high_"):
             if hasattr(self, name):
                 delattr(self, name)
         if self.frame_size == "training":
             self.frame_shape_ = one_frame_shape(records)
-        if self.radiometry == "frame":
+        if self.radiometry != "raw":
             levels = np.array([
                 background_levels(check_image(r.image, where(r, i)))
                 for i, r in enumerate(records)
@@ -305,7 +334,26 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 float(np.median(np.abs(np.log(levels[:, 1] / self.ref_spread_))))
                 if self.gain_tolerance == "learned" else float(self.gain_tolerance)
             )
-        if self.band == "learned":
+        if self.radiometry == "contrast":
+            if self.band != "learned":
+                raise ValueError(
+                    "radiometry='contrast' learns its band of local contrast from the "
+                    "indicators: set band='learned' (and pass the boxes y)"
+                )
+            require_boxes(boxes, "IntensityKeypointSampler(radiometry='contrast')",
+                          "to learn the contrast band from")
+            images = [
+                self._canonical(_check_depth(
+                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r)[0]
+                for i, r in enumerate(records) if len(boxes[i])
+            ]
+            low, high = contrast_band(images, [b for b in boxes if len(b)],
+                                      self.n_sigma, unit=self.ref_spread_)
+            self.contrast_low_ = round(float(self.min_contrast * low), 6)
+            self.contrast_high_ = round(float(self.max_contrast * high), 6)
+            self.low_ = round(self.ref_level_ + self.contrast_low_ * self.ref_spread_, 6)
+            self.high_ = round(self.ref_level_ + self.contrast_high_ * self.ref_spread_, 6)
+        elif self.band == "learned":
             require_boxes(
                 boxes, "IntensityKeypointSampler(band='learned')", "to learn the band from"
             )
@@ -381,9 +429,16 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             if fitted is not None:
                 _check_depth(image, i, r, fitted, band)
             raw = image
-            image, scale = self._canonical(image, i, r)
+            image, scale, background = self._canonical(image, i, r)
+            if background is None:
+                keypoints = sample_keypoints(image, self.low_, self.high_, **kw)
+            else:
+                unit = self.ref_spread_
+                keypoints = sample_contrast_keypoints(
+                    image, background, self.contrast_low_ * unit,
+                    self.contrast_high_ * unit, **kw)
             extra = {
-                KEYPOINTS: sample_keypoints(image, self.low_, self.high_, **kw),
+                KEYPOINTS: keypoints,
                 KEYPOINT_BAND: band,
                 FRAME_SCALE: (1.0, 1.0) if scale is None else scale,
             }
@@ -397,8 +452,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         return FrameSequence(out)
 
     def _canonical(self, image, index, record):
-        """The frame in the training frames' size and radiometry, and the scale
-        ``(sx, sy)`` applied (None when the size is kept)."""
+        """The frame in the training frames' size and radiometry, the scale
+        ``(sx, sy)`` applied (None when the size is kept) and, for
+        ``radiometry="contrast"``, the mapped frame's background cells (else None)."""
         scale = None
         shape = getattr(self, "frame_shape_", None)
         if shape is not None and image.shape != tuple(shape):
@@ -413,10 +469,17 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 )
             image = resample_frame(image, shape)
             scale = (float(sx), float(sy))
+        background = None
         if getattr(self, "ref_level_", None) is not None:
-            level, spread = background_levels(image)
+            if getattr(self, "contrast_low_", None) is not None:
+                background, level, spread = background_cells(image)
+            else:
+                level, spread = background_levels(image)
             spread = beyond_tolerance(spread, self.ref_spread_,
                                        getattr(self, "gain_tolerance_", 0.0))
             image = normalize_frame(image, level, spread, self.ref_level_,
                                     self.ref_spread_)
-        return image, scale
+            if background is not None:  # the same affine map as the frame's
+                background = (self.ref_level_
+                              + (background - level) * (self.ref_spread_ / spread))
+        return image, scale, background

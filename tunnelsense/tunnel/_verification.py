@@ -26,7 +26,11 @@ from tunnelsense.tunnel._common import (
     points_in_boxes,
     require_boxes,
 )
-from tunnelsense.tunnel._descriptors import keypoint_descriptors, patch_histograms
+from tunnelsense.tunnel._descriptors import (
+    keypoint_descriptors,
+    patch_histograms,
+    surround_histograms,
+)
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
@@ -144,6 +148,13 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         drawn uniformly from this range (:func:`contrast_copy`), at the same
         keypoints, so that a sign seen with less contrast (warmer air) or through
         another gain is verified.  ``None``: the paper's training set.
+    normalize : {"none", "surround"}, default="none"
+        Frame records: ``"none"``, the histogram of the patch's grey levels (the
+        paper's).  ``"surround"``: the histogram of the patch's values normalized by
+        its own surround (:func:`surround_histograms`: the keypoint's contrast above
+        the 10th percentile of a ``context_size`` window, ``(25, 13)`` when
+        ``context_size`` is None), invariant to gain, offset and the sign's
+        contrast; the descriptor is that histogram alone.
 
     Attributes
     ----------
@@ -203,6 +214,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         "intensity_range": [tuple, list, None],
         "binning": [StrOptions({"hard", "linear"})],
         "augment_contrast": [tuple, list, None],
+        "normalize": [StrOptions({"none", "surround"})],
     }
     _tabular_methods = ("predict", "distances")
     _payload_reads = (KEYPOINTS,)
@@ -229,6 +241,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         random_state=None,
         n_jobs=None,
         augment_contrast=None,
+        normalize="none",
     ):
         self.patch_size = patch_size
         self.context_size = context_size
@@ -248,6 +261,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         self.random_state = random_state
         self.n_jobs = n_jobs
         self.augment_contrast = augment_contrast
+        self.normalize = normalize
 
     def _check_settings(self):
         for name in ("patch_size", "context_size"):
@@ -274,6 +288,16 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
             images = [image]
             if rng is not None:
                 images.append(contrast_copy(image, rng.uniform(*self.augment_contrast)))
+            if self.normalize == "surround":
+                surround = (25, 13) if self.context_size is None else self.context_size
+                H = np.concatenate([
+                    surround_histograms(im, kp[:, 0], kp[:, 1],
+                                        patch_size=self.patch_size,
+                                        surround_size=surround, bins=self.bins)
+                    for im in images
+                ])
+                yield r, kp, H
+                continue
             H = np.concatenate([
                 keypoint_descriptors(
                     im, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
@@ -285,6 +309,8 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
 
     @property
     def _n_descriptor(self):
+        if self.normalize == "surround":
+            return self.bins
         return self.bins * (1 if self.context_size is None else 2)
 
     @_fit_context(prefer_skip_nested_validation=True)

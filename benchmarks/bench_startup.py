@@ -1,0 +1,148 @@
+"""Start-up and exit of the ``tunnelsense`` command, beside ``python -c pass``.
+
+A vehicle runs one short command after another; what counts is a fresh process's wall
+time.  Each repeat runs, interleaved, in fresh processes:
+
+* ``python -c pass``: the interpreter alone;
+* ``import numpy, cv2`` and ``import sklearn.base``: the floors of a detector (its
+  estimators are scikit-learn estimators, and ``sklearn.base`` imports SciPy's stats
+  and pandas itself); ``import sklearn.pipeline, deferred``: the same with SciPy's
+  stats and pandas deferred, as the command does;
+* ``tunnelsense --version``;
+* ``tunnelsense detect tunnel`` on a 10-frame tour (imports, model load, detection,
+  writing);
+* ``tunnelsense detect street`` on a 200-scan run;
+
+and prints each median.  Exit: the same ``detect tunnel`` through a wrapper that prints
+the wall clock when the command returns, the parent noting when the process ended; once
+as the command runs (``main()``: no final garbage collection) and once with the
+interpreter's usual final collection (``main(argv)``, as a call from Python).
+
+Budget check (exit status 1 when broken): ``tunnelsense --version`` within 0.15 s of
+``python -c pass``, and building the parser imports none of scikit-learn, pandas, SciPy,
+NumPy, OpenCV.  The goal for ``detect`` on 10 frames (0.6 s) is printed, met or not.
+
+    python benchmarks/bench_startup.py [--repeats 7]
+"""
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+_EXIT = """
+import sys, time
+from tunnelsense.cli import main
+argv = sys.argv[2:]
+if sys.argv[1] == "command":
+    sys.argv = ["tunnelsense", *argv]
+    status = main()
+else:
+    status = main(argv)
+print(repr(time.time()), file=sys.stderr)
+sys.exit(status)
+"""
+
+_HEAVY = """
+import json, sys
+import tunnelsense, tunnelsense.cli
+tunnelsense.cli.build_parser()
+heavy = {"sklearn", "pandas", "scipy", "numpy", "cv2", "skops", "matplotlib", "dask"}
+print(json.dumps(sorted({m.partition(".")[0] for m in sys.modules} & heavy)))
+"""
+
+
+def _cli(*argv):
+    return [sys.executable, "-m", "tunnelsense._cli", *argv]
+
+
+def _timed(cmd):
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def _exit_time(how, argv):
+    done = subprocess.run([sys.executable, "-c", _EXIT, how, *argv], check=True,
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    ended = time.time()
+    return ended - float(done.stderr.strip().splitlines()[-1])
+
+
+def _data(folder: Path) -> dict:
+    from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
+    from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+    from tunnelsense.io import save_model, write_run, write_tour
+
+    train = make_tunnel_tour(240, scenario="light", random_state=3, name="train")
+    X, y, _ = to_xy([train])
+    tunnel = save_model(make_indicator_pipeline(random_state=0).fit(X, y),
+                        folder / "tunnel.skops")
+    write_tour(make_tunnel_tour(10, scenario="light", random_state=4, name="t10"),
+               folder / "t10")
+    run = make_street_scans(1500, random_state=5, name="train-run")
+    X, y, _ = to_xy([run])
+    street = save_model(make_parking_pipeline().fit(X, y), folder / "street.skops")
+    write_run(make_street_scans(200, random_state=6, name="s200"), folder / "s200")
+    return {"tunnel": tunnel, "street": street, "t10": folder / "t10",
+            "s200": folder / "s200", "out": folder / "out"}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args()
+    heavy = json.loads(subprocess.run([sys.executable, "-c", _HEAVY], check=True,
+                                      capture_output=True, text=True).stdout)
+    with tempfile.TemporaryDirectory() as tmp:
+        d = _data(Path(tmp))
+        d["out"].mkdir()
+        detect = ["detect", "tunnel", "--model", str(d["tunnel"]), str(d["t10"]),
+                  "--out", str(d["out"] / "r.txt"), "--force", "--quiet"]
+        cases = {
+            "python -c pass": [sys.executable, "-c", "pass"],
+            "import numpy, cv2": [sys.executable, "-c", "import numpy, cv2"],
+            "import sklearn.base": [sys.executable, "-c", "import sklearn.base"],
+            "import sklearn.pipeline, deferred": [
+                sys.executable, "-c", "from tunnelsense._deferred import defer; defer(); "
+                "import sklearn.pipeline"],
+            "tunnelsense --version": _cli("--version"),
+            "detect tunnel, 10 frames": _cli(*detect),
+            "detect street, 200 scans": _cli(
+                "detect", "street", str(d["s200"]), "--model", str(d["street"]),
+                "--out", str(d["out"] / "o.csv"), "--force", "--quiet"),
+        }
+        times = {k: [] for k in cases}
+        exits = {"command (no final collection)": [], "with final collection": []}
+        for _ in range(args.repeats):
+            for name, cmd in cases.items():
+                times[name].append(_timed(cmd))
+            exits["command (no final collection)"].append(_exit_time("command", detect))
+            exits["with final collection"].append(_exit_time("call", detect))
+    med = {k: statistics.median(v) for k, v in times.items()}
+    print(f"fresh processes, wall time, median of {args.repeats} (interleaved):")
+    for name, value in med.items():
+        print(f"  {name:34s} {value:6.3f} s")
+    print("process exit after detect tunnel returns (median):")
+    for name, values in exits.items():
+        print(f"  {name:32s} {statistics.median(values) * 1000:6.0f} ms")
+    goal = med["detect tunnel, 10 frames"]
+    print(f"detect tunnel on 10 frames: {goal:.3f} s (goal <= 0.6 s: "
+          f"{'met' if goal <= 0.6 else 'not met'}; its floor, import sklearn.pipeline "
+          f"deferred, is {med['import sklearn.pipeline, deferred']:.3f} s)")
+    broken = []
+    if med["tunnelsense --version"] > med["python -c pass"] + 0.15:
+        broken.append("tunnelsense --version is more than 0.15 s over python -c pass")
+    if heavy:
+        broken.append(f"building the parser imports {', '.join(heavy)}")
+    print("import-time budget: " + ("kept" if not broken else "BROKEN: "
+                                    + "; ".join(broken)))
+    return 1 if broken else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,82 @@
+"""Motorbikes across the kerb: raised over a beam that passes, and a gap the beams
+see through between two vehicles standing close."""
+
+import numpy as np
+
+from tunnelsense.street import passed_under, section_evidence
+from tunnelsense.street._objects import (
+    PASSED_FLAG,
+    RAISED_FLAG,
+    bridged,
+    is_vehicle,
+    see_through,
+)
+
+
+def test_a_beam_passing_under_a_body():
+    # a motorbike's screen (0.8-1.3 m) seen from the road: the beam just below its
+    # lowest point returns nothing within range (it passes under, beyond the kerb)
+    h = np.array([0.8, 1.05, 1.3, 0.05, 0.6])
+    c = np.array([0, 0, 0, 1, 1])
+    passes = np.array([True, False, False, False, True])
+    # a person: the beam under the torso passes between the legs, the lowest point
+    # is a foot on the ground
+    assert passed_under(h, c, passes, n_clusters=2).tolist() == [True, False]
+    assert passed_under(h, c, ~passes, n_clusters=2).tolist() == [False, False]
+    # the raised-body evidence does not change: nothing returned below
+    nan = np.full((3, 2), np.nan)
+    raised = section_evidence(np.full(3, 5.9), h[:3], c[:3], np.array([40, 41, 42]),
+                              nan, nan)[2]
+    assert raised.tolist() == [False]
+
+
+def test_passing_under_counts_for_a_whole_short_object_only():
+    cum = np.arange(12) * 0.15
+    near = np.full(11, np.inf)
+    seen = np.arange(3, 7)  # 0.6 m along the street, seen whole
+    rule = dict(min_length=1.5, max_length=25.0, link_distance=0.5,
+                min_body_fraction=0.3, min_car_length=2.4, min_raised_fraction=0.2,
+                min_across_length=0.35, min_across_raised=0.3, top=1.3,
+                min_across_top=1.05)
+    passed = np.full(4, PASSED_FLAG)
+    assert is_vehicle(seen, passed | RAISED_FLAG, 5.5, 0.0, cum, near, **rule)
+    # its screen alone at its sides: a beam passes under it, its only body evidence
+    assert is_vehicle(seen, passed, 5.5, 0.0, cum, near, **rule)
+    assert not is_vehicle(seen, np.zeros(4, np.int8), 5.5, 0.0, cum, near, **rule)
+    body = passed | 0b0001  # a roof-wide top: a body, and a beam passing under it
+    assert is_vehicle(seen, body, 5.5, 0.0, cum, near, **rule)
+    assert not is_vehicle(seen, np.full(4, 0b0001), 5.5, 0.0, cum, near, **rule)
+    # at the start of a run (its first scans cut it), a beam passing under it is
+    # no evidence; a raised body still is
+    assert not is_vehicle(seen, body, 5.5, 0.0, cum, near, **rule, inside=False)
+    assert is_vehicle(seen, body | RAISED_FLAG, 5.5, 0.0, cum, near, **rule,
+                      inside=False)
+    # a 2.0 m object is not across the kerb: passing under is no raised body there
+    long = np.arange(0, 11)
+    assert not is_vehicle(long, np.full(11, 0b0001 | PASSED_FLAG), 5.5, 0.0, cum, near,
+                          **rule)
+    assert is_vehicle(long, np.full(11, 0b0001 | RAISED_FLAG), 5.5, 0.0, cum, near,
+                      **rule)
+
+
+def test_a_gap_seen_through_splits_two_vehicles():
+    cum = np.arange(12) * 0.15  # 0.15 m per scan: a 3-scan gap is 0.45 m
+    near = np.full(11, 4.7)
+    rule = dict(link_distance=0.5, merge_gap=0.5, occlusion_margin=1.0,
+                bridge_occluded=True)
+    step = 0.5
+    hidden = np.full((11, 17), np.inf)  # no beam passes: nothing seen in the gap
+    seen = hidden.copy()
+    seen[4:7, :] = 0.05  # the beams of scans 4-6 reach the road beyond 4.7 m
+    args = (4.7, 4.75, 4, 7, cum, near)
+    # fragments 0-3 and 7-10, tops 1.3 and 1.45
+    assert bridged(*args, **rule, horizon=hidden, step=step, tops=(1.3, 1.45))
+    assert not bridged(*args, **rule, horizon=seen, step=step, tops=(1.3, 1.45))
+    assert bridged(*args, **rule)  # without the horizon (the paper's): joined
+    # seen over a low bonnet only, not under the bodies' half height: one body
+    over = hidden.copy()
+    over[4:7, :] = 0.9
+    assert bridged(*args, **rule, horizon=over, step=step, tops=(1.3, 1.45))
+    assert see_through(seen[4:7], step, 4.7, 1.3)
+    assert not see_through(seen[3:7], step, 4.7, 1.3)  # scan 3 not seen through
+    assert not see_through(seen[4:4], step, 4.7, 1.3)  # no gap scan: no evidence

@@ -1,0 +1,167 @@
+"""Fleets: many tours detected at once, per-tour results equal to one-by-one runs."""
+
+import filecmp
+import subprocess
+import sys
+
+import pytest
+
+from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
+from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+from tunnelsense.fleet import detect_one, detect_tours, read_tour_list, tour_outputs
+from tunnelsense.io import save_model, write_run, write_tour
+from tunnelsense.street import write_objects
+from tunnelsense.tunnel import detect_to_files
+
+
+@pytest.fixture(scope="module")
+def tunnel_model():
+    tour = make_tunnel_tour(120, random_state=0, first_indicator_m=20.0)
+    X, y, _ = to_xy(tour)
+    return make_indicator_pipeline(random_state=0).fit(X, y)
+
+
+@pytest.fixture(scope="module")
+def tours(tmp_path_factory):
+    root = tmp_path_factory.mktemp("fleet")
+    return [write_tour(make_tunnel_tour(8, random_state=seed, first_indicator_m=12.0,
+                                        name=f"t{seed:02d}"), root / f"t{seed:02d}")
+            for seed in range(20)]
+
+
+@pytest.fixture(scope="module")
+def one_by_one(tunnel_model, tours, tmp_path_factory):
+    """Each tour's results as a single ``detect_to_files`` writes them."""
+    root = tmp_path_factory.mktemp("single")
+    for tour in tours:
+        detect_to_files(tunnel_model, tour, root / f"{tour.name}.txt")
+    return root
+
+
+def _same_as_one_by_one(out, reference, tours):
+    for tour in tours:
+        for path in tour_outputs("tunnel", tour, out):
+            assert filecmp.cmp(path, reference / path.name, shallow=False), path
+
+
+def test_a_local_fleet_equals_one_by_one_runs(tunnel_model, tours, one_by_one,
+                                              tmp_path):
+    seen = []
+    done = detect_tours(tunnel_model, tours[:6], tmp_path / "out",
+                        progress=lambda n, total: seen.append((n, total)))
+    assert [d["skipped"] for d in done] == [False] * 6
+    assert seen[0] == (0, 6) and seen[-1] == (6, 6)
+    _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:6])
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
+        p.name for t in tours[:6] for p in tour_outputs("tunnel", t, tmp_path))
+
+
+def test_a_stopped_fleet_resumes_without_redoing_finished_tours(
+        tunnel_model, tours, one_by_one, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    finished = tours[:3]
+    for tour in finished:  # as a run killed after three tours left them
+        for path in tour_outputs("tunnel", tour, out):
+            path.write_text("kept: finished before\n")
+    partial = out / f".partial-{tours[3].name}.txt"  # and the fourth under way
+    partial.mkdir()
+    (partial / f"{tours[3].name}.txt").write_text("1,2,3\n")
+    done = detect_tours(tunnel_model, tours[:6], out)
+    assert [d["skipped"] for d in done] == [True] * 3 + [False] * 3
+    for tour in finished:
+        for path in tour_outputs("tunnel", tour, out):
+            assert path.read_text() == "kept: finished before\n"
+    _same_as_one_by_one(out, one_by_one, tours[3:6])
+    assert not partial.exists()
+
+
+def test_a_fleet_never_replaces_a_file_it_did_not_finish(tunnel_model, tours,
+                                                         tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    results, clusters = tour_outputs("tunnel", tours[0], out)
+    clusters.write_text("someone else's\n")  # no results file: the tour is not done
+    with pytest.raises(FileExistsError, match="not replaced"):
+        detect_one(tunnel_model, "tunnel", tours[0], out)
+    assert clusters.read_text() == "someone else's\n"
+    assert not results.exists()
+    assert [p.name for p in out.iterdir()] == [clusters.name]  # no partial left
+
+
+def test_overwrite_detects_finished_tours_again(tunnel_model, tours, one_by_one,
+                                                tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    for path in tour_outputs("tunnel", tours[0], out):
+        path.write_text("old\n")
+    (done,) = detect_tours(tunnel_model, tours[:1], out, overwrite=True)
+    assert not done["skipped"]
+    _same_as_one_by_one(out, one_by_one, tours[:1])
+
+
+def test_street_fleet_equals_one_by_one_runs(tmp_path):
+    from tunnelsense.io import open_run_stream
+
+    X, y, _ = to_xy(make_street_scans(600, random_state=0))
+    model = make_parking_pipeline().fit(X, y)
+    runs = [write_run(make_street_scans(300, random_state=s, name=f"r{s}"),
+                      tmp_path / f"r{s}") for s in (1, 2, 3)]
+    detect_tours(model, runs, tmp_path / "out", kind="street")
+    for run in runs:
+        write_objects(model, open_run_stream(run), tmp_path / f"{run.name}-single.csv")
+        assert filecmp.cmp(tmp_path / "out" / f"{run.name}.csv",
+                           tmp_path / f"{run.name}-single.csv", shallow=False)
+
+
+def test_bad_fleets_are_refused(tunnel_model, tours, tmp_path):
+    with pytest.raises(ValueError, match="would both write"):
+        detect_tours(tunnel_model, [tours[0], tmp_path / "x" / tours[0].name],
+                     tmp_path / "out")
+    with pytest.raises(FileNotFoundError, match="no such tour"):
+        detect_tours(tunnel_model, [tmp_path / "missing"], tmp_path / "out")
+    with pytest.raises(ValueError, match="kind"):
+        detect_tours(tunnel_model, tours[:1], tmp_path / "out", kind="video")
+    with pytest.raises(ValueError, match="n_jobs"):
+        detect_tours(tunnel_model, tours[:1], tmp_path / "out", n_jobs=0)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match="not a folder"):
+        detect_tours(tunnel_model, tours[:1], tmp_path / "file")
+    empty = tmp_path / "list.txt"
+    empty.write_text("# nothing\n\n")
+    with pytest.raises(ValueError, match="names no tour"):
+        read_tour_list(empty)
+
+
+def test_fleet_command_with_two_processes_finishes(tunnel_model, tours, one_by_one,
+                                                   tmp_path):
+    """--jobs 2 runs worker processes; a worker that hangs (as loky's restart of a
+    worker whose memory grew with lazy imports once did) fails here, by timeout."""
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    listed = tmp_path / "tours.txt"
+    listed.write_text("".join(f"{t}\n" for t in tours[1:4]))
+    command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
+               str(model), str(tours[0]), "--tours-from", str(listed), "--out",
+               str(tmp_path / "out"), "--jobs", "2", "--quiet"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "4 tours into" in done.stdout and "4 detected, 0 skipped" in done.stdout
+    _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:4])
+    again = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert "0 detected, 4 skipped" in again.stdout, again.stderr
+
+
+def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
+    from tunnelsense._cli import main
+
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    base = ["detect", "tunnel", "--model", str(model), str(tours[0]), str(tours[1])]
+    assert main([*base, "--out", str(tmp_path / "o"), "--resume"]) == 1
+    assert main([*base, "--out", str(tmp_path / "o"), "--draw", str(tmp_path / "d")]) == 1
+    (tmp_path / "file.txt").write_text("")
+    assert main([*base, "--out", str(tmp_path / "file.txt")]) == 1
+    assert main(["detect", "tunnel", "--model", str(model), "--out",
+                 str(tmp_path / "o")]) == 1
+    assert main(["detect", "tunnel", "--model", str(model), str(tours[0]), "--out",
+                 str(tmp_path / "o.txt"), "--dask-scheduler", "tcp://x:1"]) == 1
+    assert not (tmp_path / "o").exists()

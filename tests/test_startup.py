@@ -1,0 +1,113 @@
+"""Start-up: building the command line imports none of the heavy libraries.
+
+A command imports what it needs when it runs; ``tunnelsense --version``, ``--help`` and
+the parser itself must not pay for scikit-learn, pandas, SciPy, NumPy or OpenCV.  (Which
+modules are loaded, not how long it takes: timing is for benchmarks/.)
+"""
+
+import json
+import subprocess
+import sys
+
+_HEAVY = ("sklearn", "pandas", "scipy", "numpy", "cv2", "matplotlib", "skops",
+          "dask", "distributed", "joblib", "cryptography", "tqdm")
+
+_LOADED = """
+import json, sys
+import tunnelsense, tunnelsense.cli
+tunnelsense.cli.build_parser()
+heavy = set(json.loads(sys.argv[1]))
+print(json.dumps(sorted({m.partition(".")[0] for m in sys.modules} & heavy)))
+"""
+
+
+def _loaded(code):
+    done = subprocess.run([sys.executable, "-c", code, json.dumps(_HEAVY)],
+                          capture_output=True, text=True, timeout=120, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_the_parser_imports_no_heavy_library():
+    assert _loaded(_LOADED) == []
+
+
+def test_a_public_name_imports_its_module_on_first_use():
+    code = _LOADED.replace("tunnelsense.cli.build_parser()",
+                           "tunnelsense.ScanClusterer; tunnelsense.cli.build_parser()")
+    assert "numpy" in _loaded(code)  # the estimator's module was imported
+
+
+def test_lazy_names_are_the_package_names():
+    import tunnelsense
+    import tunnelsense.io
+    import tunnelsense.street
+    import tunnelsense.tunnel
+
+    for package in (tunnelsense, tunnelsense.io, tunnelsense.street, tunnelsense.tunnel):
+        for name in package.__all__:
+            assert getattr(package, name) is not None
+            assert name in dir(package)
+    assert tunnelsense.tunnel._detect.SEARCH_GRID is tunnelsense.tunnel._search_grid.SEARCH_GRID
+
+
+def test_a_missing_name_is_an_attribute_error():
+    import pytest
+
+    import tunnelsense
+
+    with pytest.raises(AttributeError, match="no attribute 'not_a_name'"):
+        tunnelsense.not_a_name  # noqa: B018
+
+
+_DEFER = """
+import sys
+from tunnelsense._deferred import defer
+assert defer(["pandas", "scipy.stats", "not_a_module_xyz"]) == ["pandas", "scipy.stats"]
+import pandas as pd
+import scipy.stats
+stand_in = type(sys.modules["pandas"]).__name__
+assert pd.DataFrame({"a": [1, 2]})["a"].sum() == 3  # the first use imports pandas
+assert type(sys.modules["pandas"]).__name__ == "module"
+assert pd.__version__ == sys.modules["pandas"].__version__
+import pandas.api.types  # a submodule of a deferred module
+assert scipy.stats.norm.cdf(0.0) == 0.5
+print(stand_in)
+"""
+
+
+def test_a_deferred_module_is_imported_on_first_use():
+    done = subprocess.run([sys.executable, "-c", _DEFER], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["_Deferred"]
+
+
+_DETECT = """
+import sys
+from tunnelsense.cli import main
+sys.argv = ["tunnelsense", *sys.argv[1:]]
+status = main()
+real = [m for m in ("pandas", "scipy.stats")
+        if type(sys.modules.get(m)).__name__ == "module"]
+print("imported:", *real)
+sys.exit(status)
+"""
+
+
+def test_the_street_command_detects_without_pandas_or_scipy_stats(tmp_path):
+    from tunnelsense import make_parking_pipeline, to_xy
+    from tunnelsense._cli import main
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.io import save_model, write_run
+
+    X, y, _ = to_xy(make_street_scans(600, random_state=0))
+    model = save_model(make_parking_pipeline().fit(X, y), tmp_path / "m.skops")
+    run = write_run(make_street_scans(300, random_state=1), tmp_path / "run")
+    argv = ["detect", "street", str(run), "--model", str(model), "--quiet", "--out"]
+    done = subprocess.run([sys.executable, "-c", _DETECT, *argv,
+                           str(tmp_path / "command.csv")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == "imported:"  # neither was needed
+    assert main([*argv, str(tmp_path / "call.csv")]) == 0  # everything imported
+    assert (tmp_path / "command.csv").read_text() == (tmp_path / "call.csv").read_text()

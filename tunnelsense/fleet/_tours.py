@@ -1,0 +1,297 @@
+"""Detecting many tours or runs at once: locally in processes, or on a Dask cluster.
+
+One task per tour.  Each task writes its results under a temporary folder inside the
+output folder and, once the tour is done, moves them to their final names (the
+results file last), so a results file under its final name is always complete.  A
+new run skips a tour whose results file exists (it finished before) and starts the
+others afresh, so a run that was killed resumes where it stopped; a final name that
+exists is never replaced (unless ``overwrite``).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+__all__ = ["KINDS", "detect_one", "detect_tours", "read_tour_list", "tour_outputs"]
+
+#: The detectors a fleet runs, and the files each tour gets (relative to ``out_dir``).
+KINDS = ("tunnel", "street")
+
+_PARTIAL = ".partial-"
+
+
+def tour_outputs(kind, source, out_dir) -> list[Path]:
+    """The files a tour's detection writes in ``out_dir``, the results file first.
+
+    Parameters
+    ----------
+    kind : {"tunnel", "street"}
+    source : str or Path
+        The tour (tunnel) or laser run (street).
+    out_dir : str or Path
+
+    Returns
+    -------
+    list of Path
+        ``NAME.txt`` and ``NAME.clusters.csv`` for a tour; ``NAME.csv`` for a run,
+        ``NAME`` being the source's file or folder name without its suffix.
+
+    Examples
+    --------
+    >>> from tunnelsense.fleet import tour_outputs
+    >>> [p.name for p in tour_outputs("tunnel", "tours/t01", "out")]
+    ['t01.txt', 't01.clusters.csv']
+    >>> [p.name for p in tour_outputs("street", "runs/r7.bag", "out")]
+    ['r7.csv']
+    """
+    _check_kind(kind)
+    name = Path(source).stem if Path(source).suffix else Path(source).name
+    out_dir = Path(out_dir)
+    if kind == "tunnel":
+        return [out_dir / f"{name}.txt", out_dir / f"{name}.clusters.csv"]
+    return [out_dir / f"{name}.csv"]
+
+
+def read_tour_list(path) -> list[str]:
+    """The tours named in a list file: one path a line; blank lines and ``#`` comments
+    are skipped.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense.fleet import read_tour_list
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "tours.txt"
+    >>> _ = f.write_text("# the March tours\\ntours/t01\\n\\ntours/t02\\n")
+    >>> read_tour_list(f)
+    ['tours/t01', 'tours/t02']
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: expected a text file of tour paths, one a "
+                         "line") from None
+    tours = [s for s in (line.strip() for line in text.splitlines())
+             if s and not s.startswith("#")]
+    if not tours:
+        raise ValueError(f"{path}: names no tour (expected one path a line)")
+    return tours
+
+
+def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
+                 dask_scheduler=None, overwrite=False, progress=None, options=None):
+    """Detect every tour (or laser run) of ``sources``, writing results per tour.
+
+    Parameters
+    ----------
+    model : Pipeline
+        A fitted indicator pipeline (``kind="tunnel"``) or parking pipeline
+        (``kind="street"``).
+    sources : list of str or Path
+        Tour folders, image folders or videos (tunnel); run folders or ROS bags
+        (street).  Their names (without suffix) must differ: they name the results.
+    out_dir : str or Path
+        The folder of the results (created if missing): see :func:`tour_outputs`.
+    kind : {"tunnel", "street"}, default="tunnel"
+    n_jobs : int, default=1
+        Tours detected at once, in worker processes (1: one after another, here).
+    dask_scheduler : str or None, default=None
+        Run one task per tour on the Dask cluster at this address instead (needs the
+        ``distributed`` extra); its workers must see the tours and ``out_dir`` at the
+        same paths.
+    overwrite : bool, default=False
+        Detect every tour again, replacing its results; by default a tour whose
+        results file exists is skipped (it finished in an earlier run).
+    progress : callable or None, default=None
+        ``progress(done, total)`` after each tour.
+    options : dict or None, default=None
+        Keyword arguments of each tour's detection: ``colour`` (tunnel);
+        ``all_objects``, ``range_unit``, ``topic``, ``mount_height``, ``speed``,
+        ``speed_topic`` (street).
+
+    Returns
+    -------
+    list of dict
+        Per source, in order: ``source``, ``results`` (path), ``skipped`` (bool) and
+        the facts of its detection (tunnel: ``frames``, ``detections``,
+        ``trajectories``; street: ``counts``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from tunnelsense import make_parking_pipeline, to_xy
+    >>> from tunnelsense.datasets import make_street_scans
+    >>> from tunnelsense.fleet import detect_tours
+    >>> from tunnelsense.io import write_run
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> X, y, _ = to_xy(make_street_scans(600, random_state=0))
+    >>> model = make_parking_pipeline().fit(X, y)
+    >>> runs = [write_run(make_street_scans(300, random_state=s), folder / f"run{s}")
+    ...         for s in (1, 2)]
+    >>> done = detect_tours(model, runs, folder / "out", kind="street")
+    >>> [(d["results"].name, d["skipped"]) for d in done]
+    [('run1.csv', False), ('run2.csv', False)]
+    >>> [d["skipped"] for d in detect_tours(model, runs, folder / "out", kind="street")]
+    [True, True]
+    """
+    _check_kind(kind)
+    sources = [Path(s) for s in sources]
+    if not sources:
+        raise ValueError("sources: expected at least one tour; got none")
+    if int(n_jobs) != n_jobs or n_jobs < 1:
+        raise ValueError(f"n_jobs: expected a whole number >= 1; got {n_jobs!r}")
+    out_dir = Path(out_dir)
+    _check_names(kind, sources, out_dir)
+    for source in sources:
+        if not source.exists():
+            raise FileNotFoundError(f"{source}: no such tour (file or folder)")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    options = dict(options or {})
+    results = [None] * len(sources)
+    todo = []
+    for i, source in enumerate(sources):
+        final = tour_outputs(kind, source, out_dir)
+        if final[0].exists() and not overwrite:
+            results[i] = {"source": source, "results": final[0], "skipped": True}
+        else:
+            todo.append(i)
+    done = len(sources) - len(todo)
+    if progress is not None:
+        progress(done, len(sources))
+    tasks = [(kind, sources[i], out_dir, overwrite, options) for i in todo]
+    for i, facts in zip(todo, _run(model, tasks, n_jobs, dask_scheduler), strict=True):
+        results[i] = facts
+        done += 1
+        if progress is not None:
+            progress(done, len(sources))
+    return results
+
+
+def _check_kind(kind) -> None:
+    if kind not in KINDS:
+        raise ValueError(f"kind: expected one of {', '.join(KINDS)}; got {kind!r}")
+
+
+def _check_names(kind, sources, out_dir) -> None:
+    seen = {}
+    for source in sources:
+        name = tour_outputs(kind, source, out_dir)[0].name
+        if name in seen:
+            raise ValueError(f"sources: {seen[name]} and {source} would both write "
+                             f"{out_dir / name}; give tours different names")
+        seen[name] = source
+
+
+def _run(model, tasks, n_jobs, dask_scheduler):
+    """The facts of each task, in order, as they finish."""
+    if not tasks:
+        return
+    if dask_scheduler is not None:
+        yield from _run_dask(model, tasks, dask_scheduler)
+    elif n_jobs == 1 or len(tasks) == 1:
+        for task in tasks:
+            yield detect_one(model, *task)
+    else:
+        from joblib import Parallel, delayed
+
+        jobs = (delayed(_worker_detect_one)(model, *task) for task in tasks)
+        yield from Parallel(n_jobs=min(n_jobs, len(tasks)), return_as="generator")(jobs)
+
+
+def _run_dask(model, tasks, address):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ImportError("detecting on a Dask cluster needs distributed: pip install "
+                          "'tunnelsense[distributed]'", name="distributed") from None
+    with Client(address) as client:
+        shared = client.scatter(model, broadcast=True)
+        futures = [client.submit(_worker_detect_one, shared, *task, pure=False)
+                   for task in tasks]
+        for future in futures:  # in order; the cluster runs them all meanwhile
+            yield future.result()
+
+
+def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
+    """:func:`detect_one` in a worker process, the detector's modules imported first.
+
+    loky measures a worker's memory after its first task and restarts a worker whose
+    memory grew by more than 300 MB since; the modules a detection imports (lazily)
+    must all be in by the end of the first task, whatever that task did.
+    """
+    _import_detector(kind)
+    return detect_one(model, kind, source, out_dir, overwrite, options)
+
+
+def _import_detector(kind) -> None:
+    """Import every module a detection of ``kind`` uses."""
+    import importlib
+
+    for name in _DETECTOR_MODULES[kind]:
+        importlib.import_module(name)
+
+
+#: The modules a detection imports, by kind (the estimators come with the model).
+_DETECTOR_MODULES = {
+    "tunnel": ("tunnelsense.tunnel._detect", "tunnelsense.tunnel._pipeline",
+               "tunnelsense.io._sources", "tunnelsense.io._results"),
+    "street": ("tunnelsense.street._run", "tunnelsense.street._detector",
+               "tunnelsense.io._laser", "tunnelsense.io._rosbag"),
+}
+
+
+def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
+    """Detect one tour into ``out_dir``: written under a temporary folder, then moved
+    to the final names (results file last); see :func:`detect_tours`."""
+    source, out_dir = Path(source), Path(out_dir)
+    final = tour_outputs(kind, source, out_dir)
+    work = out_dir / f"{_PARTIAL}{final[0].name}"
+    if work.exists():  # left by a run that was stopped: ours, started afresh
+        shutil.rmtree(work)
+    work.mkdir()
+    try:
+        facts = _detect_into(model, kind, source, work / final[0].name, options or {})
+        for path in reversed(final):  # the results file last: it marks a finished tour
+            _move(work / path.name, path, overwrite)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return {"source": source, "results": final[0], "skipped": False, **facts}
+
+
+def _detect_into(model, kind, source, out, options):
+    if kind == "tunnel":
+        from tunnelsense.tunnel._detect import detect_to_files
+
+        facts = detect_to_files(model, source, out, n_threads=1,
+                                colour=options.get("colour"))
+        return {k: facts[k] for k in ("frames", "detections", "trajectories")}
+    from tunnelsense.io._laser import open_run_stream
+    from tunnelsense.street._run import write_objects
+
+    reading = {k: options[k] for k in ("range_unit", "topic", "mount_height", "speed",
+                                       "speed_topic") if options.get(k) is not None}
+    scans = open_run_stream(source, ground_truth=False, **reading)
+    counts, _ = write_objects(model, scans, out,
+                              all_objects=bool(options.get("all_objects")))
+    return {"counts": counts}
+
+
+def _move(src, dst, overwrite) -> None:
+    """Rename ``src`` to ``dst``; an existing ``dst`` only replaced if ``overwrite``."""
+    if overwrite:
+        os.replace(src, dst)
+        return
+    try:
+        os.link(src, dst)  # fails, atomically, if dst exists
+    except FileExistsError:
+        raise FileExistsError(f"{dst}: exists (written meanwhile by another run?); "
+                              "not replaced") from None
+    except OSError:  # a file system without hard links
+        if dst.exists():
+            raise FileExistsError(f"{dst}: exists; not replaced") from None
+        os.rename(src, dst)
+        return
+    os.unlink(src)

@@ -1,0 +1,153 @@
+"""Vehicle classes from an object's cross-sections and length (beyond the paper).
+
+What the scans show of a vehicle tells its class (see ``docs/street.md``):
+
+* a **van** (box van, lorry, bus, truck) is taller than the region of interest: its
+  near face continues above ``max_height`` (the *wall* evidence of
+  :func:`~tunnelsense.street.section_evidence`), or its body stands as high as
+  ``van_height`` over most of its length (a car's roof covers less than half of it,
+  bonnet and boot are lower); or it is longer than any car (``van_length``: flatbed
+  lorries and trailers are long and low);
+* a **motorbike** has no top surface as wide as a roof, bonnet or boot in any part of
+  its length (handlebars, screen, seat and tank are narrow), and its footprint is
+  narrow one way: along the street (one parked at right angles to the kerb, a deep
+  cross-section 0.7-0.9 m long) or across it (one parallel to the kerb, shorter than
+  a car);
+* anything else is a **car**.
+
+Every function here is array in, array out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense.street._census import VEHICLE_CLASSES
+
+__all__ = ["VEHICLE_CLASSES", "class_features", "vehicle_class"]
+
+#: Bits of the per-cluster evidence flags (see ``_objects.BODY_FLAGS``).
+ROOF_FLAG, WALL_FLAG = 0b0001, 0b0010
+
+
+def class_features(scan_flags, scan_top, scan, side, far, length):
+    """The cross-section features of one object from its scans and intra-clusters.
+
+    Every feature is per scan, whatever the intra-clusters a scan's cut holds (a
+    finer single-linkage cut parts a car's flank from its roof): a scan shows a roof
+    when any of its clusters does, and its depth extent runs from the nearest to the
+    farthest point of the body in it.
+
+    Parameters
+    ----------
+    scan_flags : ndarray of shape (n_scans,) of int
+        Evidence bits of every scan of the object (roof 1, wall 2; the bitwise or
+        over its clusters in the scan).
+    scan_top : ndarray of shape (n_scans,)
+        The object's top height (m) in every scan of it (its height profile).
+    scan : ndarray of shape (n_clusters,) of int
+        Scan position of every intra-cluster of the object.
+    side, far : ndarray of shape (n_clusters,)
+        Nearest and farthest depth (m) of every intra-cluster's body (above kerb
+        height; +inf / NaN: none).
+    length : float
+        The object's length (m along the street, as seen; NaN for a passing
+        vehicle, whose seen length follows the two speeds).
+
+    Returns
+    -------
+    features : dict
+        ``roof`` and ``wall`` (fraction of the scans showing a roof-wide top
+        surface, a wall above the region of interest), ``top`` (the median of the
+        height profile, m: the height of the body over most of its length, which a
+        stray high point or a badly estimated roll in a scan or two does not move),
+        ``extent`` (the median over the scans of the body's depth extent across the
+        street, m; NaN: no body) and ``length``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._classes import class_features
+    >>> # three scans; the second cut in two clusters (flank, roof)
+    >>> f = class_features(np.array([1, 1, 0]), np.array([1.4, 1.5, 0.9]),
+    ...                    np.array([0, 1, 1, 2]), np.array([5.0, 5.0, 5.3, 5.1]),
+    ...                    np.array([6.6, 5.1, 6.7, 6.5]), 4.2)
+    >>> round(f["roof"], 3), f["top"], round(f["extent"], 2)
+    (0.667, 1.4, 1.6)
+    """
+    scan_flags = np.asarray(scan_flags, dtype=np.int64)
+    scan = np.asarray(scan, dtype=np.int64)
+    side = np.asarray(side, dtype=np.float64)
+    far = np.asarray(far, dtype=np.float64)
+    extent = np.empty(0)
+    body = np.isfinite(side) & np.isfinite(far)
+    if body.any():
+        order = np.argsort(scan[body], kind="stable")
+        s, lo, hi = scan[body][order], side[body][order], far[body][order]
+        starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+        extent = np.maximum.reduceat(hi, starts) - np.minimum.reduceat(lo, starts)
+    n = max(len(scan_flags), 1)
+    return {
+        "roof": float(np.count_nonzero(scan_flags & ROOF_FLAG) / n),
+        "wall": float(np.count_nonzero(scan_flags & WALL_FLAG) / n),
+        "top": float(np.median(scan_top)) if len(scan_top) else np.nan,
+        "extent": float(np.median(extent)) if len(extent) else np.nan,
+        "length": float(length),
+    }
+
+
+def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
+                  motorbike_roof=0.25, motorbike_width=1.2, min_car_length=2.4):
+    """The class of a vehicle (``"car"``, ``"van"`` or ``"motorbike"``).
+
+    Parameters
+    ----------
+    features : dict
+        As :func:`class_features` returns.
+    van_height : float, default=1.8
+        Lowest height (m) of a van's body over most of its length (the median of
+        its height profile): a car's roof, even an SUV's, covers less than half of
+        its length, and vans, lorries and buses rise above it, most above the region
+        of interest.
+    van_wall : float, default=0.2
+        Smallest fraction of the scans whose near face continues above the region
+        of interest for a van (its roof is above the scans' ceiling).
+    van_length : float, default=7.0
+        Longest car (m, with room for two cars merged into one object); a longer
+        vehicle is a van, lorry or trailer.
+    motorbike_roof : float, default=0.25
+        Largest fraction of the scans showing a roof-wide top surface of a
+        motorbike (a few scans where a top box, the seat or the kerb behind widen
+        its top); a car shows its roof, bonnet and boot in most of its scans.
+    motorbike_width : float, default=1.2
+        Narrowest car (m): the smallest city cars are 1.5 m wide and longer than
+        2.4 m; a vehicle narrower than this one way (its length along the street, or
+        its depth extent across it) and without a roof is a motorbike.
+    min_car_length : float, default=2.4
+        Shortest car (m); a vehicle without a roof shorter than this is a motorbike.
+
+    Returns
+    -------
+    vehicle_class : str
+
+    Examples
+    --------
+    >>> from tunnelsense.street._classes import vehicle_class
+    >>> vehicle_class({"roof": 0.8, "wall": 0.0, "top": 1.5, "extent": 1.7,
+    ...                "length": 4.3})
+    'car'
+    >>> vehicle_class({"roof": 0.3, "wall": 0.7, "top": 2.0, "extent": 1.9,
+    ...                "length": 5.2})
+    'van'
+    >>> vehicle_class({"roof": 0.0, "wall": 0.0, "top": 1.3, "extent": 2.0,
+    ...                "length": 0.8})  # at right angles to the kerb
+    'motorbike'
+    """
+    f = features
+    if f["wall"] >= van_wall or f["top"] >= van_height or f["length"] > van_length:
+        return "van"
+    narrow = bool(f["length"] < min_car_length or (
+        np.isfinite(f["extent"]) and f["extent"] < motorbike_width))
+    if f["roof"] <= motorbike_roof and narrow:
+        return "motorbike"
+    return "car"
