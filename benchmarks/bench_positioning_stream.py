@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/bench_positioning_stream.py [frames ...] [--repeats N]
 [--speed]``.  The default sizes are 3,000, 30,000 and 300,000 frames; 3000000 can be
-added (the simulator's tours end at 1,000 km, so that tour is driven at 41 km/h;
+added (the simulator's tours end at 1,000 km, so that tour is driven at 34 km/h;
 its tables, not the stream, take a few hundred MB, and it runs for many minutes).
 For each size a simulated tour (80 km/h, a sign every 200 m, the detector's output
 simulated) is pushed frame by frame through a fresh
