@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/bench_positioning_stream.py [frames ...] [--repeats N]
 [--speed]``.  The default sizes are 3,000, 30,000 and 300,000 frames; 3000000 can be
-added (the simulator's tours end at 1,000 km, so that tour is driven at 41 km/h;
+added (the simulator's tours end at 1,000 km, so that tour is driven at 34 km/h;
 its tables, not the stream, take a few hundred MB, and it runs for many minutes).
 For each size a simulated tour (80 km/h, a sign every 200 m, the detector's output
 simulated) is pushed frame by frame through a fresh
@@ -36,6 +36,8 @@ def main():
     parser.add_argument("sizes", nargs="*", type=int,
                         default=[3_000, 30_000, 300_000])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--kmh", type=float, default=None, help="the tours' speed "
+                        "(default 80 km/h, slower where a tour would pass 1,000 km)")
     parser.add_argument("--speed", action="store_true")
     parser.add_argument("--frames", type=int, default=3000)
     args = parser.parse_args()
@@ -43,7 +45,7 @@ def main():
     if args.speed:
         speed(args.frames, args.repeats)
     else:
-        memory(tuple(args.sizes), args.repeats)
+        memory(tuple(args.sizes), args.repeats, args.kmh)
 
 
 if __name__ == "__main__":

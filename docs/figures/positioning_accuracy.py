@@ -187,7 +187,7 @@ def _stream_run(pos, rows, frames, tracks, heights):
     return stream, n_fixes
 
 
-def memory(sizes=(3_000, 30_000, 300_000), repeats=3):
+def memory(sizes=(3_000, 30_000, 300_000), repeats=3, kmh=None):
     """Time per frame and memory of the online stream, flat in the tour's length."""
     import tracemalloc
 
@@ -197,9 +197,9 @@ def memory(sizes=(3_000, 30_000, 300_000), repeats=3):
           f"{'fixes':>6}")
     for n in sizes:
         # 80 km/h; slower where the tour would pass the simulator's 1,000 km
-        kmh = min(80.0, 0.95e6 / (n / 30.0) * 3.6)
-        distance = n / 30.0 * kmh / 3.6
-        truth = make_tunnel_kinematics(distance, speed_kmh=kmh, random_state=0)
+        v = min(80.0, 0.95e6 / (n / 30.0) * 3.6) if kmh is None else float(kmh)
+        distance = n / 30.0 * v / 3.6
+        truth = make_tunnel_kinematics(distance, speed_kmh=v, random_state=0)
         _, odometry, indicators = make_tunnel_odometry(truth, random_state=0)
         det = simulate_indicator_detections(truth, random_state=0)
         odometry = odometry.iloc[:n]
@@ -225,7 +225,7 @@ def memory(sizes=(3_000, 30_000, 300_000), repeats=3):
         held, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         stream.close()
-        print(f"{n:>8} {kmh:>5.0f} {1e6 * np.median(times) / n:>9.1f} "
+        print(f"{n:>8} {v:>5.0f} {1e6 * np.median(times) / n:>9.1f} "
               f"{(held - base) / 1024:>8.0f} "
               f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
 
