@@ -9,6 +9,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 _HEAVY = ("sklearn", "pandas", "scipy", "numpy", "cv2", "matplotlib", "skops",
           "dask", "distributed", "joblib", "cryptography", "tqdm")
 
@@ -111,3 +113,26 @@ def test_the_street_command_detects_without_pandas_or_scipy_stats(tmp_path):
     assert done.stdout.splitlines()[-1] == "imported:"  # neither was needed
     assert main([*argv, str(tmp_path / "call.csv")]) == 0  # everything imported
     assert (tmp_path / "command.csv").read_text() == (tmp_path / "call.csv").read_text()
+
+
+def test_detection_reads_no_ground_truth(tmp_path):
+    """Detection opens runs and tours without their ground truth (pandas, parsing):
+    a malformed ground-truth file is refused by a reader that reads it, not by one
+    that does not."""
+    from tunnelsense.datasets import make_street_scans, make_tunnel_tour
+    from tunnelsense.io import open_run_stream, open_tour, write_run, write_tour
+    from tunnelsense.tunnel._detect import open_frames
+
+    run = write_run(make_street_scans(50, random_state=0), tmp_path / "run")
+    (run / "gt.csv").write_text("id,first_scan,last_scan,label\n1,0,9999,parked\n")
+    with pytest.raises(ValueError, match="beyond the run"):
+        open_run_stream(run)
+    stream = open_run_stream(run, ground_truth=False)
+    assert stream.gt is None and len(list(stream)) == 50
+    tour = write_tour(make_tunnel_tour(3, random_state=0), tmp_path / "tour")
+    (tour / "gt" / "gt.txt").write_text("99,1,1,1,5,5,1,1,1\n")
+    with pytest.raises(ValueError, match="outside"):
+        open_tour(tour)
+    assert open_tour(tour, ground_truth=False).gt is None
+    frames, total = open_frames(tour)
+    assert total == 3 and [r.frame for r in frames] == [1, 2, 3]
