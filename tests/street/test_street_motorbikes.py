@@ -107,3 +107,18 @@ def test_the_footway_does_not_carry_a_motorbike_across_the_kerb():
     top[[0, 1, 5, 6]] = 0.4
     assert objects(link_pairs(position, depth, follows, top=top,
                               ground_height=0.3)) == [0, 0, 0, 1, 2, 2, 2]
+
+
+def test_separate_ground_finds_a_motorbike_on_the_footway():
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import ScanClusterer
+
+    run = make_street_scans(600, scenario="sparse", random_state=112,
+                            motorbike_fraction=0.6, motorbike_across_fraction=0.6,
+                            motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
+                            parked_gap_m=12.0)
+    scores = [street_scores(run.gt, ScanClusterer(separate_ground=sg).fit(
+        run.scans).detect(run.scans))["parked"] for sg in (False, True)]
+    assert scores[1]["tp"] > scores[0]["tp"]
+    assert scores[1]["fp"] <= scores[0]["fp"]
