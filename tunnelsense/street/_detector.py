@@ -164,9 +164,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         kerb, the footway, a surface near road level) never links with one of the
         next scan that rises above it (beyond the paper): the footway under a
         motorbike parked across the kerb does not carry it into the footway object,
-        or the hedge or wall behind.  Not yet the default: with a short
-        ``max_pending_length`` a stream fed one scan at a time may close object-clusters
-        otherwise than in batch.  False: the paper's link by mean depth.
+        or the hedge or wall behind.  False: the paper's link by mean depth.
     min_across_length : float or None, default=0.5
         Shortest motorbike parked at right angles to the kerb (m along the street;
         handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
