@@ -80,3 +80,45 @@ def test_a_gap_seen_through_splits_two_vehicles():
     assert see_through(seen[4:7], step, 4.7, 1.3)
     assert not see_through(seen[3:7], step, 4.7, 1.3)  # scan 3 not seen through
     assert not see_through(seen[4:4], step, 4.7, 1.3)  # no gap scan: no evidence
+
+
+
+def test_the_footway_does_not_carry_a_motorbike_across_the_kerb():
+    from tunnelsense.street._clustering import components, first_appearance, link_pairs
+
+    # clusters of five scans past a motorbike across the kerb, its rear on the
+    # footway: the footway alone (mean depth 7.1 m, 0.17 m high), at the motorbike's
+    # ends its screen alone (6.85 m, 1.3 m high) beside the footway, the whole
+    # machine in the middle (mean depth 6.1 m)
+    position = np.array([0, 1, 1, 2, 3, 3, 4])
+    depth = np.array([7.1, 7.1, 6.85, 6.1, 6.86, 7.1, 7.1])
+    top = np.array([0.17, 0.17, 1.30, 1.30, 1.31, 0.17, 0.17])
+    follows = np.ones(5, bool)
+
+    def objects(pairs):
+        return first_appearance(components(7, *pairs)).tolist()
+
+    # the paper's link by mean depth: the screen at each end joins the footway
+    assert objects(link_pairs(position, depth, follows)) == [0, 0, 0, 1, 2, 2, 2]
+    # the footway, a surface near road level, never links with a raised cluster
+    ground = link_pairs(position, depth, follows, top=top, ground_height=0.3)
+    assert objects(ground) == [0, 0, 1, 2, 3, 4, 4]
+    # a raised cluster still links with a raised one: a low wall, not the footway
+    top[[0, 1, 5, 6]] = 0.4
+    assert objects(link_pairs(position, depth, follows, top=top,
+                              ground_height=0.3)) == [0, 0, 0, 1, 2, 2, 2]
+
+
+def test_separate_ground_finds_a_motorbike_on_the_footway():
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import ScanClusterer
+
+    run = make_street_scans(600, scenario="sparse", random_state=112,
+                            motorbike_fraction=0.6, motorbike_across_fraction=0.6,
+                            motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
+                            parked_gap_m=12.0)
+    scores = [street_scores(run.gt, ScanClusterer(separate_ground=sg).fit(
+        run.scans).detect(run.scans))["parked"] for sg in (False, True)]
+    assert scores[1]["tp"] > scores[0]["tp"]
+    assert scores[1]["fp"] <= scores[0]["fp"]

@@ -16,7 +16,7 @@ QUIET = dict(passing_per_min=0.0, pedestrians_per_100m=0.0, bins_per_100m=0.0,
 #: The paper's plain method, reached through parameters.
 PAPER = dict(split_merged=False, min_body_fraction=0.0, occluded_length=None,
              bridge_occluded=False, region_depth="mean", min_car_length=0.0,
-             beam_occlusion=False)
+             beam_occlusion=False, separate_ground=False)
 
 
 @functools.lru_cache(maxsize=8)

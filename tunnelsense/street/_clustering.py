@@ -315,13 +315,18 @@ def seen_past(earlier, later, span, hidden, link_distance, occluder=None):
 
 
 def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
-               hidden=None, occluder=None):
+               hidden=None, occluder=None, top=None, ground_height=None):
     """Inter-scan links: the pairs of intra-clusters of consecutive scans that link.
 
     Parameters are those of :func:`link_scans`; ``position`` must be non-decreasing.
     With ``span`` and ``hidden`` (see :func:`seen_past`), a cluster seen only past
     a nearer occluder also links with the cluster of the neighbouring scan whose
     depth extent holds it.
+
+    With ``top`` (height of every cluster's highest point) and ``ground_height``
+    (beyond the paper), a cluster lying wholly below ``ground_height`` (a kerb, the
+    footway: a surface near road level) never links with one that rises above it,
+    so the footway does not carry a vehicle standing on it into what stands behind.
 
     Returns
     -------
@@ -349,6 +354,9 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
     close = np.abs(depth[earlier] - depth[later]) < link_distance
     if span is not None and hidden is not None:
         close |= seen_past(earlier, later, span, hidden, link_distance, occluder)
+    if top is not None and ground_height is not None:
+        ground = np.asarray(top, float) < ground_height
+        close &= ground[earlier] == ground[later]
     return earlier[close], later[close]
 
 

@@ -159,6 +159,12 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         many consecutive beams whose beams just below and above both pass farther
         (to the surface behind it, or nowhere within range) is dropped before
         clustering; it builds no object and hides nothing.  0: keep every return.
+    separate_ground : bool, default=False
+        True: a cluster lying wholly below the kerb-and-sidewalk height (0.3 m: a
+        kerb, the footway, a surface near road level) never links with one of the
+        next scan that rises above it (beyond the paper): the footway under a
+        motorbike parked across the kerb does not carry it into the footway object,
+        or the hedge or wall behind.  False: the paper's link by mean depth.
     min_across_length : float or None, default=0.5
         Shortest motorbike parked at right angles to the kerb (m along the street;
         handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
@@ -243,6 +249,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
         "beam_occlusion": ["boolean"],
         "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
+        "separate_ground": ["boolean"],
         "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
         "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
@@ -280,6 +287,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_roof_height=0.5,
         beam_occlusion=True,
         spray_beams=2,
+        separate_ground=False,
         min_across_length=0.5,
         min_across_raised=0.3,
         min_across_top=1.05,
@@ -314,6 +322,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.min_roof_height = min_roof_height
         self.beam_occlusion = beam_occlusion
         self.spray_beams = spray_beams
+        self.separate_ground = separate_ground
         self.min_across_length = min_across_length
         self.min_across_raised = min_across_raised
         self.min_across_top = min_across_top

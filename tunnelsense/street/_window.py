@@ -219,11 +219,13 @@ class ScanWindow:
         n_prev = int(self.n_clusters[-1]) if len(self.n_clusters) else 0
         old = slice(len(self.depth) - n_prev, len(self.depth))
         occlusion = {}
+        if est.separate_ground:  # the footway never carries a body into what is behind
+            occlusion.update(top=concat(self.top[old], top), ground_height=SIDE_HEIGHT)
         if est.beam_occlusion:  # clusters seen past an occluder (lower part hidden)
             span = np.column_stack([concat(self.side[old], side),
                                     concat(self.far[old], far)])
             span[~np.isfinite(span[:, 0])] = np.nan
-            occlusion = dict(span=span, hidden=concat(
+            occlusion.update(span=span, hidden=concat(
                 (self.flags[old] & HIDDEN_FLAG) > 0, hidden),
                 occluder=concat(self.occluder[old], occluder))
         earlier, later = link_pairs(
