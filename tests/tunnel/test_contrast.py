@@ -7,6 +7,7 @@ from tunnelsense import to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.io import load_model, save_model
 from tunnelsense.tunnel import IntensityKeypointSampler
+from tunnelsense.tunnel._common import points_in_boxes
 from tunnelsense.tunnel._contrast import (
     background_cells,
     contrast_band,
@@ -198,7 +199,7 @@ def test_contrast_region_ignores_gain_offset_and_a_dim_rim():
     assert region_boxes(frame, rows, cols, labels, box, (120, 255))[0, 3] > 16
 
 
-def test_clusterer_box_contrast_contains_the_keypoint_rectangles(tours):
+def test_clusterer_box_contrast_holds_a_keypoint_in_the_grown_rectangle(tours):
     from tunnelsense.tunnel import MSTClusterer
 
     plain, _, _ = tours
@@ -210,8 +211,14 @@ def test_clusterer_box_contrast_contains_the_keypoint_rectangles(tours):
     for a, b in zip(out, keyed, strict=True):
         ba, bb = a.payload["cluster_boxes"], b.payload["cluster_boxes"]
         assert ba.shape == bb.shape
-        # every refined box contains its keypoint rectangle
-        assert np.all(ba[:, 0] <= bb[:, 0]) and np.all(ba[:, 1] <= bb[:, 1])
-        assert np.all(ba[:, 0] + ba[:, 2] >= bb[:, 0] + bb[:, 2])
+        kp_r, kp_c = a.payload["keypoints"][:, 0], a.payload["keypoints"][:, 1]
+        for k, (box, rect) in enumerate(zip(ba, bb, strict=True)):
+            # within the keypoints' rectangle grown by the reach (14, 12)
+            assert box[0] >= rect[0] - 12 and box[1] >= rect[1] - 14
+            assert box[0] + box[2] <= rect[0] + rect[2] + 12
+            assert box[1] + box[3] <= rect[1] + rect[3] + 14
+            own = a.payload["cluster_labels"] == k
+            inside = points_in_boxes(kp_r[own], kp_c[own], box[None])
+            assert inside.any()
         n += int((ba[:, 3] > bb[:, 3]).sum())
     assert n > 0

@@ -244,14 +244,17 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
 
     A grey-level band wide enough for signs of half the training contrast also
     holds the lining next to a sign of full contrast, so a region grown in that band
-    swells with the band.  Here each cluster sets its own threshold: inside the
-    cluster's rectangle grown by ``reach`` px, the surround level ``s`` is the median
-    of the pixels outside the keypoints' rectangle, the peak ``p`` the median grey
-    level at the cluster's keypoints, and the region is the 8-connected components
-    of the pixels at or above ``s + fraction * (p - s)`` that hold a keypoint of the
-    cluster (for ``fraction=0.5``, the object at half its contrast).  An affine
-    change of the grey levels moves ``s``, ``p`` and every pixel alike: the region
-    does not move.  A cluster not brighter than its surround keeps its box.
+    swells with the band, and a cluster that also holds dim keypoints (a lining
+    joint, a lamp's halo next to a sign) spans them.  Here each cluster sets its own
+    threshold: inside the cluster's rectangle grown by ``reach`` px, the surround
+    level ``s`` is the median of the pixels outside the keypoints' rectangle, the
+    peak ``p`` the brightest grey level at the cluster's keypoints, and the region
+    is the 8-connected components of the pixels at or above ``s + fraction * (p -
+    s)`` that hold a keypoint of the cluster (for ``fraction=0.5``, the brightest
+    object at half its contrast); keypoints below that threshold are left out of
+    the box.  An affine change of the grey levels moves ``s``, ``p`` and every
+    pixel alike: the region does not move.  A cluster not brighter than its
+    surround keeps its keypoints' rectangle.
 
     Parameters
     ----------
@@ -271,7 +274,7 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
     Returns
     -------
     boxes : ndarray of shape (m, 4), float64
-        ``(left, top, width, height)`` in whole pixels; each contains the input box.
+        ``(left, top, width, height)`` in whole pixels.
 
     Examples
     --------
@@ -310,7 +313,7 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
             continue
         member = labels == k
         surround = float(np.median(window[ring]))
-        peak = float(np.median(image[rows[member], cols[member]]))
+        peak = float(np.max(image[rows[member], cols[member]]))
         if peak <= surround:
             continue
         mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
@@ -320,9 +323,6 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
         if len(seeds) == 0:
             continue
         ys, xs = np.nonzero(np.isin(comp, seeds) if len(seeds) > 1 else comp == seeds[0])
-        y0 = min(int(ys.min()) + r0, int(top))
-        x0 = min(int(xs.min()) + c0, int(left))
-        y1 = max(int(ys.max()) + r0 + 1, int(top + bh))
-        x1 = max(int(xs.max()) + c0 + 1, int(left + bw))
-        out[k] = (x0, y0, x1 - x0, y1 - y0)
+        y0, x0 = int(ys.min()) + r0, int(xs.min()) + c0
+        out[k] = (x0, y0, int(xs.max()) + c0 + 1 - x0, int(ys.max()) + r0 + 1 - y0)
     return out
