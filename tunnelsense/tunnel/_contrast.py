@@ -249,10 +249,10 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
     threshold: inside the cluster's rectangle grown by ``reach`` px, the surround
     level ``s`` is the median of the pixels outside the keypoints' rectangle, the
     peak ``p`` the brightest grey level at the cluster's keypoints, and the region
-    is the 8-connected components of the pixels at or above ``s + fraction * (p -
-    s)`` that hold a keypoint of the cluster (for ``fraction=0.5``, the brightest
-    object at half its contrast); keypoints below that threshold are left out of
-    the box.  An affine change of the grey levels moves ``s``, ``p`` and every
+    is the 8-connected component of the pixels at or above ``s + fraction * (p -
+    s)`` that holds the brightest keypoint (for ``fraction=0.5``, the brightest
+    object at half its contrast); dimmer keypoints and other objects of the cluster
+    (a lamp beside a far sign) are left out of the box.  An affine change of the grey levels moves ``s``, ``p`` and every
     pixel alike: the region does not move.  A cluster not brighter than its
     surround keeps its keypoints' rectangle.
 
@@ -311,18 +311,16 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
         ring[int(top) - r0:int(top + bh) - r0, int(left) - c0:int(left + bw) - c0] = False
         if not ring.any():
             continue
-        member = labels == k
+        member = np.flatnonzero(labels == k)
         surround = float(np.median(window[ring]))
-        peak = float(np.max(image[rows[member], cols[member]]))
+        values = image[rows[member], cols[member]]
+        brightest = member[int(np.argmax(values))]
+        peak = float(values.max())
         if peak <= surround:
             continue
         mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
         _, comp = cv2.connectedComponents(mask, connectivity=8)
-        seeds = np.unique(comp[rows[member] - r0, cols[member] - c0])
-        seeds = seeds[seeds > 0]
-        if len(seeds) == 0:
-            continue
-        ys, xs = np.nonzero(np.isin(comp, seeds) if len(seeds) > 1 else comp == seeds[0])
+        ys, xs = np.nonzero(comp == comp[rows[brightest] - r0, cols[brightest] - c0])
         y0, x0 = int(ys.min()) + r0, int(xs.min()) + c0
         out[k] = (x0, y0, int(xs.max()) + c0 + 1 - x0, int(ys.max()) + r0 + 1 - y0)
     return out
