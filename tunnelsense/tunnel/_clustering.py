@@ -79,16 +79,17 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
     ----------
     cut : float, default=40.0
         MST edges longer than this (px) are removed.
-    box : {"keypoints", "region"}, default="keypoints"
+    box : {"keypoints", "region", "contrast"}, default="keypoints"
         Frame mode: the rectangle of each cluster.  ``"keypoints"`` (the paper's):
         the smallest rectangle of its keypoints, quantized to the 7 x 6 px grid.
         ``"region"``: that rectangle refined on the image to the in-band pixels
         connected to the keypoints (:func:`region_boxes`), which gives the object's
         own extent: a stable centre and scale for tracking and the whole sign for the
         appearance histogram.  :func:`~tunnelsense.tunnel.make_indicator_pipeline`
-        uses ``"region"``.  ``"contrast"``: refined to the pixels brighter than half
-        the cluster's own contrast above its surround
-        (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`): no band, so
+        uses ``"region"``.  ``"contrast"``: the region at or above half the contrast of
+        the cluster's brightest keypoint over its surround, that keypoint's
+        component only (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`):
+        no band, so
         the region does not grow when the keypoint band is widened, and an affine
         change of the grey levels does not move it.
     band : (float, float) or None, default=None
