@@ -165,3 +165,14 @@ def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
     assert main(["detect", "tunnel", "--model", str(model), str(tours[0]), "--out",
                  str(tmp_path / "o.txt"), "--dask-scheduler", "tcp://x:1"]) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_a_detection_that_fails_before_its_first_frame_leaves_no_results_file(
+        tunnel_model, tours, tmp_path):
+    """A results file under its final name marks a finished tour: one that cannot
+    start (here --draw names a file, not a folder) must not leave an empty one."""
+    (tmp_path / "pictures").write_text("a file\n")
+    out = tmp_path / "t.txt"
+    with pytest.raises(OSError):
+        detect_to_files(tunnel_model, tours[0], out, draw=tmp_path / "pictures")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pictures"]
