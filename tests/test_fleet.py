@@ -176,3 +176,18 @@ def test_a_detection_that_fails_before_its_first_frame_leaves_no_results_file(
     with pytest.raises(OSError):
         detect_to_files(tunnel_model, tours[0], out, draw=tmp_path / "pictures")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pictures"]
+
+
+def test_tour_names_keep_a_folder_s_dots_and_name_the_current_folder(tmp_path,
+                                                                     monkeypatch):
+    for day in ("2024.03.01", "2024.03.02"):
+        (tmp_path / day).mkdir()
+    (tmp_path / "r7.bag").write_bytes(b"")
+    names = [tour_outputs("tunnel", tmp_path / d, "out")[0].name
+             for d in ("2024.03.01", "2024.03.02")]
+    assert names == ["2024.03.01.txt", "2024.03.02.txt"]
+    assert tour_outputs("street", tmp_path / "r7.bag", "out")[0].name == "r7.csv"
+    monkeypatch.chdir(tmp_path / "2024.03.01")
+    assert tour_outputs("tunnel", ".", "out")[0].name == "2024.03.01.txt"
+    with pytest.raises(ValueError, match="needs a name"):
+        tour_outputs("tunnel", "/", "out")

@@ -36,7 +36,8 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
     -------
     list of Path
         ``NAME.txt`` and ``NAME.clusters.csv`` for a tour; ``NAME.csv`` for a run,
-        ``NAME`` being the source's file or folder name without its suffix.
+        ``NAME`` being the source's folder name (whole, dots included) or its file
+        name without the suffix.
 
     Examples
     --------
@@ -47,7 +48,11 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
     ['r7.csv']
     """
     _check_kind(kind)
-    name = Path(source).stem if Path(source).suffix else Path(source).name
+    path = Path(source).resolve()  # "." and "tours/t01/" name their folder
+    name = path.name if path.is_dir() else path.stem  # "2024.03.01/" keeps its dots
+    if not name:
+        raise ValueError(f"{source}: a tour needs a name (its file or folder name "
+                         "names its results); got the root folder")
     out_dir = Path(out_dir)
     if kind == "tunnel":
         return [out_dir / f"{name}.txt", out_dir / f"{name}.clusters.csv"]
