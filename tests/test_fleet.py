@@ -1,6 +1,8 @@
 """Fleets: many tours detected at once, per-tour results equal to one-by-one runs."""
 
 import filecmp
+import os
+import shutil
 import subprocess
 import sys
 
@@ -81,12 +83,44 @@ def test_a_fleet_never_replaces_a_file_it_did_not_finish(tunnel_model, tours,
     out = tmp_path / "out"
     out.mkdir()
     results, clusters = tour_outputs("tunnel", tours[0], out)
-    clusters.write_text("someone else's\n")  # no results file: the tour is not done
+    # no results file: the tour is not done; a companion that differs from the one
+    # this run writes is not this fleet's (an identical one would be taken)
+    clusters.write_text("someone else's\n")
     with pytest.raises(FileExistsError, match="not replaced"):
         detect_one(tunnel_model, "tunnel", tours[0], out)
     assert clusters.read_text() == "someone else's\n"
     assert not results.exists()
     assert [p.name for p in out.iterdir()] == [clusters.name]  # no partial left
+
+
+def test_a_tour_killed_before_its_results_file_was_linked_resumes(
+        tunnel_model, tours, one_by_one, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    clusters = tour_outputs("tunnel", tours[0], out)[1]
+    # killed between the two links: the companion is there, the results file not
+    shutil.copyfile(one_by_one / clusters.name, clusters)
+    (done,) = detect_tours(tunnel_model, tours[:1], out)
+    assert not done["skipped"]
+    _same_as_one_by_one(out, one_by_one, tours[:1])
+    assert len(list(out.iterdir())) == 2
+
+
+def test_a_finished_tour_is_on_disk_before_it_is_linked(tunnel_model, tours,
+                                                       tmp_path, monkeypatch):
+    synced = []
+    real = os.fsync
+
+    def fsync(fd):
+        synced.append(os.fstat(fd).st_ino)
+        real(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    out = tmp_path / "out"
+    out.mkdir()
+    detect_one(tunnel_model, "tunnel", tours[0], out)
+    for path in (*tour_outputs("tunnel", tours[0], out), out):
+        assert path.stat().st_ino in synced, path
 
 
 def test_overwrite_detects_finished_tours_again(tunnel_model, tours, one_by_one,

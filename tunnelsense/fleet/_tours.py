@@ -1,8 +1,10 @@
 """Detecting many tours or runs at once: locally in processes, or on a Dask cluster.
 
 One task per tour.  Each task writes its results under a temporary folder inside the
-output folder and, once the tour is done, moves them to their final names (the
-results file last), so a results file under its final name is always complete.  A
+output folder and, once the tour is done and its files are on disk (fsync), links
+them to their final names (the results file last), so a results file under its final
+name is always complete.  A companion file left by a run killed before it linked the
+results file is taken if byte-identical to the new one, never replaced otherwise.  A
 new run skips a tour whose results file exists (it finished before) and starts the
 others afresh, so a run that was killed resumes where it stopped; a final name that
 exists is never replaced (unless ``overwrite``).
@@ -10,6 +12,7 @@ exists is never replaced (unless ``overwrite``).
 
 from __future__ import annotations
 
+import filecmp
 import os
 import shutil
 from pathlib import Path
@@ -259,8 +262,16 @@ def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
     work.mkdir()
     try:
         facts = _detect_into(model, kind, source, work / final[0].name, options or {})
-        for path in reversed(final):  # the results file last: it marks a finished tour
-            _move(work / path.name, path, overwrite)
+        for path in final:  # on disk before any is linked (as atomic_write does)
+            _fsync(work / path.name)
+        # The results file last, once its companions are on disk: it marks a finished
+        # tour.  A companion left by a run killed before its results file was linked
+        # is taken when it is byte-identical to the new one (never replaced).
+        for path in final[1:]:
+            _move(work / path.name, path, overwrite, identical_ok=True)
+        _fsync(out_dir)
+        _move(work / final[0].name, final[0], overwrite)
+        _fsync(out_dir)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return {"source": source, "results": final[0], "skipped": False, **facts}
@@ -284,18 +295,40 @@ def _detect_into(model, kind, source, out, options):
     return {"counts": counts}
 
 
-def _move(src, dst, overwrite) -> None:
-    """Rename ``src`` to ``dst``; an existing ``dst`` only replaced if ``overwrite``."""
+def _fsync(path) -> None:
+    """Push a file's (or a folder's: its names) contents to the disk.
+
+    A folder that cannot be opened for this (Windows) is left to the system.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        if Path(path).is_dir():
+            return
+        raise
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _move(src, dst, overwrite, identical_ok=False) -> None:
+    """Rename ``src`` to ``dst``; an existing ``dst`` only replaced if ``overwrite``
+    (or, with ``identical_ok``, kept when byte-identical to ``src``)."""
     if overwrite:
         os.replace(src, dst)
         return
     try:
         os.link(src, dst)  # fails, atomically, if dst exists
     except FileExistsError:
-        raise FileExistsError(f"{dst}: exists (written meanwhile by another run?); "
-                              "not replaced") from None
+        if not (identical_ok and filecmp.cmp(src, dst, shallow=False)):
+            raise FileExistsError(f"{dst}: exists (written meanwhile by another "
+                                  "run?); not replaced") from None
     except OSError:  # a file system without hard links
         if dst.exists():
+            if identical_ok and filecmp.cmp(src, dst, shallow=False):
+                os.unlink(src)
+                return
             raise FileExistsError(f"{dst}: exists; not replaced") from None
         os.rename(src, dst)
         return
