@@ -3,6 +3,7 @@
 import filecmp
 import os
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -177,12 +178,64 @@ def test_fleet_command_with_two_processes_finishes(tunnel_model, tours, one_by_o
     command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
                str(model), str(tours[0]), "--tours-from", str(listed), "--out",
                str(tmp_path / "out"), "--jobs", "2", "--quiet"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    done = _run_command(command)
     assert done.returncode == 0, done.stderr
     assert "4 tours into" in done.stdout and "4 detected, 0 skipped" in done.stdout
     _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:4])
-    again = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    again = _run_command(command)
     assert "0 detected, 4 skipped" in again.stdout, again.stderr
+
+
+@pytest.fixture(scope="module")
+def bad_tour(tmp_path_factory):
+    """A tour whose second frame is not a picture: its detection fails midway."""
+    tour = write_tour(make_tunnel_tour(8, random_state=30, name="t30"),
+                      tmp_path_factory.mktemp("bad") / "b30")
+    (tour / "img1" / "000002.png").write_bytes(b"not a picture")
+    return tour
+
+
+def test_a_tour_that_fails_does_not_stop_the_others(tunnel_model, tours, bad_tour,
+                                                    one_by_one, tmp_path):
+    out = tmp_path / "out"
+    done = detect_tours(tunnel_model, [tours[0], bad_tour, tours[1]], out)
+    assert [d["error"] is None for d in done] == [True, False, True]
+    assert done[1]["source"] == bad_tour and done[1]["error"]
+    _same_as_one_by_one(out, one_by_one, [tours[0], tours[1]])
+    assert not any(p.exists() for p in tour_outputs("tunnel", bad_tour, out))
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        p.name for t in tours[:2] for p in tour_outputs("tunnel", t, out))
+
+
+def _run_command(command):
+    """Run the command in its own process group, all of it killed on a timeout."""
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, start_new_session=True)
+    try:
+        stdout, stderr = child.communicate(timeout=600)
+    except subprocess.TimeoutExpired:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.communicate()
+        raise
+    return subprocess.CompletedProcess(command, child.returncode, stdout, stderr)
+
+
+def test_fleet_command_reports_each_failed_tour_by_its_path(
+        tunnel_model, tours, bad_tour, one_by_one, tmp_path):
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
+               str(model), str(tours[0]), str(bad_tour), str(tours[1]), str(tours[2]),
+               "--out", str(tmp_path / "out"), "--jobs", "2", "--quiet"]
+    done = _run_command(command)
+    assert done.returncode == 1, done.stderr
+    assert "3 detected, 0 skipped, 1 failed" in done.stdout, done.stdout
+    errors = done.stderr.strip().splitlines()
+    assert len(errors) == 1 and errors[0].startswith(f"tunnelsense: error: {bad_tour}:")
+    _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:3])
+    assert not list((tmp_path / "out").glob(".partial-*"))
+    again = _run_command(command)
+    assert again.returncode == 1
+    assert "0 detected, 3 skipped, 1 failed" in again.stdout, again.stdout
 
 
 def test_fleet_command_refusals(tunnel_model, tours, tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -79,13 +80,19 @@ def run_fleet(args, kind, sources, options, check=None) -> int:
     if bar is not None:
         bar.close()
     skipped = sum(d["skipped"] for d in done)
+    failed = [d for d in done if d["error"] is not None]
     for d in done:
+        if d["error"] is not None:
+            print(f"{d['source']}: failed (see below)")
+            continue
         print(f"{d['source']}: " + ("finished before, skipped" if d["skipped"] else
                                     _summary(kind, d)) + f" -> {d['results']}")
     print(f"{len(done)} {'tours' if kind == 'tunnel' else 'runs'} into {out}: "
-          f"{len(done) - skipped} detected, {skipped} skipped "
-          f"({time.perf_counter() - start:.1f} s)")
-    return 0
+          f"{len(done) - skipped - len(failed)} detected, {skipped} skipped, "
+          f"{len(failed)} failed ({time.perf_counter() - start:.1f} s)")
+    for d in failed:
+        print(f"tunnelsense: error: {d['source']}: {d['error']}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _summary(kind, facts) -> str:

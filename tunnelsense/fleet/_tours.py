@@ -121,7 +121,9 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     Returns
     -------
     list of dict
-        Per source, in order: ``source``, ``results`` (path), ``skipped`` (bool) and
+        Per source, in order: ``source``, ``results`` (path), ``skipped`` (bool),
+        ``error`` (None, or why this tour failed: a tour that fails does not stop
+        the others, and leaves no results file, so a new run detects it again) and
         the facts of its detection (tunnel: ``frames``, ``detections``,
         ``trajectories``; street: ``counts``).
 
@@ -163,7 +165,8 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     for i, source in enumerate(sources):
         final = tour_outputs(kind, source, out_dir)
         if final[0].exists() and not overwrite:
-            results[i] = {"source": source, "results": final[0], "skipped": True}
+            results[i] = {"source": source, "results": final[0], "skipped": True,
+                          "error": None}
         else:
             todo.append(i)
     done = len(sources) - len(todo)
@@ -201,7 +204,7 @@ def _run(model, tasks, n_jobs, dask_scheduler):
         yield from _run_dask(model, tasks, dask_scheduler)
     elif n_jobs == 1 or len(tasks) == 1:
         for task in tasks:
-            yield detect_one(model, *task)
+            yield _detect_or_fail(model, *task)
     else:
         from joblib import Parallel, delayed
 
@@ -231,7 +234,18 @@ def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
     must all be in by the end of the first task, whatever that task did.
     """
     _import_detector(kind)
-    return detect_one(model, kind, source, out_dir, overwrite, options)
+    return _detect_or_fail(model, kind, source, out_dir, overwrite, options)
+
+
+def _detect_or_fail(model, kind, source, out_dir, overwrite, options):
+    """:func:`detect_one`, or the record of its failure (the other tours go on)."""
+    try:
+        return detect_one(model, kind, source, out_dir, overwrite, options)
+    except Exception as exc:  # noqa: BLE001 -- reported per tour by the caller
+        reason = (str(exc) if isinstance(exc, (ValueError, OSError))
+                  else f"{type(exc).__name__}: {exc}")
+        return {"source": Path(source), "skipped": False, "error": reason,
+                "results": tour_outputs(kind, source, out_dir)[0]}
 
 
 def _import_detector(kind) -> None:
@@ -274,7 +288,8 @@ def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
         _fsync(out_dir)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    return {"source": source, "results": final[0], "skipped": False, **facts}
+    return {"source": source, "results": final[0], "skipped": False, "error": None,
+            **facts}
 
 
 def _detect_into(model, kind, source, out, options):
