@@ -1,11 +1,13 @@
 """Fleets: many tours detected at once, per-tour results equal to one-by-one runs."""
 
+import contextlib
 import filecmp
 import os
 import shutil
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -236,6 +238,40 @@ def test_fleet_command_reports_each_failed_tour_by_its_path(
     again = _run_command(command)
     assert again.returncode == 1
     assert "0 detected, 3 skipped, 1 failed" in again.stdout, again.stdout
+
+
+def test_a_terminated_fleet_command_ends_its_workers(tunnel_model, tmp_path):
+    """SIGTERM to the command alone (as a job scheduler sends it) ends its worker
+    processes too; they were left running, orphaned, holding its output pipes."""
+    tours = [write_tour(make_tunnel_tour(200, random_state=s, name=f"long{s}"),
+                        tmp_path / f"long{s}") for s in (1, 2)]
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
+               str(model), *map(str, tours), "--out", str(out), "--jobs", "2",
+               "--quiet"]
+    with open(tmp_path / "stderr", "w") as stderr:
+        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr,
+                                 start_new_session=True)
+    try:
+        while child.poll() is None and not list(out.glob(".partial-*")):
+            time.sleep(0.02)  # until a worker is detecting a tour
+        assert child.poll() is None, (tmp_path / "stderr").read_text()
+        child.send_signal(signal.SIGTERM)
+        assert child.wait(timeout=120) == 143
+        assert (tmp_path / "stderr").read_text() == "tunnelsense: terminated\n"
+        for _ in range(600):  # the process group empties: no worker left behind
+            try:
+                os.killpg(child.pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.1)
+        else:
+            pytest.fail("worker processes outlived the terminated command")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+    assert not any(p.exists() for t in tours for p in tour_outputs("tunnel", t, out))
 
 
 def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
