@@ -290,6 +290,17 @@ def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_fleet_command_names_jobs_when_it_is_not_a_count(tunnel_model, tours,
+                                                         tmp_path, capsys):
+    from tunnelsense._cli import main
+
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    assert main(["detect", "tunnel", "--model", str(model), str(tours[0]),
+                 str(tours[1]), "--out", str(tmp_path / "o"), "--jobs", "0"]) == 1
+    assert capsys.readouterr().err.startswith("tunnelsense: error: --jobs: expected")
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_detection_that_fails_before_its_first_frame_leaves_no_results_file(
         tunnel_model, tours, tmp_path):
     """A results file under its final name marks a finished tour: one that cannot

@@ -16,7 +16,8 @@ def add_fleet_arguments(parser, what) -> None:
     """``--tours-from FILE`` and ``--dask-scheduler ADDRESS``."""
     parser.add_argument(
         "--tours-from", metavar="FILE", help=f"also detect the {what}s listed in FILE "
-        "(one path a line; # comments). With more than one "
+        "(one path a line, relative to the current folder, not to FILE; # "
+        "comments). With more than one "
         f"{what}, --out is a folder that gets one results file per {what}, a "
         f"{what} whose results file is there already is skipped (a stopped run "
         "resumes), and --jobs is the number detected at once")
@@ -58,6 +59,9 @@ def run_fleet(args, kind, sources, options, check=None) -> int:
     from tunnelsense.fleet import detect_tours, tour_outputs
 
     start = time.perf_counter()
+    if args.jobs < 1:
+        raise ValueError(f"--jobs: expected a whole number >= 1 ({kind}s detected at "
+                         f"once); got {args.jobs}")
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
     out = Path(args.out)

@@ -64,7 +64,8 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
 
 def read_tour_list(path) -> list[str]:
     """The tours named in a list file: one path a line; blank lines and ``#`` comments
-    are skipped.
+    are skipped.  The paths are returned as written (a relative one is relative to
+    the current folder, not to the list file's).
 
     Examples
     --------
