@@ -2,6 +2,7 @@
 
 import contextlib
 import filecmp
+import hashlib
 import os
 import shutil
 import signal
@@ -43,6 +44,10 @@ def one_by_one(tunnel_model, tours, tmp_path_factory):
     return root
 
 
+def _visible(folder):
+    return sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))
+
+
 def _same_as_one_by_one(out, reference, tours):
     for tour in tours:
         for path in tour_outputs("tunnel", tour, out):
@@ -57,7 +62,7 @@ def test_a_local_fleet_equals_one_by_one_runs(tunnel_model, tours, one_by_one,
     assert [d["skipped"] for d in done] == [False] * 6
     assert seen[0] == (0, 6) and seen[-1] == (6, 6)
     _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:6])
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
+    assert _visible(tmp_path / "out") == sorted(
         p.name for t in tours[:6] for p in tour_outputs("tunnel", t, tmp_path))
 
 
@@ -69,6 +74,9 @@ def test_a_stopped_fleet_resumes_without_redoing_finished_tours(
     for tour in finished:  # as a run killed after three tours left them
         for path in tour_outputs("tunnel", tour, out):
             path.write_text("kept: finished before\n")
+        results = tour_outputs("tunnel", tour, out)[0]
+        digest = hashlib.sha256(results.read_bytes()).hexdigest()
+        (out / f".finished-{results.name}").write_text(digest + "\n")
     partial = out / f".partial-{tours[3].name}.txt"  # and the fourth under way
     partial.mkdir()
     (partial / f"{tours[3].name}.txt").write_text("1,2,3\n")
@@ -96,6 +104,24 @@ def test_a_fleet_never_replaces_a_file_it_did_not_finish(tunnel_model, tours,
     assert [p.name for p in out.iterdir()] == [clusters.name]  # no partial left
 
 
+def test_a_results_file_no_fleet_finished_is_reported_not_skipped(
+        tunnel_model, tours, one_by_one, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    results = tour_outputs("tunnel", tours[0], out)[0]
+    results.write_text("1,1,0,0,4,8,0.9,-1,-1,-1\n")  # a single run stopped midway
+    first = detect_tours(tunnel_model, tours[:2], out)
+    assert not first[0]["skipped"] and "no fleet finished it" in first[0]["error"]
+    assert results.read_text() == "1,1,0,0,4,8,0.9,-1,-1,-1\n"
+    assert first[1]["error"] is None
+    again = detect_tours(tunnel_model, tours[:2], out)  # the finished one: skipped
+    assert [d["skipped"] for d in again] == [False, True]
+    detect_tours(tunnel_model, tours[:1], out, overwrite=True)
+    assert [d["skipped"] for d in detect_tours(tunnel_model, tours[:2], out)] == [
+        True, True]
+    _same_as_one_by_one(out, one_by_one, tours[:2])
+
+
 def test_a_tour_killed_before_its_results_file_was_linked_resumes(
         tunnel_model, tours, one_by_one, tmp_path):
     out = tmp_path / "out"
@@ -106,7 +132,7 @@ def test_a_tour_killed_before_its_results_file_was_linked_resumes(
     (done,) = detect_tours(tunnel_model, tours[:1], out)
     assert not done["skipped"]
     _same_as_one_by_one(out, one_by_one, tours[:1])
-    assert len(list(out.iterdir())) == 2
+    assert len(_visible(out)) == 2
 
 
 def test_a_finished_tour_is_on_disk_before_it_is_linked(tunnel_model, tours,
@@ -205,7 +231,7 @@ def test_a_tour_that_fails_does_not_stop_the_others(tunnel_model, tours, bad_tou
     assert done[1]["source"] == bad_tour and done[1]["error"]
     _same_as_one_by_one(out, one_by_one, [tours[0], tours[1]])
     assert not any(p.exists() for p in tour_outputs("tunnel", bad_tour, out))
-    assert sorted(p.name for p in out.iterdir()) == sorted(
+    assert _visible(out) == sorted(
         p.name for t in tours[:2] for p in tour_outputs("tunnel", t, out))
 
 

@@ -19,8 +19,9 @@ def add_fleet_arguments(parser, what) -> None:
         "(one path a line, relative to the current folder, not to FILE; # "
         "comments). With more than one "
         f"{what}, --out is a folder that gets one results file per {what}, a "
-        f"{what} whose results file is there already is skipped (a stopped run "
-        "resumes), and --jobs is the number detected at once")
+        f"{what} a fleet finished before is skipped (a stopped run resumes), one "
+        "that fails is reported at the end without stopping the others (exit "
+        "status 1), and --jobs is the number detected at once")
     parser.add_argument(
         "--dask-scheduler", metavar="ADDRESS", help=f"with several {what}s: detect "
         f"them on this Dask cluster, one task per {what} (e.g. tcp://10.0.0.5:8786; "

@@ -5,14 +5,18 @@ output folder and, once the tour is done and its files are on disk (fsync), link
 them to their final names (the results file last), so a results file under its final
 name is always complete.  A companion file left by a run killed before it linked the
 results file is taken if byte-identical to the new one, never replaced otherwise.  A
-new run skips a tour whose results file exists (it finished before) and starts the
-others afresh, so a run that was killed resumes where it stopped; a final name that
+new run skips a tour whose results file exists and is recorded as finished (a hidden
+``.finished-NAME`` file beside it holds the results file's SHA-256, written just
+before the results file is linked), and starts the others afresh, so a run that was
+killed resumes where it stopped.  A results file the fleet did not finish (say, a
+stopped single detection's) is reported, never taken as finished; a final name that
 exists is never replaced (unless ``overwrite``).
 """
 
 from __future__ import annotations
 
 import filecmp
+import hashlib
 import os
 import shutil
 from pathlib import Path
@@ -111,7 +115,8 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
         same paths.
     overwrite : bool, default=False
         Detect every tour again, replacing its results; by default a tour whose
-        results file exists is skipped (it finished in an earlier run).
+        results file exists is skipped when a fleet finished it (an earlier run),
+        else reported as failed, its file untouched.
     progress : callable or None, default=None
         ``progress(done, total)`` after each tour.
     options : dict or None, default=None
@@ -165,11 +170,16 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     todo = []
     for i, source in enumerate(sources):
         final = tour_outputs(kind, source, out_dir)
-        if final[0].exists() and not overwrite:
-            results[i] = {"source": source, "results": final[0], "skipped": True,
-                          "error": None}
-        else:
+        if not final[0].exists() or overwrite:
             todo.append(i)
+            continue
+        results[i] = {"source": source, "results": final[0], "skipped": True,
+                      "error": None}
+        if not _finished(final[0]):
+            results[i].update(skipped=False, error=(
+                f"{final[0]}: exists, but no fleet finished it (a single detection's, "
+                "stopped midway?); not replaced: move it away, or detect again "
+                "replacing it (--force)"))
     done = len(sources) - len(todo)
     if progress is not None:
         progress(done, len(sources))
@@ -284,8 +294,14 @@ def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
         # is taken when it is byte-identical to the new one (never replaced).
         for path in final[1:]:
             _move(work / path.name, path, overwrite, identical_ok=True)
+        mark = _mark(final[0])
+        _write_mark(mark, work / final[0].name)
         _fsync(out_dir)
-        _move(work / final[0].name, final[0], overwrite)
+        try:
+            _move(work / final[0].name, final[0], overwrite)
+        except BaseException:
+            mark.unlink(missing_ok=True)
+            raise
         _fsync(out_dir)
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -309,6 +325,35 @@ def _detect_into(model, kind, source, out, options):
     counts, _ = write_objects(model, scans, out,
                               all_objects=bool(options.get("all_objects")))
     return {"counts": counts}
+
+
+_MARK = ".finished-"
+
+
+def _mark(results) -> Path:
+    """The file that says a fleet finished ``results``: the SHA-256 of its bytes."""
+    return results.parent / f"{_MARK}{results.name}"
+
+
+def _digest(path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def _write_mark(mark, results) -> None:
+    with open(mark, "w", encoding="ascii") as f:
+        f.write(_digest(results) + "\n")
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _finished(results) -> bool:
+    """Whether a fleet wrote ``results``, complete (not, say, a stopped single run)."""
+    try:
+        recorded = _mark(results).read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return recorded == _digest(results)
 
 
 def _fsync(path) -> None:
