@@ -1,8 +1,14 @@
 """Fleets: many tours detected at once, per-tour results equal to one-by-one runs."""
 
+import contextlib
 import filecmp
+import hashlib
+import os
+import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -38,6 +44,10 @@ def one_by_one(tunnel_model, tours, tmp_path_factory):
     return root
 
 
+def _visible(folder):
+    return sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))
+
+
 def _same_as_one_by_one(out, reference, tours):
     for tour in tours:
         for path in tour_outputs("tunnel", tour, out):
@@ -52,7 +62,7 @@ def test_a_local_fleet_equals_one_by_one_runs(tunnel_model, tours, one_by_one,
     assert [d["skipped"] for d in done] == [False] * 6
     assert seen[0] == (0, 6) and seen[-1] == (6, 6)
     _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:6])
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
+    assert _visible(tmp_path / "out") == sorted(
         p.name for t in tours[:6] for p in tour_outputs("tunnel", t, tmp_path))
 
 
@@ -64,6 +74,9 @@ def test_a_stopped_fleet_resumes_without_redoing_finished_tours(
     for tour in finished:  # as a run killed after three tours left them
         for path in tour_outputs("tunnel", tour, out):
             path.write_text("kept: finished before\n")
+        results = tour_outputs("tunnel", tour, out)[0]
+        digest = hashlib.sha256(results.read_bytes()).hexdigest()
+        (out / f".finished-{results.name}").write_text(digest + "\n")
     partial = out / f".partial-{tours[3].name}.txt"  # and the fourth under way
     partial.mkdir()
     (partial / f"{tours[3].name}.txt").write_text("1,2,3\n")
@@ -81,12 +94,62 @@ def test_a_fleet_never_replaces_a_file_it_did_not_finish(tunnel_model, tours,
     out = tmp_path / "out"
     out.mkdir()
     results, clusters = tour_outputs("tunnel", tours[0], out)
-    clusters.write_text("someone else's\n")  # no results file: the tour is not done
+    # no results file: the tour is not done; a companion that differs from the one
+    # this run writes is not this fleet's (an identical one would be taken)
+    clusters.write_text("someone else's\n")
     with pytest.raises(FileExistsError, match="not replaced"):
         detect_one(tunnel_model, "tunnel", tours[0], out)
     assert clusters.read_text() == "someone else's\n"
     assert not results.exists()
     assert [p.name for p in out.iterdir()] == [clusters.name]  # no partial left
+
+
+def test_a_results_file_no_fleet_finished_is_reported_not_skipped(
+        tunnel_model, tours, one_by_one, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    results = tour_outputs("tunnel", tours[0], out)[0]
+    results.write_text("1,1,0,0,4,8,0.9,-1,-1,-1\n")  # a single run stopped midway
+    first = detect_tours(tunnel_model, tours[:2], out)
+    assert not first[0]["skipped"] and "no fleet finished it" in first[0]["error"]
+    assert results.read_text() == "1,1,0,0,4,8,0.9,-1,-1,-1\n"
+    assert first[1]["error"] is None
+    again = detect_tours(tunnel_model, tours[:2], out)  # the finished one: skipped
+    assert [d["skipped"] for d in again] == [False, True]
+    detect_tours(tunnel_model, tours[:1], out, overwrite=True)
+    assert [d["skipped"] for d in detect_tours(tunnel_model, tours[:2], out)] == [
+        True, True]
+    _same_as_one_by_one(out, one_by_one, tours[:2])
+
+
+def test_a_tour_killed_before_its_results_file_was_linked_resumes(
+        tunnel_model, tours, one_by_one, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    clusters = tour_outputs("tunnel", tours[0], out)[1]
+    # killed between the two links: the companion is there, the results file not
+    shutil.copyfile(one_by_one / clusters.name, clusters)
+    (done,) = detect_tours(tunnel_model, tours[:1], out)
+    assert not done["skipped"]
+    _same_as_one_by_one(out, one_by_one, tours[:1])
+    assert len(_visible(out)) == 2
+
+
+def test_a_finished_tour_is_on_disk_before_it_is_linked(tunnel_model, tours,
+                                                       tmp_path, monkeypatch):
+    synced = []
+    real = os.fsync
+
+    def fsync(fd):
+        synced.append(os.fstat(fd).st_ino)
+        real(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    out = tmp_path / "out"
+    out.mkdir()
+    detect_one(tunnel_model, "tunnel", tours[0], out)
+    for path in (*tour_outputs("tunnel", tours[0], out), out):
+        assert path.stat().st_ino in synced, path
 
 
 def test_overwrite_detects_finished_tours_again(tunnel_model, tours, one_by_one,
@@ -143,12 +206,98 @@ def test_fleet_command_with_two_processes_finishes(tunnel_model, tours, one_by_o
     command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
                str(model), str(tours[0]), "--tours-from", str(listed), "--out",
                str(tmp_path / "out"), "--jobs", "2", "--quiet"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    done = _run_command(command)
     assert done.returncode == 0, done.stderr
     assert "4 tours into" in done.stdout and "4 detected, 0 skipped" in done.stdout
     _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:4])
-    again = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    again = _run_command(command)
     assert "0 detected, 4 skipped" in again.stdout, again.stderr
+
+
+@pytest.fixture(scope="module")
+def bad_tour(tmp_path_factory):
+    """A tour whose second frame is not a picture: its detection fails midway."""
+    tour = write_tour(make_tunnel_tour(8, random_state=30, name="t30"),
+                      tmp_path_factory.mktemp("bad") / "b30")
+    (tour / "img1" / "000002.png").write_bytes(b"not a picture")
+    return tour
+
+
+def test_a_tour_that_fails_does_not_stop_the_others(tunnel_model, tours, bad_tour,
+                                                    one_by_one, tmp_path):
+    out = tmp_path / "out"
+    done = detect_tours(tunnel_model, [tours[0], bad_tour, tours[1]], out)
+    assert [d["error"] is None for d in done] == [True, False, True]
+    assert done[1]["source"] == bad_tour and done[1]["error"]
+    _same_as_one_by_one(out, one_by_one, [tours[0], tours[1]])
+    assert not any(p.exists() for p in tour_outputs("tunnel", bad_tour, out))
+    assert _visible(out) == sorted(
+        p.name for t in tours[:2] for p in tour_outputs("tunnel", t, out))
+
+
+def _run_command(command):
+    """Run the command in its own process group, all of it killed on a timeout."""
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, start_new_session=True)
+    try:
+        stdout, stderr = child.communicate(timeout=600)
+    except subprocess.TimeoutExpired:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.communicate()
+        raise
+    return subprocess.CompletedProcess(command, child.returncode, stdout, stderr)
+
+
+def test_fleet_command_reports_each_failed_tour_by_its_path(
+        tunnel_model, tours, bad_tour, one_by_one, tmp_path):
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
+               str(model), str(tours[0]), str(bad_tour), str(tours[1]), str(tours[2]),
+               "--out", str(tmp_path / "out"), "--jobs", "2", "--quiet"]
+    done = _run_command(command)
+    assert done.returncode == 1, done.stderr
+    assert "3 detected, 0 skipped, 1 failed" in done.stdout, done.stdout
+    errors = done.stderr.strip().splitlines()
+    assert len(errors) == 1 and errors[0].startswith(f"tunnelsense: error: {bad_tour}:")
+    _same_as_one_by_one(tmp_path / "out", one_by_one, tours[:3])
+    assert not list((tmp_path / "out").glob(".partial-*"))
+    again = _run_command(command)
+    assert again.returncode == 1
+    assert "0 detected, 3 skipped, 1 failed" in again.stdout, again.stdout
+
+
+def test_a_terminated_fleet_command_ends_its_workers(tunnel_model, tmp_path):
+    """SIGTERM to the command alone (as a job scheduler sends it) ends its worker
+    processes too; they were left running, orphaned, holding its output pipes."""
+    tours = [write_tour(make_tunnel_tour(200, random_state=s, name=f"long{s}"),
+                        tmp_path / f"long{s}") for s in (1, 2)]
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "tunnelsense._cli", "detect", "tunnel", "--model",
+               str(model), *map(str, tours), "--out", str(out), "--jobs", "2",
+               "--quiet"]
+    with open(tmp_path / "stderr", "w") as stderr:
+        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr,
+                                 start_new_session=True)
+    try:
+        while child.poll() is None and not list(out.glob(".partial-*")):
+            time.sleep(0.02)  # until a worker is detecting a tour
+        assert child.poll() is None, (tmp_path / "stderr").read_text()
+        child.send_signal(signal.SIGTERM)
+        assert child.wait(timeout=120) == 143
+        assert (tmp_path / "stderr").read_text() == "tunnelsense: terminated\n"
+        for _ in range(600):  # the process group empties: no worker left behind
+            try:
+                os.killpg(child.pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.1)
+        else:
+            pytest.fail("worker processes outlived the terminated command")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(child.pid, signal.SIGKILL)
+    assert not any(p.exists() for t in tours for p in tour_outputs("tunnel", t, out))
 
 
 def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
@@ -165,3 +314,40 @@ def test_fleet_command_refusals(tunnel_model, tours, tmp_path):
     assert main(["detect", "tunnel", "--model", str(model), str(tours[0]), "--out",
                  str(tmp_path / "o.txt"), "--dask-scheduler", "tcp://x:1"]) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_fleet_command_names_jobs_when_it_is_not_a_count(tunnel_model, tours,
+                                                         tmp_path, capsys):
+    from tunnelsense._cli import main
+
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    assert main(["detect", "tunnel", "--model", str(model), str(tours[0]),
+                 str(tours[1]), "--out", str(tmp_path / "o"), "--jobs", "0"]) == 1
+    assert capsys.readouterr().err.startswith("tunnelsense: error: --jobs: expected")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_detection_that_fails_before_its_first_frame_leaves_no_results_file(
+        tunnel_model, tours, tmp_path):
+    """A results file under its final name marks a finished tour: one that cannot
+    start (here --draw names a file, not a folder) must not leave an empty one."""
+    (tmp_path / "pictures").write_text("a file\n")
+    out = tmp_path / "t.txt"
+    with pytest.raises(OSError):
+        detect_to_files(tunnel_model, tours[0], out, draw=tmp_path / "pictures")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pictures"]
+
+
+def test_tour_names_keep_a_folder_s_dots_and_name_the_current_folder(tmp_path,
+                                                                     monkeypatch):
+    for day in ("2024.03.01", "2024.03.02"):
+        (tmp_path / day).mkdir()
+    (tmp_path / "r7.bag").write_bytes(b"")
+    names = [tour_outputs("tunnel", tmp_path / d, "out")[0].name
+             for d in ("2024.03.01", "2024.03.02")]
+    assert names == ["2024.03.01.txt", "2024.03.02.txt"]
+    assert tour_outputs("street", tmp_path / "r7.bag", "out")[0].name == "r7.csv"
+    monkeypatch.chdir(tmp_path / "2024.03.01")
+    assert tour_outputs("tunnel", ".", "out")[0].name == "2024.03.01.txt"
+    with pytest.raises(ValueError, match="needs a name"):
+        tour_outputs("tunnel", "/", "out")

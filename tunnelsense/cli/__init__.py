@@ -11,6 +11,7 @@ import argparse
 import gc
 import importlib
 import os
+import signal
 import sys
 
 from tunnelsense._version import __version__
@@ -47,17 +48,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, to unwind it as Ctrl-C does."""
+
+
+def _terminate(signum, frame):
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a second one ends it at once
+    raise _Terminated
+
+
 def main(argv=None) -> int:
     """Run the command; return its exit status (0 done, 1 bad input or a missing
-    optional extra, 3 a defect, 130 interrupted)."""
+    optional extra, 3 a defect, 130 interrupted, 143 terminated)."""
     if argv is None:  # the command: its own process (see tunnelsense._deferred)
         from tunnelsense._deferred import defer
 
         defer()
+        # SIGTERM unwinds like Ctrl-C, so that what the command started is ended on
+        # the way out (a fleet's worker processes: joblib stops them); its default,
+        # dying on the spot, left them blocked forever.
+        signal.signal(signal.SIGTERM, _terminate)
     try:
         return _run(argv)
-    except KeyboardInterrupt:  # Ctrl-C at any moment, start-up imports included
+    except KeyboardInterrupt as exc:  # Ctrl-C at any moment, start-up imports included
         _close_bars()
+        if isinstance(exc, _Terminated):
+            print("tunnelsense: terminated", file=sys.stderr)
+            return 128 + signal.SIGTERM
         print("tunnelsense: interrupted", file=sys.stderr)
         return 130
     finally:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -15,10 +16,12 @@ def add_fleet_arguments(parser, what) -> None:
     """``--tours-from FILE`` and ``--dask-scheduler ADDRESS``."""
     parser.add_argument(
         "--tours-from", metavar="FILE", help=f"also detect the {what}s listed in FILE "
-        "(one path a line; # comments). With more than one "
+        "(one path a line, relative to the current folder, not to FILE; # "
+        "comments). With more than one "
         f"{what}, --out is a folder that gets one results file per {what}, a "
-        f"{what} whose results file is there already is skipped (a stopped run "
-        "resumes), and --jobs is the number detected at once")
+        f"{what} a fleet finished before is skipped (a stopped run resumes), one "
+        "that fails is reported at the end without stopping the others (exit "
+        "status 1), and --jobs is the number detected at once")
     parser.add_argument(
         "--dask-scheduler", metavar="ADDRESS", help=f"with several {what}s: detect "
         f"them on this Dask cluster, one task per {what} (e.g. tcp://10.0.0.5:8786; "
@@ -57,6 +60,9 @@ def run_fleet(args, kind, sources, options, check=None) -> int:
     from tunnelsense.fleet import detect_tours, tour_outputs
 
     start = time.perf_counter()
+    if args.jobs < 1:
+        raise ValueError(f"--jobs: expected a whole number >= 1 ({kind}s detected at "
+                         f"once); got {args.jobs}")
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
     out = Path(args.out)
@@ -79,13 +85,19 @@ def run_fleet(args, kind, sources, options, check=None) -> int:
     if bar is not None:
         bar.close()
     skipped = sum(d["skipped"] for d in done)
+    failed = [d for d in done if d["error"] is not None]
     for d in done:
+        if d["error"] is not None:
+            print(f"{d['source']}: failed (see below)")
+            continue
         print(f"{d['source']}: " + ("finished before, skipped" if d["skipped"] else
                                     _summary(kind, d)) + f" -> {d['results']}")
     print(f"{len(done)} {'tours' if kind == 'tunnel' else 'runs'} into {out}: "
-          f"{len(done) - skipped} detected, {skipped} skipped "
-          f"({time.perf_counter() - start:.1f} s)")
-    return 0
+          f"{len(done) - skipped - len(failed)} detected, {skipped} skipped, "
+          f"{len(failed)} failed ({time.perf_counter() - start:.1f} s)")
+    for d in failed:
+        print(f"tunnelsense: error: {d['source']}: {d['error']}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _summary(kind, facts) -> str:

@@ -1,15 +1,22 @@
 """Detecting many tours or runs at once: locally in processes, or on a Dask cluster.
 
 One task per tour.  Each task writes its results under a temporary folder inside the
-output folder and, once the tour is done, moves them to their final names (the
-results file last), so a results file under its final name is always complete.  A
-new run skips a tour whose results file exists (it finished before) and starts the
-others afresh, so a run that was killed resumes where it stopped; a final name that
+output folder and, once the tour is done and its files are on disk (fsync), links
+them to their final names (the results file last), so a results file under its final
+name is always complete.  A companion file left by a run killed before it linked the
+results file is taken if byte-identical to the new one, never replaced otherwise.  A
+new run skips a tour whose results file exists and is recorded as finished (a hidden
+``.finished-NAME`` file beside it holds the results file's SHA-256, written just
+before the results file is linked), and starts the others afresh, so a run that was
+killed resumes where it stopped.  A results file the fleet did not finish (say, a
+stopped single detection's) is reported, never taken as finished; a final name that
 exists is never replaced (unless ``overwrite``).
 """
 
 from __future__ import annotations
 
+import filecmp
+import hashlib
 import os
 import shutil
 from pathlib import Path
@@ -36,7 +43,8 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
     -------
     list of Path
         ``NAME.txt`` and ``NAME.clusters.csv`` for a tour; ``NAME.csv`` for a run,
-        ``NAME`` being the source's file or folder name without its suffix.
+        ``NAME`` being the source's folder name (whole, dots included) or its file
+        name without the suffix.
 
     Examples
     --------
@@ -47,7 +55,11 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
     ['r7.csv']
     """
     _check_kind(kind)
-    name = Path(source).stem if Path(source).suffix else Path(source).name
+    path = Path(source).resolve()  # "." and "tours/t01/" name their folder
+    name = path.name if path.is_dir() else path.stem  # "2024.03.01/" keeps its dots
+    if not name:
+        raise ValueError(f"{source}: a tour needs a name (its file or folder name "
+                         "names its results); got the root folder")
     out_dir = Path(out_dir)
     if kind == "tunnel":
         return [out_dir / f"{name}.txt", out_dir / f"{name}.clusters.csv"]
@@ -56,7 +68,8 @@ def tour_outputs(kind, source, out_dir) -> list[Path]:
 
 def read_tour_list(path) -> list[str]:
     """The tours named in a list file: one path a line; blank lines and ``#`` comments
-    are skipped.
+    are skipped.  The paths are returned as written (a relative one is relative to
+    the current folder, not to the list file's).
 
     Examples
     --------
@@ -102,7 +115,8 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
         same paths.
     overwrite : bool, default=False
         Detect every tour again, replacing its results; by default a tour whose
-        results file exists is skipped (it finished in an earlier run).
+        results file exists is skipped when a fleet finished it (an earlier run),
+        else reported as failed, its file untouched.
     progress : callable or None, default=None
         ``progress(done, total)`` after each tour.
     options : dict or None, default=None
@@ -113,7 +127,9 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     Returns
     -------
     list of dict
-        Per source, in order: ``source``, ``results`` (path), ``skipped`` (bool) and
+        Per source, in order: ``source``, ``results`` (path), ``skipped`` (bool),
+        ``error`` (None, or why this tour failed: a tour that fails does not stop
+        the others, and leaves no results file, so a new run detects it again) and
         the facts of its detection (tunnel: ``frames``, ``detections``,
         ``trajectories``; street: ``counts``).
 
@@ -154,10 +170,16 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     todo = []
     for i, source in enumerate(sources):
         final = tour_outputs(kind, source, out_dir)
-        if final[0].exists() and not overwrite:
-            results[i] = {"source": source, "results": final[0], "skipped": True}
-        else:
+        if not final[0].exists() or overwrite:
             todo.append(i)
+            continue
+        results[i] = {"source": source, "results": final[0], "skipped": True,
+                      "error": None}
+        if not _finished(final[0]):
+            results[i].update(skipped=False, error=(
+                f"{final[0]}: exists, but no fleet finished it (a single detection's, "
+                "stopped midway?); not replaced: move it away, or detect again "
+                "replacing it (--force)"))
     done = len(sources) - len(todo)
     if progress is not None:
         progress(done, len(sources))
@@ -193,7 +215,7 @@ def _run(model, tasks, n_jobs, dask_scheduler):
         yield from _run_dask(model, tasks, dask_scheduler)
     elif n_jobs == 1 or len(tasks) == 1:
         for task in tasks:
-            yield detect_one(model, *task)
+            yield _detect_or_fail(model, *task)
     else:
         from joblib import Parallel, delayed
 
@@ -223,7 +245,18 @@ def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
     must all be in by the end of the first task, whatever that task did.
     """
     _import_detector(kind)
-    return detect_one(model, kind, source, out_dir, overwrite, options)
+    return _detect_or_fail(model, kind, source, out_dir, overwrite, options)
+
+
+def _detect_or_fail(model, kind, source, out_dir, overwrite, options):
+    """:func:`detect_one`, or the record of its failure (the other tours go on)."""
+    try:
+        return detect_one(model, kind, source, out_dir, overwrite, options)
+    except Exception as exc:  # noqa: BLE001 -- reported per tour by the caller
+        reason = (str(exc) if isinstance(exc, (ValueError, OSError))
+                  else f"{type(exc).__name__}: {exc}")
+        return {"source": Path(source), "skipped": False, "error": reason,
+                "results": tour_outputs(kind, source, out_dir)[0]}
 
 
 def _import_detector(kind) -> None:
@@ -254,11 +287,26 @@ def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
     work.mkdir()
     try:
         facts = _detect_into(model, kind, source, work / final[0].name, options or {})
-        for path in reversed(final):  # the results file last: it marks a finished tour
-            _move(work / path.name, path, overwrite)
+        for path in final:  # on disk before any is linked (as atomic_write does)
+            _fsync(work / path.name)
+        # The results file last, once its companions are on disk: it marks a finished
+        # tour.  A companion left by a run killed before its results file was linked
+        # is taken when it is byte-identical to the new one (never replaced).
+        for path in final[1:]:
+            _move(work / path.name, path, overwrite, identical_ok=True)
+        mark = _mark(final[0])
+        _write_mark(mark, work / final[0].name)
+        _fsync(out_dir)
+        try:
+            _move(work / final[0].name, final[0], overwrite)
+        except BaseException:
+            mark.unlink(missing_ok=True)
+            raise
+        _fsync(out_dir)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    return {"source": source, "results": final[0], "skipped": False, **facts}
+    return {"source": source, "results": final[0], "skipped": False, "error": None,
+            **facts}
 
 
 def _detect_into(model, kind, source, out, options):
@@ -279,18 +327,69 @@ def _detect_into(model, kind, source, out, options):
     return {"counts": counts}
 
 
-def _move(src, dst, overwrite) -> None:
-    """Rename ``src`` to ``dst``; an existing ``dst`` only replaced if ``overwrite``."""
+_MARK = ".finished-"
+
+
+def _mark(results) -> Path:
+    """The file that says a fleet finished ``results``: the SHA-256 of its bytes."""
+    return results.parent / f"{_MARK}{results.name}"
+
+
+def _digest(path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def _write_mark(mark, results) -> None:
+    with open(mark, "w", encoding="ascii") as f:
+        f.write(_digest(results) + "\n")
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _finished(results) -> bool:
+    """Whether a fleet wrote ``results``, complete (not, say, a stopped single run)."""
+    try:
+        recorded = _mark(results).read_text(encoding="ascii").strip()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return recorded == _digest(results)
+
+
+def _fsync(path) -> None:
+    """Push a file's (or a folder's: its names) contents to the disk.
+
+    A folder that cannot be opened for this (Windows) is left to the system.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        if Path(path).is_dir():
+            return
+        raise
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _move(src, dst, overwrite, identical_ok=False) -> None:
+    """Rename ``src`` to ``dst``; an existing ``dst`` only replaced if ``overwrite``
+    (or, with ``identical_ok``, kept when byte-identical to ``src``)."""
     if overwrite:
         os.replace(src, dst)
         return
     try:
         os.link(src, dst)  # fails, atomically, if dst exists
     except FileExistsError:
-        raise FileExistsError(f"{dst}: exists (written meanwhile by another run?); "
-                              "not replaced") from None
+        if not (identical_ok and filecmp.cmp(src, dst, shallow=False)):
+            raise FileExistsError(f"{dst}: exists (written meanwhile by another "
+                                  "run?); not replaced") from None
     except OSError:  # a file system without hard links
         if dst.exists():
+            if identical_ok and filecmp.cmp(src, dst, shallow=False):
+                os.unlink(src)
+                return
             raise FileExistsError(f"{dst}: exists; not replaced") from None
         os.rename(src, dst)
         return

@@ -363,27 +363,33 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     frames, total = open_frames(source, colour=colour)
     if progress is not None:
         progress.set_total(total)
-    results = ResultsWriter(out, resume=resume, overwrite=overwrite,
-                            line_pattern=RESULT_LINE)
-    clusters = ResultsWriter(clusters_path(out), header=CLUSTERS_HEADER, resume=resume,
-                             overwrite=overwrite)
     images = {}
     drawing = draw is not None or draw_video is not None
     if drawing and Path(source).is_file():
         frames = _keep_images(frames, images)  # video frames are decoded once
     released = stream_detect(model, frames, progress=progress, n_threads=n_threads)
     if drawing:
-        if draw is not None:
-            Path(draw).mkdir(parents=True, exist_ok=True)
         pictures = draw_detections(_in_own_pixels(_with_images(released, images)))
     else:
         pictures = ((r, None) for r in released)
-    facts = {"frames": 0, "detections": 0, "resumed_lines": results.resumed_lines,
-             "drawn": [], "video_frames": 0}
     ids = set()
-    video = (VideoOutput(draw_video, fps=source_frame_rate(source))
-             if draw_video is not None else contextlib.nullcontext())
-    with results, clusters, video:
+    # Everything that can fail before the first frame comes first; the results file
+    # (the one a fleet takes as the mark of a finished tour) is opened last.
+    with contextlib.ExitStack() as stack:
+        video = (stack.enter_context(VideoOutput(draw_video,
+                                                 fps=source_frame_rate(source)))
+                 if draw_video is not None else None)
+        if draw is not None:
+            Path(draw).mkdir(parents=True, exist_ok=True)
+        with contextlib.ExitStack() as opening:  # results closed after clusters
+            clusters = opening.enter_context(ResultsWriter(
+                clusters_path(out), header=CLUSTERS_HEADER, resume=resume,
+                overwrite=overwrite))
+            results = stack.enter_context(ResultsWriter(
+                out, resume=resume, overwrite=overwrite, line_pattern=RESULT_LINE))
+            stack.enter_context(opening.pop_all())
+        facts = {"frames": 0, "detections": 0, "resumed_lines": results.resumed_lines,
+                 "drawn": [], "video_frames": 0}
         for r, pic in pictures:
             if draw_video is not None:
                 video.write(pic)
