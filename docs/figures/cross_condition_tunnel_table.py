@@ -70,7 +70,8 @@ CONDITIONS = {
 
 #: ``before``: the default detector before frames of another size were resampled;
 #: ``ours``: today's default; ``canonical``: with canonical radiometry
-#: (``keypoints__radiometry="frame"``)
+#: (``keypoints__radiometry="frame"``); ``contrast``: keypoints on local contrast and
+#: cluster boxes at half the brightest keypoint's contrast
 METHODS = {
     "paper": dict(preset="paper"),
     "before": dict(keypoints__frame_size="native"),
@@ -78,7 +79,8 @@ METHODS = {
     "canonical": dict(keypoints__radiometry="frame"),
     "contrast": dict(keypoints__radiometry="contrast", keypoints__min_contrast=0.45,
                      keypoints__max_contrast=1.5,
-                     verifier__augment_contrast=(0.45, 1.0)),
+                     verifier__augment_contrast=(0.45, 1.0),
+                     clusters__box="contrast"),
 }
 
 TUNING_TRAIN_SEED = 1

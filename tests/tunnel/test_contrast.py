@@ -7,6 +7,7 @@ from tunnelsense import to_xy
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.io import load_model, save_model
 from tunnelsense.tunnel import IntensityKeypointSampler
+from tunnelsense.tunnel._common import points_in_boxes
 from tunnelsense.tunnel._contrast import (
     background_cells,
     contrast_band,
@@ -172,3 +173,52 @@ def test_verifier_surround_normalization_describes_by_one_histogram(tours):
     out = ver.transform(sampled)
     kept = sum(len(r.payload["keypoints"]) for r in out)
     assert 0 < kept < sum(len(r.payload["sampled_keypoints"]) for r in out)
+
+
+def test_contrast_region_ignores_gain_offset_and_a_dim_rim():
+    from tunnelsense.tunnel._contrast import contrast_region_boxes
+
+    rng = np.random.default_rng(0)
+    img = rng.normal(100, 2, (60, 60))
+    img[20:36, 27:33] += 80          # a 16 x 6 px sign
+    img[36:44, 27:33] += 25          # a dim rim below it (lining joint)
+    rows, cols = np.array([21, 28, 35]), np.array([30, 30, 30])
+    box = np.array([[30.0, 21.0, 1.0, 15.0]])
+    labels = np.zeros(3, dtype=np.intp)
+    out = []
+    for g, o in ((1.0, 0.0), (0.7, -20.0), (1.3, 20.0)):
+        frame = np.clip(np.rint(g * img + o), 0, 255).astype(np.uint8)
+        out.append(contrast_region_boxes(frame, rows, cols, labels, box))
+    assert out[0].tolist() == [[27.0, 20.0, 6.0, 16.0]]
+    for b in out[1:]:
+        assert b.tolist() == out[0].tolist()
+    # a grey band low enough for half the contrast takes the rim too
+    from tunnelsense.tunnel._mst import region_boxes
+
+    frame = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    assert region_boxes(frame, rows, cols, labels, box, (120, 255))[0, 3] > 16
+
+
+def test_clusterer_box_contrast_holds_a_keypoint_in_the_grown_rectangle(tours):
+    from tunnelsense.tunnel import MSTClusterer
+
+    plain, _, _ = tours
+    X, y, _ = to_xy([plain])
+    kp = IntensityKeypointSampler(**CONTRAST).fit(X, y).transform(X)
+    out = MSTClusterer(box="contrast").fit_transform(kp)
+    keyed = MSTClusterer(box="keypoints").fit_transform(kp)
+    n = 0
+    for a, b in zip(out, keyed, strict=True):
+        ba, bb = a.payload["cluster_boxes"], b.payload["cluster_boxes"]
+        assert ba.shape == bb.shape
+        kp_r, kp_c = a.payload["keypoints"][:, 0], a.payload["keypoints"][:, 1]
+        for k, (box, rect) in enumerate(zip(ba, bb, strict=True)):
+            # within the keypoints' rectangle grown by the reach (14, 12)
+            assert box[0] >= rect[0] - 12 and box[1] >= rect[1] - 14
+            assert box[0] + box[2] <= rect[0] + rect[2] + 12
+            assert box[1] + box[3] <= rect[1] + rect[3] + 14
+            own = a.payload["cluster_labels"] == k
+            inside = points_in_boxes(kp_r[own], kp_c[own], box[None])
+            assert inside.any()
+        n += int((ba[:, 3] > bb[:, 3]).sum())
+    assert n > 0

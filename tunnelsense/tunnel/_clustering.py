@@ -21,6 +21,7 @@ from tunnelsense._payload import (
 )
 from tunnelsense._records import check_frames
 from tunnelsense.tunnel._common import FrameModeMixin
+from tunnelsense.tunnel._contrast import contrast_region_boxes
 from tunnelsense.tunnel._mst import (
     DENSE_MAX_POINTS,
     MSTClustererCore,
@@ -78,19 +79,24 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
     ----------
     cut : float, default=40.0
         MST edges longer than this (px) are removed.
-    box : {"keypoints", "region"}, default="keypoints"
+    box : {"keypoints", "region", "contrast"}, default="keypoints"
         Frame mode: the rectangle of each cluster.  ``"keypoints"`` (the paper's):
         the smallest rectangle of its keypoints, quantized to the 7 x 6 px grid.
         ``"region"``: that rectangle refined on the image to the in-band pixels
         connected to the keypoints (:func:`region_boxes`), which gives the object's
         own extent: a stable centre and scale for tracking and the whole sign for the
         appearance histogram.  :func:`~tunnelsense.tunnel.make_indicator_pipeline`
-        uses ``"region"``.
+        uses ``"region"``.  ``"contrast"``: the region at or above half the contrast of
+        the cluster's brightest keypoint over its surround, that keypoint's
+        component only (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`):
+        no band, so
+        the region does not grow when the keypoint band is widened, and an affine
+        change of the grey levels does not move it.
     band : (float, float) or None, default=None
         ``box="region"``: the intensity band of the region.  ``None`` takes the band
         :class:`IntensityKeypointSampler` used, from ``payload["keypoint_band"]``.
     reach : (int, int), default=(14, 12)
-        ``box="region"``: how far (rows, columns; px) the region may extend beyond the
+        ``box="region"`` or ``"contrast"``: how far (rows, columns; px) the region may extend beyond the
         keypoints' rectangle (two grid steps).
 
     Attributes
@@ -132,7 +138,7 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
 
     _parameter_constraints: dict = {
         **MSTClustererCore._parameter_constraints,
-        "box": [StrOptions({"keypoints", "region"})],
+        "box": [StrOptions({"keypoints", "region", "contrast"})],
         "band": [tuple, list, None],
         "reach": [tuple, list],
     }
@@ -179,7 +185,7 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
 
     def _transform_frames(self, records):
         cut = float(self.cut)
-        region = self.box == "region"
+        region = self.box in ("region", "contrast")
         if region:
             self._check_region_params()
             reach = tuple(int(v) for v in self.reach)
@@ -190,7 +196,10 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
             cols = kp[:, 1]
             labels = mst_partition(np.column_stack([rows, cols]), cut)
             boxes = cluster_boxes(rows, cols, labels)
-            if region and len(boxes):
+            if self.box == "contrast" and len(boxes):
+                boxes = contrast_region_boxes(r.image, rows, cols, labels, boxes,
+                                              reach=reach)
+            elif region and len(boxes):
                 boxes = region_boxes(
                     r.image, rows, cols, labels, boxes, self._band_of(r, i), reach
                 )

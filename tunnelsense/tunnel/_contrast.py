@@ -26,7 +26,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["background_cells", "contrast_band", "grid_contrast", "sample_contrast_keypoints"]
+__all__ = [
+    "background_cells",
+    "contrast_band",
+    "contrast_region_boxes",
+    "grid_contrast",
+    "sample_contrast_keypoints",
+]
 
 #: rows and columns of the background grid for a 480 x 640 frame (8 x 8 px cells);
 #: frames of other sizes keep the cell count, so a cell covers the same field of view
@@ -229,3 +235,92 @@ def contrast_band(images, boxes, n_sigma=3.0, *, unit=None):
     centre = float(np.median(v))
     sd = 1.4826 * float(np.median(np.abs(v - centre)))
     return round(centre - n_sigma * sd, 6), round(centre + n_sigma * sd, 6)
+
+
+def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
+                          fraction=0.5):
+    """Refine keypoint-cluster rectangles to the region brighter than half the
+    cluster's own contrast above its surround.
+
+    A grey-level band wide enough for signs of half the training contrast also
+    holds the lining next to a sign of full contrast, so a region grown in that band
+    swells with the band, and a cluster that also holds dim keypoints (a lining
+    joint, a lamp's halo next to a sign) spans them.  Here each cluster sets its own
+    threshold: inside the cluster's rectangle grown by ``reach`` px, the surround
+    level ``s`` is the median of the pixels outside the keypoints' rectangle, the
+    peak ``p`` the brightest grey level at the cluster's keypoints, and the region
+    is the 8-connected component of the pixels at or above ``s + fraction * (p -
+    s)`` that holds the brightest keypoint (for ``fraction=0.5``, the brightest
+    object at half its contrast); dimmer keypoints and other objects of the cluster
+    (a lamp beside a far sign) are left out of the box.  An affine change of the grey levels moves ``s``, ``p`` and every
+    pixel alike: the region does not move.  A cluster not brighter than its
+    surround keeps its keypoints' rectangle.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    labels : ndarray of shape (n,)
+        Cluster of every keypoint (``0 .. m - 1``).
+    boxes : ndarray of shape (m, 4)
+        The clusters' keypoint rectangles ``(left, top, width, height)``.
+    reach : (int, int), default=(14, 12)
+        How far (rows, columns; px) the region may extend beyond the keypoints'
+        rectangle.
+    fraction : float, default=0.5
+        The threshold between surround (0) and peak (1).
+
+    Returns
+    -------
+    boxes : ndarray of shape (m, 4), float64
+        ``(left, top, width, height)`` in whole pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((40, 40), 100, np.uint8)
+    >>> img[10:26, 17:23] = 175          # a 16 x 6 px sign
+    >>> img[26:30, 17:23] = 125          # a lit rim below it, a third of its contrast
+    >>> rows, cols = np.array([14, 21]), np.array([18, 18])
+    >>> box = np.array([[18., 14., 1., 8.]])
+    >>> contrast_region_boxes(img, rows, cols, np.array([0, 0]), box)
+    array([[17., 10.,  6., 16.]])
+    >>> gained = (0.7 * img - 20).astype(np.uint8)  # another gain and offset
+    >>> contrast_region_boxes(gained, rows, cols, np.array([0, 0]), box)
+    array([[17., 10.,  6., 16.]])
+    """
+    import cv2  # noqa: PLC0415
+
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    out = boxes.copy()
+    if len(boxes) == 0:
+        return out
+    h, w = image.shape
+    rr, rc = int(reach[0]), int(reach[1])
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    labels = np.asarray(labels, dtype=np.intp)
+    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
+        r0 = max(int(top) - rr, 0)
+        c0 = max(int(left) - rc, 0)
+        r1 = min(int(top + bh) + rr, h)
+        c1 = min(int(left + bw) + rc, w)
+        window = image[r0:r1, c0:c1]
+        ring = np.ones(window.shape, dtype=bool)
+        ring[int(top) - r0:int(top + bh) - r0, int(left) - c0:int(left + bw) - c0] = False
+        if not ring.any():
+            continue
+        member = np.flatnonzero(labels == k)
+        surround = float(np.median(window[ring]))
+        values = image[rows[member], cols[member]]
+        brightest = member[int(np.argmax(values))]
+        peak = float(values.max())
+        if peak <= surround:
+            continue
+        mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
+        _, comp = cv2.connectedComponents(mask, connectivity=8)
+        ys, xs = np.nonzero(comp == comp[rows[brightest] - r0, cols[brightest] - c0])
+        y0, x0 = int(ys.min()) + r0, int(xs.min()) + c0
+        out[k] = (x0, y0, int(xs.max()) + c0 + 1 - x0, int(ys.max()) + r0 + 1 - y0)
+    return out
