@@ -224,11 +224,14 @@ def test_info_shows_the_model_card(models, capsys):
     assert card["summary"]["tours"][0]["frames"] == 120
     assert card["summary"]["parameters"]["motion__min_r"] == 0.95
     assert set(card["summary"]["training_scores"]) == {"cluster", "trajectory"}
-    # the band learned from the training tour (the pipeline's default), near the
-    # simulated indicators' [160, 190]
+    # the band of local contrast learned from the training tour (the pipeline's
+    # default), as grey levels of the training frames: widened to 0.45-1.5 times the
+    # indicators' contrast, it reaches from well below the simulated indicators'
+    # [160, 190] to above them
     low, high = card["summary"]["keypoint_band"]
     assert card["summary"]["parameters"]["keypoints__band"] == "learned"
-    assert 145 < low < 165 and 185 < high < 205
+    assert card["summary"]["parameters"]["keypoints__radiometry"] == "contrast"
+    assert 100 < low < 145 and 190 < high < 260
 
 
 def test_pickle_posing_as_skops_is_refused(models, tour_dirs, tmp_path, capsys):
