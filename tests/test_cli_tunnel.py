@@ -173,10 +173,12 @@ def test_draw_video(tour_dirs, models, batch_records, tmp_path, capsys):
         decoded.append(picture)
     capture.release()
     assert len(decoded) == 120 and decoded[0].shape == (480, 640, 3)
-    # the frames are the drawn pictures (lossy codec: close, not equal)
+    # the frames are the drawn pictures (lossy codec: close, not equal; its mean
+    # error is 3.4-4.3 grey levels here, higher with more drawn boxes; a black frame
+    # would differ by tens)
     drawn = [pic for _, pic in draw_detections(batch_records)]
     for k in (0, 60, 119):
-        assert np.mean(np.abs(decoded[k].astype(float) - drawn[k])) < 4.0
+        assert np.mean(np.abs(decoded[k].astype(float) - drawn[k])) < 6.0
     assert not list(tmp_path.glob(".*partial*"))  # no temporary file left
     # an existing video is not replaced without --force; with it, it is
     before = video.read_bytes()
