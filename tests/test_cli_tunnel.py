@@ -173,10 +173,12 @@ def test_draw_video(tour_dirs, models, batch_records, tmp_path, capsys):
         decoded.append(picture)
     capture.release()
     assert len(decoded) == 120 and decoded[0].shape == (480, 640, 3)
-    # the frames are the drawn pictures (lossy codec: close, not equal)
+    # the frames are the drawn pictures (lossy codec: close, not equal; its mean
+    # error is 3.4-4.3 grey levels here, higher with more drawn boxes; a black frame
+    # would differ by tens)
     drawn = [pic for _, pic in draw_detections(batch_records)]
     for k in (0, 60, 119):
-        assert np.mean(np.abs(decoded[k].astype(float) - drawn[k])) < 4.0
+        assert np.mean(np.abs(decoded[k].astype(float) - drawn[k])) < 6.0
     assert not list(tmp_path.glob(".*partial*"))  # no temporary file left
     # an existing video is not replaced without --force; with it, it is
     before = video.read_bytes()
@@ -224,11 +226,14 @@ def test_info_shows_the_model_card(models, capsys):
     assert card["summary"]["tours"][0]["frames"] == 120
     assert card["summary"]["parameters"]["motion__min_r"] == 0.95
     assert set(card["summary"]["training_scores"]) == {"cluster", "trajectory"}
-    # the band learned from the training tour (the pipeline's default), near the
-    # simulated indicators' [160, 190]
+    # the band of local contrast learned from the training tour (the pipeline's
+    # default), as grey levels of the training frames: widened to 0.45-1.5 times the
+    # indicators' contrast, it reaches from well below the simulated indicators'
+    # [160, 190] to above them
     low, high = card["summary"]["keypoint_band"]
     assert card["summary"]["parameters"]["keypoints__band"] == "learned"
-    assert 145 < low < 165 and 185 < high < 205
+    assert card["summary"]["parameters"]["keypoints__radiometry"] == "contrast"
+    assert 100 < low < 145 and 190 < high < 260
 
 
 def test_pickle_posing_as_skops_is_refused(models, tour_dirs, tmp_path, capsys):

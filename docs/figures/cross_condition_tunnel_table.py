@@ -68,15 +68,24 @@ CONDITIONS = {
     "320x240": dict(scenario="light", sensor_scale=0.5, **CAMERA_A),
 }
 
-#: ``before``: the default detector before frames of another size were resampled;
-#: ``ours``: today's default; ``canonical``: with canonical radiometry
-#: (``keypoints__radiometry="frame"``); ``contrast``: keypoints on local contrast and
-#: cluster boxes at half the brightest keypoint's contrast
+#: the grey-level band (keypoints in a band of grey levels learned from the
+#: training indicators, cluster rectangles the in-band region): the earlier default
+GREY = dict(keypoints__radiometry="raw", keypoints__min_contrast=1.0,
+            keypoints__max_contrast=1.0, verifier__augment_contrast=None,
+            clusters__box="region")
+
+#: ``before``: the grey-level band before frames of another size were resampled;
+#: ``grey``: the grey-level band; ``ours``: today's default (keypoints on local
+#: contrast, cluster boxes at half the brightest keypoint's contrast);
+#: ``canonical``: the grey-level band with canonical radiometry
+#: (``keypoints__radiometry="frame"``); ``contrast``: today's default, its settings
+#: spelled out
 METHODS = {
     "paper": dict(preset="paper"),
-    "before": dict(keypoints__frame_size="native"),
+    "before": dict(GREY, keypoints__frame_size="native"),
+    "grey": dict(GREY),
     "ours": {},
-    "canonical": dict(keypoints__radiometry="frame"),
+    "canonical": dict(GREY, keypoints__radiometry="frame"),
     "contrast": dict(keypoints__radiometry="contrast", keypoints__min_contrast=0.45,
                      keypoints__max_contrast=1.5,
                      verifier__augment_contrast=(0.45, 1.0),

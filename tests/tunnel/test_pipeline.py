@@ -140,27 +140,47 @@ def _other_gain(X, gain, offset):
     return FrameSequence.from_array(images, tour=X[0].tour)
 
 
+#: the grey-level band (keypoints in a band of grey levels, region rectangles): an
+#: option of the pipeline, whose default band is one of local contrast
+GREY = dict(keypoints__radiometry="raw", keypoints__min_contrast=1.0,
+            keypoints__max_contrast=1.0, verifier__augment_contrast=None,
+            clusters__box="region")
+
+
 def test_a_camera_with_another_gain(tours):
     """Indicators at 160-190 move to 197-233 under gain 1.2 and offset 5: the
-    pipeline learns its keypoint band from the training tours and still finds the
+    grey-level band learned from the training tours follows them and still finds the
     indicator; the paper's fixed band [160, 190] finds none."""
     X, y, _ = to_xy(tours[:2])
     Xt, yt, _ = to_xy(tours[2:])
     X, Xt = _other_gain(X, 1.2, 5), _other_gain(Xt, 1.2, 5)
-    learned = make_indicator_pipeline(**SMALL).fit(X, y)
+    learned = make_indicator_pipeline(**SMALL, **GREY).fit(X, y)
     low, high = learned.named_steps["keypoints"].low_, learned.named_steps["keypoints"].high_
     assert 185 < low < 200 and 225 < high < 240
     s = indicator_scores(learned.predict(Xt), yt)
     assert s["trajectory"]["detected"] == s["trajectory"]["indicators"] == 1
     assert s["cluster"]["detection_rate"] >= 0.9
-    fixed = make_indicator_pipeline(**SMALL, keypoints__band="fixed").fit(X, y)
+    fixed = make_indicator_pipeline(**SMALL, **dict(GREY, keypoints__band="fixed")).fit(X, y)
     assert indicator_scores(fixed.predict(Xt), yt)["trajectory"]["detected"] == 0
+    # the default's band of local contrast: a gain and an offset scale the sign's
+    # contrast and the background's spread alike
+    default = make_indicator_pipeline(**SMALL).fit(X, y)
+    s = indicator_scores(default.predict(Xt), yt)
+    assert s["trajectory"]["detected"] == s["trajectory"]["indicators"] == 1
 
 
 def test_pipeline_defaults_and_paper_settings():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
-    assert (p["clusters__box"], p["tracks__max_gap"]) == ("region", 6)
+    assert (p["clusters__box"], p["tracks__max_gap"]) == ("contrast", 6)
+    # keypoints on local contrast, the band widened to 0.45-1.5 times the training
+    # contrast, the verifier trained on copies of 0.45-1.0 times the contrast
+    assert (p["keypoints__radiometry"], p["keypoints__min_contrast"],
+            p["keypoints__max_contrast"]) == ("contrast", 0.45, 1.5)
+    assert p["verifier__augment_contrast"] == (0.45, 1.0)
+    grey = make_indicator_pipeline(**GREY).get_params()
+    assert (grey["keypoints__radiometry"], grey["clusters__box"]) == ("raw", "region")
+    assert grey["verifier__augment_contrast"] is None
     # the detector's verifier: the 7 x 3 patch histogram alone (no context)
     assert (p["verifier__context_size"], p["verifier__max_distance"]) == (None, 0.32)
     # without a verifier step the verifier's settings are not applied

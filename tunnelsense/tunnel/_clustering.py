@@ -85,11 +85,11 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
         ``"region"``: that rectangle refined on the image to the in-band pixels
         connected to the keypoints (:func:`region_boxes`), which gives the object's
         own extent: a stable centre and scale for tracking and the whole sign for the
-        appearance histogram.  :func:`~tunnelsense.tunnel.make_indicator_pipeline`
-        uses ``"region"``.  ``"contrast"``: the region at or above half the contrast of
-        the cluster's brightest keypoint over its surround, that keypoint's
-        component only (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`):
-        no band, so
+        appearance histogram; it goes with a band of grey levels.  ``"contrast"``
+        (:func:`~tunnelsense.tunnel.make_indicator_pipeline`'s): the region at or
+        above half the contrast of the cluster's brightest keypoint over its
+        surround, that keypoint's component only
+        (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`): no band, so
         the region does not grow when the keypoint band is widened, and an affine
         change of the grey levels does not move it.
     band : (float, float) or None, default=None

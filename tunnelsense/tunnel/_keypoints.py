@@ -152,6 +152,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         without moving its grey level: ``min_contrast`` and ``max_contrast`` widen
         the learned contrast band, and a background that is warmer or cooler as a
         whole does not move the band.
+        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``"contrast"``
+        (``min_contrast=0.45``, ``max_contrast=1.5``).
     frame_size : {"native", "training"}, default="native"
         ``"training"``: a frame of another size than the training frames (the same
         aspect ratio within 2 %) is resampled to their size first, so that every

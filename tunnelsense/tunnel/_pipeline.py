@@ -33,19 +33,26 @@ PIPELINE_DEFAULTS = {
     # meaning; detections are mapped back.  Frames of the training size are
     # untouched.
     "keypoints__frame_size": "training",
-    # canonical radiometry (each frame mapped to the training frames' background
-    # level and spread) is an option, keypoints__radiometry="frame": it undoes a
-    # unit's gain and offset and an automatic gain control, but one frame's
-    # background spread also follows the scene (a near truck raises it by up to
-    # 60 %), and in heavy traffic it cost indicators and added a false alarm
-    # (docs/validation.md); when it is switched on, a frame's gain is corrected by
-    # what exceeds 8 % (log units), about two thirds of one camera's median
-    # frame-to-frame variation (chosen on the tuning tours)
-    "keypoints__radiometry": "raw",
+    # keypoints on local contrast (a cell's grey level above its background
+    # neighbourhood, relative to the training signs' contrast): a unit's gain and
+    # offset and an automatic gain control scale or shift the background and the
+    # sign together, so the band holds by construction; the band is widened to
+    # 0.45-1.5 times the training contrast (a sign in warmer air or behind another
+    # gain), the verifier trains on copies of each patch with 0.45-1.0 times its
+    # contrast, and a cluster's rectangle is the region above half its brightest
+    # keypoint's contrast.  The grey-level band (the earlier default) is
+    # keypoints__radiometry="raw", verifier__augment_contrast=None,
+    # clusters__box="region"; canonical radiometry (each frame mapped to the
+    # training frames' background level and spread) is keypoints__radiometry="frame",
+    # whose frame gain is corrected by what exceeds 8 % (log units), about two
+    # thirds of one camera's median frame-to-frame variation (chosen on the tuning
+    # tours)
+    "keypoints__radiometry": "contrast",
+    "keypoints__min_contrast": 0.45,
+    "keypoints__max_contrast": 1.5,
     "keypoints__gain_tolerance": 0.08,
-    # the cluster rectangle is the in-band region around the keypoints, not the
-    # grid-quantized rectangle of the keypoints: stable centre and scale
-    "clusters__box": "region",
+    "verifier__augment_contrast": (0.45, 1.0),
+    "clusters__box": "contrast",
     # a 14-20 px indicator is about one grid step wide: the grid can miss it for a
     # few frames (0.2 s at 30 fps) as it moves; bridge such gaps
     "tracks__max_gap": 6,
@@ -112,9 +119,16 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     which keep the detector working on another camera and in a curving tunnel
     (``docs/validation.md``); frames of another size with the training frames'
     aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
-    detections are mapped back, another aspect ratio is refused).  Canonical
-    radiometry, for units of other gains and offsets or with automatic gain control,
-    is ``keypoints__radiometry="frame"``.
+    detections are mapped back, another aspect ratio is refused); keypoints on
+    local contrast rather than grey level (``keypoints__radiometry="contrast"``,
+    band 0.45-1.5 times the training contrast, ``keypoints__min_contrast=0.45``,
+    ``keypoints__max_contrast=1.5``), the verifier trained also on lower-contrast
+    copies (``verifier__augment_contrast=(0.45, 1.0)``) and cluster rectangles at
+    half the brightest keypoint's contrast (``clusters__box="contrast"``), so that
+    a unit's gain and offset or an automatic gain control does not move the band.
+    The grey-level band is ``keypoints__radiometry="raw",
+    verifier__augment_contrast=None, clusters__box="region"``; canonical
+    radiometry is ``keypoints__radiometry="frame"``.
 
     Steps: ``keypoints`` (:class:`IntensityKeypointSampler`), ``verifier``
     (:class:`KMeansHistogramVerifier`), ``clusters`` (:class:`MSTClusterer`),

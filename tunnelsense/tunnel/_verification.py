@@ -148,6 +148,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         drawn uniformly from this range (:func:`contrast_copy`), at the same
         keypoints, so that a sign seen with less contrast (warmer air) or through
         another gain is verified.  ``None``: the paper's training set.
+        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``(0.45, 1.0)``.
     normalize : {"none", "surround"}, default="none"
         Frame records: ``"none"``, the histogram of the patch's grey levels (the
         paper's).  ``"surround"``: the histogram of the patch's values normalized by
