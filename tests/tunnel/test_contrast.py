@@ -113,6 +113,43 @@ def test_min_and_max_contrast_widen_the_learned_band(tours):
         wide.ref_level_ + wide.contrast_low_ * wide.ref_spread_, abs=1e-4)
 
 
+def _raw_counts(X, gain=24, offset=7000):
+    """The frames as a 16-bit camera's raw counts: ``gain * I + offset``."""
+    from tunnelsense import FrameRecord, FrameSequence
+
+    return FrameSequence(
+        FrameRecord(r.tour, r.frame, r.image.astype(np.uint16) * gain + offset)
+        for r in X
+    )
+
+
+def test_a_16_bit_camera_gets_the_8_bit_picture_and_the_same_keypoints(tours):
+    """Raw 16-bit counts: the later stages read an 8-bit picture (background at
+    grey level 100, the training signs' median contrast 75 above it) and the
+    keypoints are those of the same frames in 8 bits."""
+    plain, other, _ = tours
+    X, y, _ = to_xy([plain])
+    Xo, _, _ = to_xy([other])
+    eight = IntensityKeypointSampler(**CONTRAST).fit(X, y)
+    deep = IntensityKeypointSampler(**CONTRAST).fit(_raw_counts(X), y)
+    assert deep.pixel_dtype_ == "uint16" and deep.ref_level_ == 100.0
+    assert deep.raw_spread_ == pytest.approx(24 * eight.ref_spread_, rel=0.02)
+    assert deep.contrast_low_ == pytest.approx(eight.contrast_low_, rel=0.02)
+    assert 100 < deep.low_ < deep.high_
+    out = deep.transform(_raw_counts(Xo, gain=31, offset=5000))
+    assert out[0].image.dtype == np.uint8
+    level = np.median([np.median(r.image) for r in out])
+    assert abs(level - 100) < 10
+    a = _keypoint_set(eight.transform(X))
+    b = _keypoint_set(deep.transform(_raw_counts(X)))
+    c = _keypoint_set(out)
+    assert len(a) > 100
+    assert len(a & b) >= 0.95 * len(a | b)
+    assert len(a & c) >= 0.9 * len(a | c)
+    with pytest.raises(Exception, match="fitted on uint16 frames"):
+        deep.transform(X)
+
+
 def test_contrast_needs_a_learned_band(tours):
     X, y, _ = to_xy([tours[0]])
     with pytest.raises(ValueError, match="band='learned'"):

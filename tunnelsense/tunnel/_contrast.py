@@ -292,35 +292,26 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
     """
     import cv2  # noqa: PLC0415
 
+    from tunnelsense.tunnel._mst import cluster_windows  # noqa: PLC0415
+
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     out = boxes.copy()
-    if len(boxes) == 0:
-        return out
-    h, w = image.shape
-    rr, rc = int(reach[0]), int(reach[1])
-    rows = np.asarray(rows, dtype=np.intp)
-    cols = np.asarray(cols, dtype=np.intp)
-    labels = np.asarray(labels, dtype=np.intp)
-    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
-        r0 = max(int(top) - rr, 0)
-        c0 = max(int(left) - rc, 0)
-        r1 = min(int(top + bh) + rr, h)
-        c1 = min(int(left + bw) + rc, w)
-        window = image[r0:r1, c0:c1]
+    for k, window, (r0, c0), kr, kc in cluster_windows(image, rows, cols, labels,
+                                                        boxes, reach):
+        left, top, bw, bh = boxes[k]
         ring = np.ones(window.shape, dtype=bool)
         ring[int(top) - r0:int(top + bh) - r0, int(left) - c0:int(left + bw) - c0] = False
         if not ring.any():
             continue
-        member = np.flatnonzero(labels == k)
         surround = float(np.median(window[ring]))
-        values = image[rows[member], cols[member]]
-        brightest = member[int(np.argmax(values))]
-        peak = float(values.max())
+        values = window[kr, kc]
+        b = int(np.argmax(values))
+        peak = float(values[b])
         if peak <= surround:
             continue
         mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
         _, comp = cv2.connectedComponents(mask, connectivity=8)
-        ys, xs = np.nonzero(comp == comp[rows[brightest] - r0, cols[brightest] - c0])
+        ys, xs = np.nonzero(comp == comp[kr[b], kc[b]])
         y0, x0 = int(ys.min()) + r0, int(xs.min()) + c0
         out[k] = (x0, y0, int(xs.max()) + c0 + 1 - x0, int(ys.max()) + r0 + 1 - y0)
     return out

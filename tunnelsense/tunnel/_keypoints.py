@@ -50,6 +50,13 @@ from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
 
+#: The 8-bit picture a 16-bit camera's frames are mapped to with
+#: ``radiometry="contrast"``: the background level at grey level 100 and the
+#: training signs' median local contrast 75 grey levels above it (the paper's
+#: camera: lining about 100, signs in [160, 190]), so every later stage (histograms
+#: over [0, 256), appearance patches) reads 8-bit grey levels whatever the depth
+CANONICAL_LEVEL, CANONICAL_SIGN = 100.0, 175.0
+
 
 def _check_depth(image, index, record, expected, band=None):
     """Refuse a frame whose pixel type is not ``expected``, the units of the band.
@@ -71,6 +78,22 @@ def _check_depth(image, index, record, expected, band=None):
         "(the camera's gain decides); fit the detector on frames of this depth, or "
         "convert the frames to the fitted depth yourself"
     )
+
+
+def to_canonical_8bit(image, level, spread, ref_level, ref_spread):
+    """A frame of any depth mapped affinely so that its background ``(level,
+    spread)`` becomes ``(ref_level, ref_spread)``, rounded and clipped to 8 bits.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.array([[7000, 7400, 7800, 9800]], np.uint16)
+    >>> to_canonical_8bit(img, 7400.0, 800.0, 100.0, 30.0)
+    array([[ 85, 100, 115, 190]], dtype=uint8)
+    """
+    g = ref_spread / spread
+    out = ref_level + (image.astype(np.float32) - np.float32(level)) * np.float32(g)
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
 def _pixel_dtype(records) -> str:
@@ -196,6 +219,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         ``ref_spread_`` with the scene: a frame's gain is corrected only by what
         exceeds it, so the training camera's own frames are not rescaled by the
         scene's changes (``radiometry="frame"``).
+    raw_level_, raw_spread_ : float
+        With ``radiometry="contrast"`` on frames deeper than 8 bits: the training
+        frames' background level and spread in the camera's raw counts;
+        ``ref_level_, ref_spread_`` are then those of the 8-bit picture the frames
+        are mapped to (``CANONICAL_LEVEL``, ``CANONICAL_SIGN``).
     frame_shape_ : (int, int)
         ``(height, width)`` of the training frames (``frame_size="training"``).
     pixel_dtype_ : str
@@ -209,6 +237,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
     [0, 255] range).  For 16-bit frames either pass the band in raw counts (``low``,
     ``high``) or use ``band="learned"``, which learns it in whatever units the labelled
     frames have.  ``payload["keypoints"]`` then holds the raw 16-bit intensities.
+    With ``radiometry="contrast"`` (the detector's default) the band is one of local
+    contrast in units of the frame's own spread, whatever the depth, and a 16-bit
+    frame is mapped to an 8-bit picture (background at grey level 100, the training
+    signs' median contrast 75 grey levels above it: ``CANONICAL_LEVEL``,
+    ``CANONICAL_SIGN``) that every later stage reads, so the verifier's histograms
+    and the appearance patches are in 8-bit grey levels at any depth;
+    ``payload["keypoints"]`` then holds the 8-bit values.
 
     **Frames of another bit depth are refused.**  ``transform`` raises
     :class:`~tunnelsense.exceptions.InputFormatError`, naming the frame, for a frame
@@ -316,7 +351,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
         for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_",
-                     "contrast_low_", "contrast_high_"):
+                     "contrast_low_", "contrast_high_", "raw_level_", "raw_spread_"):
             if hasattr(self, name):
                 delattr(self, name)
         if self.frame_size == "training":
@@ -351,6 +386,14 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             ]
             low, high = contrast_band(images, [b for b in boxes if len(b)],
                                       self.n_sigma, unit=self.ref_spread_)
+            if self.pixel_dtype_ != "uint8":
+                # deeper frames: the later stages read an 8-bit picture whose
+                # background level and sign contrast are set by the training
+                # frames (the band, in units of the spread, is unchanged)
+                self.raw_level_, self.raw_spread_ = self.ref_level_, self.ref_spread_
+                self.ref_level_ = CANONICAL_LEVEL
+                self.ref_spread_ = float((CANONICAL_SIGN - CANONICAL_LEVEL)
+                                         / max(0.5 * (low + high), 1e-3))
             self.contrast_low_ = round(float(self.min_contrast * low), 6)
             self.contrast_high_ = round(float(self.max_contrast * high), 6)
             self.low_ = round(self.ref_level_ + self.contrast_low_ * self.ref_spread_, 6)
@@ -477,10 +520,17 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 background, level, spread = background_cells(image)
             else:
                 level, spread = background_levels(image)
-            spread = beyond_tolerance(spread, self.ref_spread_,
-                                       getattr(self, "gain_tolerance_", 0.0))
-            image = normalize_frame(image, level, spread, self.ref_level_,
-                                    self.ref_spread_)
+            raw_spread = getattr(self, "raw_spread_", None)
+            tolerance = getattr(self, "gain_tolerance_", 0.0)
+            if raw_spread is not None and image.dtype != np.uint8:
+                # a deeper frame: the 8-bit picture (CANONICAL_LEVEL, CANONICAL_SIGN)
+                spread = beyond_tolerance(spread, raw_spread, tolerance)
+                image = to_canonical_8bit(image, level, spread, self.ref_level_,
+                                          self.ref_spread_)
+            else:
+                spread = beyond_tolerance(spread, self.ref_spread_, tolerance)
+                image = normalize_frame(image, level, spread, self.ref_level_,
+                                        self.ref_spread_)
             if background is not None:  # the same affine map as the frame's
                 background = (self.ref_level_
                               + (background - level) * (self.ref_spread_ / spread))

@@ -40,6 +40,7 @@ __all__ = [
     "MSTClustererCore",
     "cluster_boxes",
     "mst_partition",
+    "cluster_windows",
     "region_boxes",
 ]
 
@@ -266,24 +267,13 @@ def region_boxes(image, rows, cols, labels, boxes, band, reach=(14, 12)) -> np.n
     """
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     out = boxes.copy()
-    if len(boxes) == 0:
-        return out
-    h, w = image.shape
     lo, hi = float(band[0]), float(band[1])
-    rr, rc = int(reach[0]), int(reach[1])
-    rows = np.asarray(rows, dtype=np.intp)
-    cols = np.asarray(cols, dtype=np.intp)
-    labels = np.asarray(labels, dtype=np.intp)
-    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
-        r0 = max(int(top) - rr, 0)
-        c0 = max(int(left) - rc, 0)
-        r1 = min(int(top + bh) + rr, h)
-        c1 = min(int(left + bw) + rc, w)
-        window = image[r0:r1, c0:c1]
+    for k, window, (r0, c0), kr, kc in cluster_windows(image, rows, cols, labels,
+                                                        boxes, reach):
+        left, top, bw, bh = boxes[k]
         mask = ((window >= lo) & (window <= hi)).view(np.uint8)
         _, comp = cv2.connectedComponents(mask, connectivity=8)
-        member = labels == k
-        seeds = np.unique(comp[rows[member] - r0, cols[member] - c0])
+        seeds = np.unique(comp[kr, kc])
         seeds = seeds[seeds > 0]
         if len(seeds) == 0:
             continue
@@ -294,6 +284,62 @@ def region_boxes(image, rows, cols, labels, boxes, band, reach=(14, 12)) -> np.n
         x1 = max(int(xs.max()) + c0 + 1, int(left + bw))
         out[k] = (x0, y0, x1 - x0, y1 - y0)
     return out
+
+
+def cluster_windows(image, rows, cols, labels, boxes, reach=(14, 12)):
+    """Each cluster's window: its keypoints' rectangle grown by ``reach`` px, clipped
+    to the image, with the cluster's keypoints in the window's coordinates.
+
+    The loop that :func:`region_boxes` and
+    :func:`~tunnelsense.tunnel._contrast.contrast_region_boxes` share.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width)
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    labels : ndarray of shape (n,)
+        Cluster of every keypoint (``0 .. m - 1``).
+    boxes : ndarray of shape (m, 4)
+        The clusters' keypoint rectangles ``(left, top, width, height)``.
+    reach : (int, int), default=(14, 12)
+        Rows and columns (px) added on each side.
+
+    Yields
+    ------
+    k : int
+        The cluster.
+    window : ndarray
+        ``image[r0:r1, c0:c1]`` (a view).
+    origin : (int, int)
+        ``(r0, c0)``.
+    rows, cols : ndarray
+        The cluster's keypoints, relative to ``origin``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.zeros((40, 40), np.uint8)
+    >>> [(k, w.shape, o, r.tolist(), c.tolist()) for k, w, o, r, c in cluster_windows(
+    ...     img, np.array([14, 21]), np.array([18, 18]), np.array([0, 0]),
+    ...     np.array([[18., 14., 1., 8.]]))]
+    [(0, (36, 25), (0, 6), [14, 21], [12, 12])]
+    """
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if len(boxes) == 0:
+        return
+    h, w = image.shape
+    rr, rc = int(reach[0]), int(reach[1])
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    labels = np.asarray(labels, dtype=np.intp)
+    for k, (left, top, bw, bh) in enumerate(boxes.tolist()):
+        r0 = max(int(top) - rr, 0)
+        c0 = max(int(left) - rc, 0)
+        r1 = min(int(top + bh) + rr, h)
+        c1 = min(int(left + bw) + rc, w)
+        member = labels == k
+        yield k, image[r0:r1, c0:c1], (r0, c0), rows[member] - r0, cols[member] - c0
 
 
 class MSTClustererCore(TransformerMixin, BaseEstimator):
