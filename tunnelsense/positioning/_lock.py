@@ -13,7 +13,9 @@ before the first pass it explains (:func:`unseen_before`).  Between passes, the
 odometry driven since the last one is evidence too: a hypothesis that puts an
 indicator surely behind the vehicle by now, though no pass of it came, pays the
 miss rate for it (:meth:`LockOn.silence`), so the lock can be taken before the
-next pass.  Hypotheses are anchored at each of the first few passes, so one false
+next pass (once the best hypothesis explains one pass more than ``min_passes``:
+a lock on silence alone after the fewest passes was wrong now and then where a
+sign had been missed and a false pass seen among them).  Hypotheses are anchored at each of the first few passes, so one false
 alarm among them does not prevent the lock.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
@@ -137,15 +139,12 @@ class LockOn:
             self._last = j
             self._hits = self._hits + ok
             assign = np.where(ok, j, -1)
-            if scale is not None:
-                self._scale_update(scale, ok)
         else:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
-            n_old = self.n_hypotheses
             assign = self._spawn(float(dist), float(var), assign)
-            if scale is not None:
-                self._scale_update(scale, np.arange(self.n_hypotheses) >= n_old)
+        if scale is not None:
+            self._scale_update(scale)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
@@ -183,24 +182,26 @@ class LockOn:
     def silence(self, dist, margin):
         """The lock at odometry distance ``dist``, no pass having come since the
         last one: each hypothesis pays the miss rate for the indicators it puts
-        surely behind the vehicle (:meth:`unseen_since`).  The state returned is
-        still that at the last pass.  None: no lock (or nothing new since the last
-        call)."""
+        surely behind the vehicle (:meth:`unseen_since`); the best must explain
+        ``min_passes + 1`` passes.  The state returned is still that at the last
+        pass.  None: no lock (or nothing new since the last call)."""
         if not self.n_hypotheses or self.n_passes < self.min_passes or dist < self._due:
             return None
-        return self.lock(self.unseen_since(dist, margin) * self.log_miss)
+        return self.lock(self.unseen_since(dist, margin) * self.log_miss,
+                         self.min_passes + 1)
 
-    def _scale_update(self, scale, ok):
-        """Update the hypotheses ``ok`` (that explain the pass) with a measurement
-        ``(c, variance)`` of the scale; score them by it.  (A pass left unexplained
-        is of another object, whose size says nothing: no term.)"""
+    def _scale_update(self, scale):
+        """Update every hypothesis with a measurement ``(c, variance)`` of the scale;
+        score it by it.  Every hypothesis, whether it explains the pass or not: a
+        false pass is of an object that looks like an indicator, sized like one,
+        and a term for some hypotheses only would favour those that explain more
+        passes, false ones included."""
         z, r = float(scale[0]), float(scale[1])
         h = self._h
         S = h["p11"] + r
         res = z - h["c"]
-        k0, k1 = np.where(ok, h["p01"] / S, 0.0), np.where(ok, h["p11"] / S, 0.0)
-        h["score"] = h["score"] + np.where(
-            ok, -0.5 * res * res / S - 0.5 * np.log(2 * np.pi * S), 0.0)
+        k0, k1 = h["p01"] / S, h["p11"] / S
+        h["score"] = h["score"] - 0.5 * res * res / S - 0.5 * np.log(2 * np.pi * S)
         p01, p11 = h["p01"], h["p11"]
         h["s"], h["c"] = h["s"] + k0 * res, h["c"] + k1 * res
         h["p00"], h["p01"], h["p11"] = (h["p00"] - k0 * p01, p01 - k0 * p11,
@@ -257,10 +258,11 @@ class LockOn:
         near = score >= score.max() - self.margin
         return len(np.unique(self._last[near]))
 
-    def lock(self, extra=None):
+    def lock(self, extra=None, min_passes=None):
         """The lock, when one hypothesis explains the passes clearly best; else None.
 
-        ``extra``: terms added to the scores for this decision (:meth:`silence`).
+        ``extra``: terms added to the scores for this decision, and ``min_passes``
+        the passes the best must explain then (:meth:`silence`).
 
         Returns
         -------
@@ -270,7 +272,8 @@ class LockOn:
             of each remembered pass (index -1: not explained), ``margin``.
         """
         best, margin = self.ranking(extra)
-        if best is None or self._hits[best] < self.min_passes or margin < self.margin:
+        least = self.min_passes if min_passes is None else min_passes
+        if best is None or self._hits[best] < least or margin < self.margin:
             return None
         h = self._h
         return {
