@@ -15,7 +15,9 @@ Two parts:
   peak, the final rows drained every 1,024 frames as ``position --model`` does).
 * ``--lock``: tours that start mid-tunnel on maps with irregular gaps (150-250 m),
   with no start: the passes until the lock, wrong locks, the error after the lock;
-  and with a start 10 m off (sigma 20 m).
+  and with a start 10 m off (sigma 20 m).  Each also with the sign's size in the
+  image given (focal length and sign height: the box growth then measures the
+  odometry's scale), and with it believed 2 % off.
 * ``--speed``: ``position --model`` beside ``detect tunnel`` on one rendered tour,
   alternating in one run (``--frames``, default 3,000), medians and their ratio.
 
@@ -276,6 +278,48 @@ def _after_first_pass(positions, est, fixes, odometry, indicators):
     return at_pass, err_after.max(), e["dead_reckoning"]["max"], e["max"]
 
 
+#: The sign's size in the image the simulated detector draws (focal length 800 px
+#: times a 1 m sign): given to the positioner, its box growth measures the scale.
+SIZE = {"focal_length_px": 800.0, "sign_height_m": 1.0}
+#: The same, believed 2 % too large (a camera or sign height known to 2 %).
+SIZE_OFF = {"focal_length_px": 800.0, "sign_height_m": 1.02, "size_sigma": 0.02}
+
+
+def _lock_on(indicators, det, odometry, positions, **kw):
+    """Lock on without a start: (passes seen until the lock, wrong, error after the
+    lock at the right place, error at the end), or None when it never locked."""
+    s = positions["chainage"].to_numpy()
+    est, fixes = TunnelPositioner(initial_chainage=None, **kw).fit(indicators).predict(
+        det, odometry, return_fixes=True)
+    e = position_errors(positions, est, odometry, indicators)
+    if e["lock"] is None:
+        return None
+    # the passes the lock-on saw (the last one may be just ahead of the camera)
+    passes = int(fixes["reason"].str.contains("lock").sum())
+    bad = np.abs(est["chainage"].to_numpy() - s) > 50.0  # a wrong place: >= 150 m
+    wrong = float(np.diff(s, prepend=s[0])[bad].sum()) if bad.any() else None
+    ok = est["locked"].to_numpy() & ~bad
+    return (passes, wrong, float(np.abs(est["chainage"].to_numpy() - s)[ok].max()),
+            abs(float(est["chainage"].iloc[-1]) - s[-1]))
+
+
+def _print_lock(runs, n):
+    never = sum(r is None for r in runs)
+    runs = [r for r in runs if r is not None]
+    passes = np.asarray([r[0] for r in runs])
+    wrong_m = [r[1] for r in runs if r[1] is not None]
+    print(f"  locked: {len(runs)} of {n}; passes seen until the lock: "
+          + ", ".join(f"{k}: {np.sum(passes == k)}"
+                      for k in range(1, passes.max() + 1))
+          + (f" (never: {never})" if never else ""))
+    print(f"  tours with a wrong chainage written: {len(wrong_m)}"
+          + (f" (for {', '.join(f'{m:.0f}' for m in wrong_m)} m, until the gate "
+             "rejected three passes and the lock was found again)" if wrong_m else ""))
+    print(f"  largest error after the lock (at the right place): "
+          f"{max(r[2] for r in runs):.2f} m; at the end of the tour "
+          f"{max(r[3] for r in runs):.2f} m")
+
+
 def lock(seeds, scale_range=(0.01, 0.04), failures=False):
     """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
     lo, hi = scale_range
@@ -284,31 +328,24 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False):
           f"{100 * lo:.0f}-{100 * hi:.0f} %"
           + (", one of the first three signs missed and a false alarm in the first "
              "600 m" if failures else ""))
-    passes, wrong, wrong_m, err, end_err, never = [], 0, [], [], [], 0
-    start_rows = {"online": [], "smoothed": [], "online, scale carried": []}
+    runs = {"": [], "sign size known": [], "size 2 % off": []}
+    start_rows = {"online": [], "smoothed": [], "online, scale carried": [],
+                  "online, sign size known": [], "online, size 2 % off": []}
     for seed in seeds:
         scale, positions, odometry, indicators, det = _lock_tour(seed, scale_range,
                                                                  failures)
         s = positions["chainage"].to_numpy()
-        est, fixes = TunnelPositioner(initial_chainage=None).fit(indicators).predict(
-            det, odometry, return_fixes=True)
-        e = position_errors(positions, est, odometry, indicators)
-        if e["lock"] is None:
-            never += 1
-            continue
-        # the passes the lock-on saw (the last one may be just ahead of the camera)
-        passes.append(int(fixes["reason"].str.contains("lock").sum()))
-        bad = np.abs(est["chainage"].to_numpy() - s) > 50.0  # a wrong place: >= 150 m
-        if bad.any():
-            wrong += 1
-            wrong_m.append(float(np.diff(s, prepend=s[0])[bad].sum()))
-        ok = est["locked"].to_numpy() & ~bad
-        err.append(float(np.abs(est["chainage"].to_numpy() - s)[ok].max()))
-        end_err.append(abs(float(est["chainage"].iloc[-1]) - s[-1]))
+        runs[""].append(_lock_on(indicators, det, odometry, positions))
+        runs["sign size known"].append(_lock_on(indicators, det, odometry, positions,
+                                                **SIZE))
+        runs["size 2 % off"].append(_lock_on(indicators, det, odometry, positions,
+                                             **SIZE_OFF))
         if failures:
             continue
         for name, kw in (("online", {}), ("smoothed", {"smooth": True}),
-                         ("online, scale carried", "carried")):
+                         ("online, scale carried", "carried"),
+                         ("online, sign size known", SIZE),
+                         ("online, size 2 % off", SIZE_OFF)):
             if kw == "carried":
                 c, sigma = _previous_tunnel_scale(seed, scale)
                 kw = {"initial_scale": c, "scale_sigma": sigma}
@@ -317,23 +354,22 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False):
                 indicators).predict(det, odometry, return_fixes=True)
             start_rows[name].append(_after_first_pass(positions, est, fixes, odometry,
                                                       indicators))
-    passes = np.asarray(passes)
-    print(f"  locked: {len(passes)} of {len(seeds)}; passes seen until the lock: "
-          + ", ".join(f"{k}: {np.sum(passes == k)}"
-                      for k in range(1, passes.max() + 1)))
-    print(f"  tours with a wrong chainage written: {wrong}"
-          + (f" (for {', '.join(f'{m:.0f}' for m in wrong_m)} m, until the gate "
-             "rejected three passes and the lock was found again)" if wrong else ""))
-    print(f"  largest error after the lock (at the right place): {max(err):.2f} m; at "
-          f"the end of the tour {max(end_err):.2f} m")
+    for name, r in runs.items():
+        if name:
+            print(f" {name} (focal length x sign height given: the box growth "
+                  "measures the scale; 2 % off: believed 2 % too large, size_sigma "
+                  "0.02):")
+        _print_lock(r, len(seeds))
     if failures:
         return
     print("start 10 m off (sigma 20 m), the same tours (scale carried: the scale and "
-          "its sigma from another 2.4 km tunnel with the same odometry):")
+          "its sigma from another 2.4 km tunnel with the same odometry; sign size "
+          "known: focal length and sign height given; 2 % off: believed 2 % too "
+          "large, size_sigma 0.02):")
     for name, rows in start_rows.items():
         rows = np.asarray(rows)
         ratios = rows[:, 2] / rows[:, 1]
-        print(f"  {name:21}: worst error at a pass after the first {rows[:, 0].max():.2f}"
+        print(f"  {name:23}: worst error at a pass after the first {rows[:, 0].max():.2f}"
               f" m; largest error after the first pass {rows[:, 1].max():.2f} m, at "
               f"least {ratios.min():.1f}x below dead reckoning ({np.mean(ratios >= 10):.0%}"
               f" of tours 10x or more); largest error anywhere {rows[:, 3].max():.2f} m")

@@ -263,3 +263,31 @@ def test_a_fitted_positioner_round_trips_through_a_safe_model_file(tmp_path):
     back = load_model(tmp_path / "p.skops")
     assert back.get_params() == pos.get_params()
     pd.testing.assert_frame_equal(back.predict(det, odometry), pos.predict(det, odometry))
+
+
+def test_scale_from_slope_is_calibrated(global_random_seed):
+    """The scale each trajectory's box growth gives, over many signs: centred on
+    the truth, its errors as large as its standard deviation says; too few boxes
+    give NaN."""
+    from tunnelsense.positioning import dead_reckoning, scale_from_slope
+
+    z = []
+    for seed in range(global_random_seed, global_random_seed + 3):
+        truth = make_tunnel_kinematics(4000.0, random_state=seed)
+        positions, odometry, _ = make_tunnel_odometry(truth, scale_error=-0.03,
+                                                      speed_bias=0.0,
+                                                      random_state=seed)
+        det = simulate_indicator_detections(truth, focal_length_px=700.0,
+                                            sign_height_m=1.2, random_state=seed)
+        d = dead_reckoning(odometry)
+        frames = odometry["frame"].to_numpy()
+        for _, g in det.groupby("id"):
+            dist = np.interp(g["frame"].to_numpy(), frames, d)
+            c, var = scale_from_slope(dist, g["bb_height"].to_numpy(), 700.0 * 1.2)
+            if np.isfinite(c):
+                z.append((c - 1.0 / 0.97) / np.sqrt(var))
+    z = np.asarray(z)
+    assert len(z) > 40
+    assert abs(z.mean()) < 0.5 and 0.7 < z.std() < 1.3
+    c, var = scale_from_slope([0.0, 1.0, 2.0], [10.0, 11.0, 12.0], 800.0)
+    assert np.isnan(c) and np.isnan(var)

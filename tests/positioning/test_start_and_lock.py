@@ -10,6 +10,7 @@ import pytest
 
 from tunnelsense._cli import main
 from tunnelsense.datasets import (
+    TourKinematics,
     make_tunnel_kinematics,
     make_tunnel_odometry,
     simulate_indicator_detections,
@@ -320,3 +321,118 @@ def test_the_start_of_the_record_tells_repeated_spacings_apart():
     got = [known.add(d, 0.01) for d in passes]
     lock = next(g for g in got if g is not None)
     assert lock["indicator"] == 1 + got.index(lock)  # the first copy, from indicator 1
+
+
+def test_silence_since_the_last_pass_tells_repeated_spacings_apart():
+    """Gaps 180, 230, 160 twice on the map; after the first copy the next indicator
+    is 120 m on, after the second 250 m.  The passes fit both copies; once the
+    vehicle has driven 150 m past the last pass with no pass, the first copy would
+    have had its next indicator seen: the second wins, before the next pass."""
+    chainage = np.cumsum([0.0, 300, 180, 230, 160, 120, 180, 230, 160, 250, 200])
+    passes = np.array([0.0, 180.0, 410.0, 570.0]) * 1.02  # odometry 2 % long
+    kw = dict(scale=1.0, scale_sigma=0.05, fix_sigma=0.3, gate=4.0, miss_rate=0.05,
+              false_pass_rate=5e-5, margin=2.0, min_passes=3)
+    lock = LockOn(chainage, **kw)
+    assert all(lock.add(d, 0.01) is None for d in passes)
+    assert lock.n_explaining() == 2
+    # 100 m on (102 m of odometry), the first copy's next indicator is still ahead
+    assert lock.silence(passes[-1] + 102.0, 2.0) is None
+    # the best hypothesis at each copy (the last indicator it accounts for)
+    score, at = lock._h["score"], lock._last
+    best = [int(np.flatnonzero(at == j)[np.argmax(score[at == j])]) for j in (4, 8)]
+    assert lock.unseen_since(passes[-1] + 102.0, 2.0)[best].tolist() == [0, 0]
+    assert lock.unseen_since(passes[-1] + 153.0, 2.0)[best].tolist() == [1, 0]
+    got = lock.silence(passes[-1] + 153.0, 2.0)
+    assert got is not None and got["indicator"] == 8
+    assert [j for _, j in got["passes"]][-4:] == [5, 6, 7, 8]
+    # the silence is not kept: a pass coming after all is scored as before
+    assert lock.n_explaining() == 2
+
+
+def test_the_stream_locks_between_passes_when_silence_decides(global_random_seed):
+    """Gaps 180, 230, 160 twice on the map, then 120 m after the first copy and
+    250 m after the second; the tour drives the second.  After its four passes
+    both copies fit; once the first copy's next indicator is surely behind with
+    no pass, the stream locks on the second -- before the fifth pass."""
+    chainage = np.cumsum([0.0, 300, 180, 230, 160, 120, 200, 180, 230, 160, 250, 200])
+    fps, v = 30.0, 22.0
+    s = 1150.0 + np.arange(0.0, 1000.0, v / fps)
+    kin = TourKinematics(np.arange(len(s)) / fps, s, np.full(len(s), v), 0.0,
+                         chainage, np.arange(1, len(chainage) + 1), 0)
+    positions, odometry, indicators = make_tunnel_odometry(
+        kin, scale_error=0.02, random_state=global_random_seed)
+    det = simulate_indicator_detections(kin, random_state=global_random_seed)
+    est, fixes = TunnelPositioner(initial_chainage=None, lock_margin=2.0).fit(
+        indicators).predict(det, odometry, return_fixes=True)
+    passes = np.sort(fixes.loc[fixes["pass_frame"] >= 0, "pass_frame"].to_numpy())
+    locked = est["locked"].to_numpy()
+    first = est["frame"].to_numpy()[locked][0]
+    assert passes[3] < first < passes[4]  # between the fourth and the fifth pass
+    # lock_margin 2 (a likelihood ratio of 7): the miss rate of one indicator
+    # unseen (0.05) decides, and the lock is right
+    err = np.abs(est["chainage"].to_numpy() - positions["chainage"].to_numpy())
+    assert err[locked].max() < 1.0
+    kept = fixes[fixes["reason"] == "lock-on"].sort_values("pass_frame")
+    assert kept["indicator_id"].tolist() == [7, 8, 9, 10]
+
+
+def test_the_sign_size_measures_the_scale_before_the_second_pass(global_random_seed):
+    """With the focal length and the sign's height, the box growth of the first
+    sign measures the odometry's scale: between the first and the second pass the
+    scale is known to about 1 % (within three sigma of the truth) and the
+    position drifts less than without."""
+    checked = 0
+    for seed in range(global_random_seed, global_random_seed + 4):
+        truth, positions, odometry, indicators, det = _tour(seed, scale_error=0.035)
+        s = positions["chainage"].to_numpy()
+        runs = {}
+        for name, kw in (("blind", {}), ("size", dict(focal_length_px=800.0,
+                                                      sign_height_m=1.0))):
+            est, fixes = TunnelPositioner(
+                initial_chainage=s[0] + 10.0, initial_sigma=20.0, **kw).fit(
+                indicators).predict(det, odometry, return_fixes=True)
+            runs[name] = est, fixes[fixes["accepted"]].sort_values("pass_frame")
+        est, kept = runs["size"]
+        first = kept.iloc[0]
+        if first["last_frame"] - first["first_frame"] < 30:  # cut short by the start
+            continue
+        checked += 1
+        frames = est["frame"].to_numpy()
+        between = (frames > first["pass_frame"]) & (
+            frames < kept["pass_frame"].iloc[1] - 30)
+        c_true = 1.0 / 1.035
+        for name, (e, _) in runs.items():
+            c, sigma = e["scale"].to_numpy()[between], e["scale_sigma"].to_numpy()[between]
+            if name == "size":
+                assert sigma.max() < 0.015
+                assert np.all(np.abs(c - c_true) < 3 * sigma)
+            else:
+                assert sigma.min() > 0.03  # unobservable from one pass
+        drift = {name: np.abs(e["chainage"].to_numpy() - s)[between].max()
+                 for name, (e, _) in runs.items()}
+        assert drift["size"] < drift["blind"]
+    assert checked >= 2
+
+
+def test_cli_sign_size_options(tmp_path, capsys):
+    """--focal-length and --sign-height reach the positioner; one alone is refused."""
+    truth, positions, odometry, indicators, det = _tour(0, distance=600.0, start=0.0)
+    tour = tmp_path / "tour"
+    tour.mkdir()
+    truth.write(tour)
+    results = tmp_path / "r.txt"
+    det.assign(x=-1, y=-1, z=-1).to_csv(results, header=False, index=False)
+    out = tmp_path / "p.csv"
+    assert main(["position", str(tour), "--results", str(results), "--out", str(out),
+                 "--focal-length", "800", "--sign-height", "1", "--quiet"]) == 0
+    with_size = read_positions(out, sigma=True)
+    assert main(["position", str(tour), "--results", str(results), "--out",
+                 str(tmp_path / "q.csv"), "--quiet"]) == 0
+    blind = read_positions(tmp_path / "q.csv", sigma=True)
+    # the first sign's box growth measured the scale: known better after its pass
+    assert with_size["scale_sigma"].min() < blind["scale_sigma"].min()
+    capsys.readouterr()
+    assert main(["position", str(tour), "--results", str(results), "--out",
+                 str(tmp_path / "x.csv"), "--focal-length", "800", "--quiet"]) == 1
+    assert "give both or neither" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()

@@ -25,6 +25,7 @@ def _cmd_position(args) -> int:
         start_chainage=args.start_chainage, start_sigma=args.start_sigma,
         odometry_scale=args.odometry_scale,
         odometry_scale_sigma=args.odometry_scale_sigma,
+        focal_length_px=args.focal_length, sign_height_m=args.sign_height,
         overwrite=args.force, inputs=[args.model, *common.key_files(args)],
         colour=common.colour(args),
         n_threads=args.jobs,
@@ -145,6 +146,12 @@ def register_top(sub) -> None:
     p.add_argument("--odometry-scale-sigma", type=_positive, default=0.05,
                    metavar="S", help="its standard deviation (default 0.05: a wheel "
                    "odometry within about 5 %%)")
+    p.add_argument("--focal-length", type=_positive, metavar="PX", help="the camera's "
+                   "focal length (px); with --sign-height each sign's box growth "
+                   "measures the odometry's scale before the second sign (both known "
+                   "to about 1 %%). Default: not known")
+    p.add_argument("--sign-height", type=_positive, metavar="M", help="height of the "
+                   "indicators (m), with --focal-length")
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode frames ahead of the detector (with --model; default: the "
                    "number of CPUs)")

@@ -18,6 +18,7 @@ _NAMES = {
     "rts_smooth": "_filter",
     "detection_table": "_fixes",
     "estimate_pass": "_fixes",
+    "scale_from_slope": "_fixes",
     "locate_online": "_online",
     "plot_positioning": "_plot",
     "TunnelPositioner": "_positioner",
@@ -60,6 +61,7 @@ __all__ = [
     "read_odometry",
     "read_positions",
     "rts_smooth",
+    "scale_from_slope",
     "tour_tables",
 ]
 

@@ -67,8 +67,9 @@ def forward(x0, P0, increments, q_s, q_c, fixes, *, start=0):
             F, Q = transition(increments[i - 1], q_s[i - 1], q_c[i - 1])
             x, P = F @ x, F @ P @ F.T + Q
         prior[i], prior_cov[i] = x, P
-        for u, z, r in fixes.get(start + i, ()):
-            x, P = _update(x, P, np.array([1.0, u]), z, r)
+        for u, z, r in fixes.get(start + i, ()):  # NaN u: a measurement of the scale
+            h = np.array([0.0, 1.0]) if u != u else np.array([1.0, u])
+            x, P = _update(x, P, h, z, r)
         post[i], post_cov[i] = x, P
     return prior, post, prior_cov, post_cov
 

@@ -17,7 +17,8 @@ import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
 
-__all__ = ["DETECTION_TABLE_COLUMNS", "detection_table", "estimate_pass"]
+__all__ = ["DETECTION_TABLE_COLUMNS", "detection_table", "estimate_pass",
+           "scale_from_slope"]
 
 #: Columns of :func:`detection_table`.
 DETECTION_TABLE_COLUMNS = ("frame", "track_id", "bb_height")
@@ -139,8 +140,81 @@ def _estimate_pass(distance, height, slope=None, noise=None):
     nan4 = (float("nan"),) * 4
     d = np.asarray(distance, np.float64)
     h = np.asarray(height, np.float64)
-    if len(d) < (2 if slope is not None else 3):
+    robust = _robust_fit(d, h, slope)
+    if robust is None:
         return nan4
+    fit, keep = robust
+    # the fit's variance per unit weight is the boxes' relative variance over their
+    # mean square height (weights h**2 summing to n)
+    mean_h2 = float(np.mean(h[keep] ** 2))
+    noise2 = fit[4] * mean_h2
+    dof = int(keep.sum()) - (1 if slope is not None else 2)
+    if noise is not None and float(noise) ** 2 > noise2:
+        fit = (*fit[:4], float(noise) ** 2 / mean_h2, *fit[5:])
+    return (*_solve(*fit), noise2, dof)
+
+
+def scale_from_slope(distance, height, size, noise=None, min_dof=20):
+    """The odometry's scale factor from the growth of one sign's box height.
+
+    ``1 / h = c (d_pass - d) / (f H)``: the slope of ``1 / h`` against the odometry
+    distance is ``-c / (f H)``, so with the sign's size in the image ``f H`` (focal
+    length in px times its height in m) known, one trajectory measures the scale
+    ``c`` -- before a second sign is passed.  (A ratio of box heights alone gives
+    the time to contact, not the scale: the absolute size is what sets it.)
+
+    Parameters
+    ----------
+    distance, height : array-like of shape (n,)
+        Odometry distance (m) and box height (px) of each detection.
+    size : float
+        ``focal_length_px * sign_height_m``.
+    noise : float or None, default=None
+        Least relative box-height noise (as in :func:`estimate_pass`).
+    min_dof : int, default=20
+        Fewest boxes beyond the line's two parameters: a short trajectory (a sign
+        already near when the record began) measures the slope poorly, and the
+        variance its few residuals give is too often far too small.
+
+    Returns
+    -------
+    scale, variance : float
+        NaN when the sign does not approach or there are too few boxes; the
+        variance is the fit's alone (not that of ``size``), times ``dof / (dof - 2)``
+        (the variance of Student's t: the boxes' noise is estimated from them).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.positioning import scale_from_slope
+    >>> d = np.arange(0.0, 50.0, 0.5)          # odometry reads 2 % too much
+    >>> h = 800.0 * 1.0 / (0.98 * (60.0 - d))  # f = 800 px, H = 1 m
+    >>> c, var = scale_from_slope(d, h, 800.0 * 1.0)
+    >>> round(c, 6)
+    0.98
+    """
+    d = np.asarray(distance, np.float64)
+    h = np.asarray(height, np.float64)
+    robust = _robust_fit(d, h, None)
+    if robust is None:
+        return float("nan"), float("nan")
+    (_, b, _, sxx, sigma2, n, _), keep = robust
+    if not b < 0 or not np.isfinite(sxx):
+        return float("nan"), float("nan")
+    if noise is not None:
+        sigma2 = max(sigma2, float(noise) ** 2 / float(np.mean(h[keep] ** 2)))
+    # a variance from the residuals of few boxes is itself uncertain (Student's t)
+    dof = n - 2
+    if dof < min_dof:
+        return float("nan"), float("nan")
+    size = float(size)
+    return float(-b * size), float(sigma2 / (n * sxx) * size * size * dof / (dof - 2))
+
+
+def _robust_fit(d, h, slope):
+    """:func:`_fit` without outlying boxes: ``(fit, keep)``, or None."""
+    if len(d) < (2 if slope is not None else 3):
+        return None
     # a box merged with a lamp now and then is an outlier: start from a line fitted
     # robustly (Theil-Sen), then refit without the boxes whose relative error is far
     # beyond the others' (robust scale, MAD)
@@ -151,22 +225,15 @@ def _estimate_pass(distance, height, slope=None, noise=None):
         scale = 1.4826 * np.median(np.abs(rel[keep]))
         new = np.abs(rel) <= max(4.0 * scale, 0.01)
         if new.sum() < (2 if slope is not None else 3):
-            return nan4
+            return None
         keep, done = new, np.array_equal(new, keep)
         fit = _fit(d[keep], h[keep], d[-1], slope)
         if fit is None:
-            return nan4
+            return None
         a, b = fit[:2]
         if done:
             break
-    # the fit's variance per unit weight is the boxes' relative variance over their
-    # mean square height (weights h**2 summing to n)
-    mean_h2 = float(np.mean(h[keep] ** 2))
-    noise2 = fit[4] * mean_h2
-    dof = int(keep.sum()) - (1 if slope is not None else 2)
-    if noise is not None and float(noise) ** 2 > noise2:
-        fit = (*fit[:4], float(noise) ** 2 / mean_h2, *fit[5:])
-    return (*_solve(*fit), noise2, dof)
+    return fit, keep
 
 
 def _theil_sen(x, y, slope):

@@ -9,9 +9,14 @@ nearest indicator ahead within the gate.  Its score is the log-likelihood of the
 passes: a Gaussian term for a pass it explains, the log of the false-pass rate for
 one it does not, the log of the miss rate for an indicator it skips -- and, when the
 record's start is known, for each indicator it says the vehicle drove past unseen
-before the first pass it explains (:func:`unseen_before`).  Hypotheses are
-anchored at each of the first few passes, so one false alarm among them does not
-prevent the lock.
+before the first pass it explains (:func:`unseen_before`).  Between passes, the
+odometry driven since the last one is evidence too: a hypothesis that puts an
+indicator surely behind the vehicle by now, though no pass of it came, pays the
+miss rate for it (:meth:`LockOn.silence`), so the lock can be taken before the
+next pass (once the best hypothesis explains one pass more than ``min_passes``:
+a lock on silence alone after the fewest passes was wrong now and then where a
+sign had been missed and a false pass seen among them).  Hypotheses are anchored at each of the first few passes, so one false
+alarm among them does not prevent the lock.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another indicator by
@@ -81,6 +86,7 @@ class LockOn:
         self.clearance = float(clearance)
         self.n_passes = 0
         self._last_dist = None
+        self._due = math.inf  # odometry distance before which silence() changes nothing
         self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
         self._last = np.empty(0, np.int64)  # last indicator explained
         self._hits = np.empty(0, np.int64)  # passes explained
@@ -90,12 +96,15 @@ class LockOn:
     def n_hypotheses(self) -> int:
         return len(self._last)
 
-    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None):
+    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None, scale=None):
         """A pass at odometry distance ``dist`` (variance ``var``).
 
         ``q_s, q_c``: process noise of the chainage and the scale accumulated since
         the previous pass.  ``tag`` is given back with the pass's association at the
-        lock.  Returns the lock (:meth:`lock`) or None.
+        lock.  ``scale``: ``(c, variance)``, the odometry's scale measured by the
+        trajectory's box growth (known sign size), or None; each hypothesis that
+        explains the pass is updated with it and scored by it.  Returns the lock
+        (:meth:`lock`) or None.
         """
         h = self._h
         if self.n_hypotheses:
@@ -134,11 +143,69 @@ class LockOn:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
             assign = self._spawn(float(dist), float(var), assign)
+        if scale is not None:
+            self._scale_update(scale)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
         self._prune()
+        self._due = -math.inf
         return self.lock()
+
+    def unseen_since(self, dist, margin):
+        """Indicators each hypothesis puts surely behind the vehicle at odometry
+        distance ``dist``, past the last one it accounts for, though no pass came.
+
+        An indicator is surely behind when its chainage is ``margin`` m and ``gate``
+        standard deviations (of the predicted chainage) behind the vehicle: its
+        trajectory would have ended, and its pass been given, by then.
+
+        Returns
+        -------
+        count : ndarray of int, shape (n_hypotheses,)
+        """
+        h = self._h
+        delta = float(dist) - self._last_dist
+        s = h["s"] + h["c"] * delta
+        var = h["p00"] + 2 * delta * h["p01"] + delta**2 * h["p11"]
+        behind = s - math.sqrt(self.gate2) * np.sqrt(np.maximum(var, 0.0)) - margin
+        passed = np.searchsorted(self.map, behind, side="right") - 1
+        count = np.maximum(passed - self._last, 0)
+        # the next indicator of each hypothesis: before the vehicle has driven to it
+        # (plus the margin) the count cannot grow
+        nxt = np.minimum(self._last + count + 1, len(self.map) - 1)
+        ahead = (self.map[nxt] + margin - h["s"]) / np.maximum(h["c"], 1e-6)
+        ahead = np.where(self._last + count + 1 < len(self.map), ahead, np.inf)
+        self._due = self._last_dist + float(ahead.min()) if len(ahead) else math.inf
+        return count
+
+    def silence(self, dist, margin):
+        """The lock at odometry distance ``dist``, no pass having come since the
+        last one: each hypothesis pays the miss rate for the indicators it puts
+        surely behind the vehicle (:meth:`unseen_since`); the best must explain
+        ``min_passes + 1`` passes.  The state returned is still that at the last
+        pass.  None: no lock (or nothing new since the last call)."""
+        if not self.n_hypotheses or self.n_passes < self.min_passes or dist < self._due:
+            return None
+        return self.lock(self.unseen_since(dist, margin) * self.log_miss,
+                         self.min_passes + 1)
+
+    def _scale_update(self, scale):
+        """Update every hypothesis with a measurement ``(c, variance)`` of the scale;
+        score it by it.  Every hypothesis, whether it explains the pass or not: a
+        false pass is of an object that looks like an indicator, sized like one,
+        and a term for some hypotheses only would favour those that explain more
+        passes, false ones included."""
+        z, r = float(scale[0]), float(scale[1])
+        h = self._h
+        S = h["p11"] + r
+        res = z - h["c"]
+        k0, k1 = h["p01"] / S, h["p11"] / S
+        h["score"] = h["score"] - 0.5 * res * res / S - 0.5 * np.log(2 * np.pi * S)
+        p01, p11 = h["p01"], h["p11"]
+        h["s"], h["c"] = h["s"] + k0 * res, h["c"] + k1 * res
+        h["p00"], h["p01"], h["p11"] = (h["p00"] - k0 * p01, p01 - k0 * p11,
+                                        p11 - k1 * p11)
 
     def _spawn(self, dist, var, assign):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
@@ -172,10 +239,11 @@ class LockOn:
         self._assign = deque(((t, a[keep]) for t, a in self._assign),
                              maxlen=self._assign.maxlen)
 
-    def ranking(self):
+    def ranking(self, extra=None):
         """``(best, margin)``: the best hypothesis and its lead over any hypothesis
-        that puts the vehicle at another indicator (inf when there is none)."""
-        score = self._h["score"]
+        that puts the vehicle at another indicator (inf when there is none);
+        ``extra``: terms added to the scores (not kept)."""
+        score = self._h["score"] if extra is None else self._h["score"] + extra
         if not len(score):
             return None, 0.0
         best = int(np.argmax(score))
@@ -190,8 +258,11 @@ class LockOn:
         near = score >= score.max() - self.margin
         return len(np.unique(self._last[near]))
 
-    def lock(self):
+    def lock(self, extra=None, min_passes=None):
         """The lock, when one hypothesis explains the passes clearly best; else None.
+
+        ``extra``: terms added to the scores for this decision, and ``min_passes``
+        the passes the best must explain then (:meth:`silence`).
 
         Returns
         -------
@@ -200,8 +271,9 @@ class LockOn:
             (index of the last indicator explained), ``passes``: ``(tag, index)``
             of each remembered pass (index -1: not explained), ``margin``.
         """
-        best, margin = self.ranking()
-        if best is None or self._hits[best] < self.min_passes or margin < self.margin:
+        best, margin = self.ranking(extra)
+        least = self.min_passes if min_passes is None else min_passes
+        if best is None or self._hits[best] < least or margin < self.margin:
             return None
         h = self._h
         return {

@@ -54,6 +54,8 @@ class TunnelPositioner(BaseEstimator):
     The odometry's scale factor is estimated along the way and written with each
     position (``scale``, ``scale_sigma``); ``initial_scale`` and ``scale_sigma``
     take it from a previous tunnel, so a vehicle starts the next one calibrated.
+    Given the camera's focal length and the signs' height, each sign's box growth
+    measures the scale too, from the first sign on.
 
     ``fit`` takes the indicator map; ``predict`` the detections and the odometry
     of one tour.  ``predict`` runs the same stream state as :meth:`start_stream`,
@@ -100,10 +102,18 @@ class TunnelPositioner(BaseEstimator):
     max_extrapolation : float, default=60.0
         Largest odometry distance (m) from a trajectory's last box to its pass.
     focal_length_px : float or None, default=None
-        Focal length of the camera (px); with ``sign_height_m`` it fixes the slope
-        of the pass fit.  None uses the scale growth alone.
+        Focal length of the camera (px).  With ``sign_height_m``, a sign's size in
+        the image is known: the growth of its box (``1 / h`` falls by ``c / (f H)``
+        per metre of odometry) then measures the odometry's scale ``c`` from one
+        trajectory (:func:`scale_from_slope`), before a second sign is passed and
+        in each lock-on hypothesis.  None: not known (the scale is then observed
+        from the distances between passes alone).
     sign_height_m : float or None, default=None
-        Height of the indicators (m).
+        Height of the indicators (m), as the detector's boxes measure it.
+    size_sigma : float, default=0.01
+        Relative standard deviation of ``focal_length_px * sign_height_m`` (the
+        calibration, and how tightly the boxes fit the signs), added to each
+        trajectory's own: a size believed 2 % off biases the scale by 2 %.
     window : int, default=3000
         Frames the stream holds (100 s at 30 fps): a pass older than this is not
         used, and the fixed-lag smoother releases a frame ``window // 2`` to
@@ -163,6 +173,7 @@ class TunnelPositioner(BaseEstimator):
         "max_extrapolation": [Interval(numbers.Real, 0, None, closed="neither")],
         "focal_length_px": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "sign_height_m": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "size_sigma": [Interval(numbers.Real, 0, None, closed="left")],
         "window": [Interval(numbers.Integral, 2, None, closed="left")],
         "lock_margin": [Interval(numbers.Real, 0, None, closed="neither")],
         "lock_passes": [Interval(numbers.Integral, 2, None, closed="left")],
@@ -190,6 +201,7 @@ class TunnelPositioner(BaseEstimator):
         max_extrapolation=60.0,
         focal_length_px=None,
         sign_height_m=None,
+        size_sigma=0.01,
         window=3000,
         lock_margin=9.0,
         lock_passes=3,
@@ -213,6 +225,7 @@ class TunnelPositioner(BaseEstimator):
         self.max_extrapolation = max_extrapolation
         self.focal_length_px = focal_length_px
         self.sign_height_m = sign_height_m
+        self.size_sigma = size_sigma
         self.window = window
         self.lock_margin = lock_margin
         self.lock_passes = lock_passes

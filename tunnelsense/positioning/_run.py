@@ -56,7 +56,8 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, start_chainage=0.0,
                   start_sigma=1.0, odometry_scale=1.0, odometry_scale_sigma=0.05,
-                  overwrite=False, progress=None, inputs=(), n_threads=0, colour=None):
+                  focal_length_px=None, sign_height_m=None, overwrite=False,
+                  progress=None, inputs=(), n_threads=0, colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
     The file has a row per frame: ``frame,stamp,chainage,sigma,locked,scale,
@@ -91,6 +92,10 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         standard deviation: by default a wheel odometry within about 5 %; give the
         ``scale`` and ``scale_sigma`` a previous tunnel ended with to start
         calibrated.
+    focal_length_px, sign_height_m : float or None, default=None
+        The camera's focal length (px) and the indicators' height (m): each sign's
+        box growth then measures the odometry's scale, before a second sign is
+        passed (see :class:`TunnelPositioner`).  None: not known.
     overwrite : bool, default=False
         Replace an existing ``out``.
     colour : int, "luminance" or None, default=None
@@ -128,12 +133,16 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
 
     if (model is None) == (results is None):
         raise ValueError("give exactly one of model and results")
+    if (focal_length_px is None) != (sign_height_m is None):
+        raise ValueError("focal_length_px (--focal-length) and sign_height_m "
+                         "(--sign-height): give both or neither")
     odometry, indicator_map, tables = tour_tables(tour, odometry, indicator_map)
     extra = [p for p in (*inputs, results) if p]
     check_output(out, overwrite=overwrite, inputs=[*tables, *extra], what="--out")
     positioner = TunnelPositioner(
         smooth=smooth, initial_chainage=start_chainage, initial_sigma=start_sigma,
-        initial_scale=odometry_scale, scale_sigma=odometry_scale_sigma)
+        initial_scale=odometry_scale, scale_sigma=odometry_scale_sigma,
+        focal_length_px=focal_length_px, sign_height_m=sign_height_m)
     odo = read_odometry(odometry)
     positioner.fit(read_indicator_map(indicator_map))
     if results is not None:

@@ -26,7 +26,11 @@ import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.positioning._fixes import _estimate_pass, detection_table
+from tunnelsense.positioning._fixes import (
+    _estimate_pass,
+    detection_table,
+    scale_from_slope,
+)
 from tunnelsense.positioning._lock import LockOn
 from tunnelsense.positioning._tables import ESTIMATE_COLUMNS
 
@@ -93,8 +97,15 @@ def _row(frame, stamp, x):
 
 
 def _update(x, u, z, r):
-    """Kalman update of ``x = (s, c, P00, P01, P11)`` with ``z = s + c u``."""
+    """Kalman update of ``x = (s, c, P00, P01, P11)`` with ``z = s + c u`` (NaN
+    ``u``: a measurement of the scale, ``z = c``)."""
     s, c, a, b, e = x
+    if u != u:
+        S = e + r
+        k0, k1 = b / S, e / S
+        res = z - c
+        return (s + k0 * res, c + k1 * res, a - k0 * k0 * S, b - k0 * k1 * S,
+                e - k1 * k1 * S)
     ha, hb = a + u * b, b + u * e  # P h
     S = ha + u * hb + r
     k0, k1 = ha / S, hb / S
@@ -259,6 +270,8 @@ class PositionStream:
         if self._tracks:
             for track in [t for t, v in self._tracks.items() if v[2] < horizon]:
                 self._end_track(track)
+        if self._lockon is not None and self._lockon.n_passes >= self._lockon.min_passes:
+            self._silence(horizon)
         j = (self._n - 1) % self._W
         row = _row(int(self._fr[j]), float(self._st[j]), self._post[j].tolist())
         if not self._lagged:
@@ -435,15 +448,16 @@ class PositionStream:
             self._log.append(row)
             return
         d = d[keep]
-        slope = None
-        if p.focal_length_px is not None and p.sign_height_m is not None:
-            scale = self._post[last_k % self._W][1] if last_k >= self._n - self._W \
-                else math.nan
-            scale = scale if scale == scale else self._c0
-            slope = -scale / (float(p.focal_length_px) * float(p.sign_height_m))
         pooled = self.pooled_box_noise()
-        dist, var, noise2, dof = _estimate_pass(
-            d, hs[keep], slope, None if pooled is None else math.sqrt(pooled))
+        floor = None if pooled is None else math.sqrt(pooled)
+        if (p.focal_length_px is not None and p.sign_height_m is not None
+                and p.estimate_scale):
+            # the sign's size is known: its box growth measures the scale (the pass
+            # is still fitted with a free slope: a slope fixed by a scale not yet
+            # known would bias it)
+            size = float(p.focal_length_px) * float(p.sign_height_m)
+            row["_scale"] = scale_from_slope(d, hs[keep], size, floor)
+        dist, var, noise2, dof = _estimate_pass(d, hs[keep], None, floor)
         row["pass_distance"] = dist
         if not np.isfinite(dist):
             row["reason"] = "the object does not approach"
@@ -518,8 +532,25 @@ class PositionStream:
         if self.fix_list is not None:
             self.fix_list.append((k, u, z, r))
         # delayed measurement: correct at the pass, propagate the odometry since
-        self._post[k % W] = _update(x, u, z, r)
+        x = _update(x, u, z, r)
+        x = self._scale_fix(x, k, row)
+        self._post[k % W] = x
         self._propagate(k)
+
+    def _scale_fix(self, x, k, row):
+        """Use the scale a kept pass's box growth measured (``focal_length_px`` and
+        ``sign_height_m`` given), if it agrees with the state's within the gate."""
+        c_meas, var = row.pop("_scale", (math.nan, math.nan))
+        if not (c_meas == c_meas and var == var):
+            return x
+        p = self._p
+        r = var + (c_meas * float(p.size_sigma)) ** 2
+        if abs(c_meas - x[1]) > float(p.gate) * math.sqrt(x[4] + r):
+            return x
+        self._fixes.setdefault(k, []).append((math.nan, c_meas, r))
+        if self.fix_list is not None:
+            self.fix_list.append((k, math.nan, c_meas, r))
+        return _update(x, math.nan, c_meas, r)
 
     def _reweight_early(self):
         """The box noise is now known: the fixes used before it, whose trajectories'
@@ -569,12 +600,40 @@ class PositionStream:
         q = (0.0, 0.0) if self._lock_q is None else (cq[0] - self._lock_q[0],
                                                      cq[1] - self._lock_q[1])
         self._lock_q = cq
-        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row))
+        scale = row.get("_scale")
+        if scale is not None:
+            c_meas, v = scale
+            scale = None if not (c_meas == c_meas and v == v) else (
+                c_meas, v + (c_meas * float(self._p.size_sigma)) ** 2)
+            row["_scale"] = scale
+        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row),
+                                scale=scale)
         row.update(accepted=False, reason=(f"{row['reason']}; " if row["reason"] else "")
                    + "locking on")
-        if lock is None:
+        if lock is not None:
+            self._take_lock(lock, k, u)
+
+    def _silence(self, horizon):
+        """No pass since the last one up to the frame ``horizon`` (every trajectory
+        whose last box came before it has been ended): lock if the indicators the
+        rivals put behind the vehicle by then, unseen, single out a place."""
+        n, W = self._n, self._W
+        lo = max(0, n - W)
+        k = lo + int(np.searchsorted(self._ordered(self._fr, lo), horizon)) - 1
+        if k < lo:
             return
-        p = self._p
+        # a pass up to 2 m before a trajectory's last box is taken (_end_track)
+        lock = self._lockon.silence(float(self._d[k % W]), 2.0)
+        if lock is not None:
+            (kk, uu, _, _), _ = lock["passes"][-1]
+            if kk >= lo:  # the last pass is still held
+                self._take_lock(lock, kk, uu, at=k)
+
+    def _take_lock(self, lock, k, u, at=None):
+        """Start the filter from the lock's state at the last pass (frame ``k``,
+        ``u`` m of odometry after it); the explained passes become its fixes.
+        ``at``: the frame index where it was decided (default ``k``)."""
+        p, W = self._p, self._W
         s, c = lock["state"]
         P = lock["cov"]
         # the state at the pass, moved back to its frame (u before it)
@@ -585,12 +644,15 @@ class PositionStream:
                 continue
             z = float(self._map[j])
             rr.pop("_noise2", None)
+            scale = rr.pop("_scale", None)  # used by the hypotheses already
             if self.fix_list is not None:
                 self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
+                if scale is not None:
+                    self.fix_list.append((kk, math.nan, *scale))
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
                       indicator_chainage=z)
         self._lock_k = k
-        self.lock_frame = int(self._fr[k % W])
+        self.lock_frame = int(self._fr[(k if at is None else at) % W])
         self._lockon = None
         self._prior[k % W] = x
         self._post[k % W] = x
