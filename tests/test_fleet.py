@@ -13,8 +13,10 @@ import time
 import pytest
 
 from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
+from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans, make_tunnel_tour
 from tunnelsense.fleet import detect_one, detect_tours, read_tour_list, tour_outputs
+from tunnelsense.fleet._tours import _KILL_WORKER
 from tunnelsense.io import save_model, write_run, write_tour
 from tunnelsense.street import write_objects
 from tunnelsense.tunnel import detect_to_files
@@ -351,3 +353,55 @@ def test_tour_names_keep_a_folder_s_dots_and_name_the_current_folder(tmp_path,
     assert tour_outputs("tunnel", ".", "out")[0].name == "2024.03.01.txt"
     with pytest.raises(ValueError, match="needs a name"):
         tour_outputs("tunnel", "/", "out")
+
+
+def _killing(name):
+    """Fleet options under which the worker process detecting tour ``name`` dies
+    (SIGKILL, as a segmentation fault or the out-of-memory killer ends it)."""
+    return {_KILL_WORKER: (name,)}
+
+
+def test_a_worker_killed_hard_does_not_stop_the_fleet(tunnel_model, tours, one_by_one,
+                                                      tmp_path):
+    out = tmp_path / "out"
+    fleet = tours[:6]
+    done = detect_tours(tunnel_model, fleet, out, n_jobs=2,
+                        options=_killing(fleet[2].name))
+    assert [d["error"] is None for d in done] == [True, True, False, True, True, True]
+    assert done[2]["source"] == fleet[2]
+    assert "worker process detecting it died" in done[2]["error"]
+    assert "TerminatedWorkerError" in done[2]["error"]
+    others = [t for t in fleet if t != fleet[2]]
+    _same_as_one_by_one(out, one_by_one, others)
+    assert not any(p.exists() for p in tour_outputs("tunnel", fleet[2], out))
+    # a new run detects the dead tour and skips the finished ones, in new workers
+    again = detect_tours(tunnel_model, fleet, out, n_jobs=2)
+    assert [d["skipped"] for d in again] == [True, True, False, True, True, True]
+    assert all(d["error"] is None for d in again)
+    _same_as_one_by_one(out, one_by_one, fleet)
+
+
+def test_fleet_command_exits_1_naming_the_tour_whose_worker_died(
+        tunnel_model, tours, one_by_one, tmp_path, monkeypatch, capsys):
+    import tunnelsense.fleet
+
+    def detect_killing(*args, **kwargs):
+        kwargs["options"] = {**(kwargs.get("options") or {}), **_killing(tours[0].name)}
+        return detect_tours(*args, **kwargs)
+
+    monkeypatch.setattr(tunnelsense.fleet, "detect_tours", detect_killing)
+    model = save_model(tunnel_model, tmp_path / "tunnel.skops")
+    out = tmp_path / "out"
+    args = ["detect", "tunnel", "--model", str(model), *map(str, tours[:3]),
+            "--out", str(out), "--jobs", "2", "--quiet"]
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    assert "2 detected, 0 skipped, 1 failed" in captured.out
+    errors = captured.err.strip().splitlines()
+    assert len(errors) == 1
+    assert errors[0].startswith(f"tunnelsense: error: {tours[0]}: the worker process")
+    _same_as_one_by_one(out, one_by_one, tours[1:3])
+    monkeypatch.undo()
+    assert main(args) == 0
+    assert "1 detected, 2 skipped, 0 failed" in capsys.readouterr().out
+    _same_as_one_by_one(out, one_by_one, tours[:3])

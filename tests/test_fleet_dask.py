@@ -66,3 +66,22 @@ def test_a_stopped_cluster_run_resumes(fleet, cluster, tmp_path):
                  "--quiet"]) == 0
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps  # not redone
     _check(out, single, tours)
+
+
+def test_a_killed_dask_worker_does_not_stop_the_fleet(fleet, cluster, tmp_path):
+    """A tour whose worker dies (SIGKILL) every time the cluster tries it ends as
+    KilledWorker: its error record names it, the other tours finish, and a new run
+    detects it."""
+    from tunnelsense.fleet._tours import _KILL_WORKER
+
+    model, tours, single = fleet
+    out = tmp_path / "out"
+    done = detect_tours(model, tours[:5], out, dask_scheduler=cluster.scheduler_address,
+                        options={_KILL_WORKER: (tours[1].name,)})
+    assert [d["error"] is None for d in done] == [True, False, True, True, True], [
+        d["error"] for d in done]
+    assert done[1]["source"] == tours[1] and "KilledWorker" in done[1]["error"]
+    _check(out, single, [t for t in tours[:5] if t != tours[1]])
+    again = detect_tours(model, tours[:5], out, dask_scheduler=cluster.scheduler_address)
+    assert [d["skipped"] for d in again] == [True, False, True, True, True]
+    _check(out, single, tours[:5])

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+from sklearn.base import clone
 from sklearn.ensemble import AdaBoostClassifier
 from sklearn.tree import DecisionTreeClassifier
 from sklearn.utils.estimator_checks import parametrize_with_checks
@@ -192,3 +193,18 @@ _X, _Y = _frames(6)
 )
 def test_record_stage_checks(name, check):
     check()
+
+
+@pytest.mark.parametrize("params", [{}, {"features": "invariant", "augment": 2}])
+def test_frame_mode_fit_transform_equals_fit_then_transform(params):
+    """fit_transform scores the features of the fit without computing them again."""
+    X, y = _frames(seed=3)
+    a = WeightedAdaBoost(n_estimators=10, random_state=0, **params)
+    b = clone(a)
+    out_a = a.fit_transform(X, y)
+    out_b = b.fit(X, y).transform(X)
+    assert np.array_equal(a.stump_features_, b.stump_features_)
+    for ra, rb in zip(out_a, out_b, strict=True):
+        for key in ("appearance", "appearance_score", "cluster_histograms"):
+            assert np.array_equal(ra.payload[key], rb.payload[key])
+    assert any(r.payload["appearance"].any() for r in out_a)

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
+from sklearn.base import clone
 from sklearn.cluster import KMeans
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
@@ -478,3 +479,24 @@ def test_fit_kmeans_sample_indices_equal_the_copied_rows(n, max_full, global_ran
     a = fit_kmeans(X, 10, sample_indices=idx, **kw)
     b = fit_kmeans(X[idx], 10, **kw)
     assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("augment", [None, (0.45, 1.0)])
+def test_frame_mode_fit_transform_equals_fit_then_transform(augment, global_random_seed):
+    """fit_transform verifies the descriptors of the fit, without computing them
+    again; the result and the fitted centres are those of fit then transform."""
+    X, y = scene(global_random_seed)
+    Xk = IntensityKeypointSampler().fit(X, y).transform(X)
+    a = KMeansHistogramVerifier(random_state=0, augment_contrast=augment)
+    b = clone(a)
+    out_a = a.fit_transform(Xk, y)
+    out_b = b.fit(Xk, y).transform(Xk)
+    assert np.array_equal(a.centers_, b.centers_)
+    assert np.array_equal(a.negative_centers_, b.negative_centers_)
+    assert len(out_a) == len(out_b) == len(Xk)
+    kept = 0
+    for ra, rb in zip(out_a, out_b, strict=True):
+        for key in ("keypoints", "sampled_keypoints"):
+            assert np.array_equal(ra.payload[key], rb.payload[key])
+        kept += len(ra.payload["keypoints"])
+    assert 0 < kept < sum(len(r.payload["keypoints"]) for r in Xk)

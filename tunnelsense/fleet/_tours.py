@@ -4,7 +4,9 @@ One task per tour.  Each task writes its results under a temporary folder inside
 output folder and, once the tour is done and its files are on disk (fsync), links
 them to their final names (the results file last), so a results file under its final
 name is always complete.  A companion file left by a run killed before it linked the
-results file is taken if byte-identical to the new one, never replaced otherwise.  A
+results file (or a results file, written by the same tour's detection in a worker
+that died before reporting it) is taken if byte-identical to the new one, never
+replaced otherwise.  A
 new run skips a tour whose results file exists and is recorded as finished (a hidden
 ``.finished-NAME`` file beside it holds the results file's SHA-256, written just
 before the results file is linked), and starts the others afresh, so a run that was
@@ -19,6 +21,7 @@ import filecmp
 import hashlib
 import os
 import shutil
+import uuid
 from pathlib import Path
 
 __all__ = ["KINDS", "detect_one", "detect_tours", "read_tour_list", "tour_outputs"]
@@ -184,8 +187,8 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     if progress is not None:
         progress(done, len(sources))
     tasks = [(kind, sources[i], out_dir, overwrite, options) for i in todo]
-    for i, facts in zip(todo, _run(model, tasks, n_jobs, dask_scheduler), strict=True):
-        results[i] = facts
+    for k, facts in _run(model, tasks, n_jobs, dask_scheduler):
+        results[todo[k]] = facts
         done += 1
         if progress is not None:
             progress(done, len(sources))
@@ -208,33 +211,126 @@ def _check_names(kind, sources, out_dir) -> None:
 
 
 def _run(model, tasks, n_jobs, dask_scheduler):
-    """The facts of each task, in order, as they finish."""
+    """``(k, facts)`` of each task ``k`` as it finishes (in any order)."""
     if not tasks:
         return
     if dask_scheduler is not None:
         yield from _run_dask(model, tasks, dask_scheduler)
     elif n_jobs == 1 or len(tasks) == 1:
-        for task in tasks:
-            yield _detect_or_fail(model, *task)
+        for k, task in enumerate(tasks):
+            yield k, _detect_or_fail(model, *task)
     else:
-        from joblib import Parallel, delayed
+        yield from _run_processes(model, tasks, min(n_jobs, len(tasks)))
 
-        jobs = (delayed(_worker_detect_one)(model, *task) for task in tasks)
-        yield from Parallel(n_jobs=min(n_jobs, len(tasks)), return_as="generator")(jobs)
+
+def _run_processes(model, tasks, n_workers):
+    """The tasks in ``n_workers`` loky processes, at most one queued per worker.
+
+    A worker killed hard (a segmentation fault, the system's out-of-memory killer, a
+    signal) breaks loky's executor, and every task then in flight fails with it.
+    Those tasks are run again one at a time in a new executor: a task whose worker
+    dies while it runs alone is the one that kills it, and gets an error record; the
+    others go on as before.  On any exception here (an interrupt, SIGTERM raised as
+    one) the workers are killed, not left running.
+    """
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from joblib.externals.loky import get_reusable_executor
+    from joblib.externals.loky.process_executor import BrokenProcessPool
+
+    queue = list(range(len(tasks)))[::-1]  # popped from the end: in order
+    suspects = []
+    executor = get_reusable_executor(max_workers=n_workers)
+    running = {}  # future -> (task index, whether it runs alone)
+    try:
+        while queue or suspects or running:
+            if suspects and not running:
+                k = suspects.pop(0)
+                running[executor.submit(_worker_detect_one, model, *tasks[k])] = (k, True)
+            while not suspects and queue and len(running) < n_workers:
+                k = queue.pop()
+                running[executor.submit(_worker_detect_one, model, *tasks[k])] = (k, False)
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            broken = False
+            for future in done:
+                k, alone = running.pop(future)
+                try:
+                    yield k, future.result()
+                except BrokenProcessPool as exc:
+                    broken = True
+                    if alone:
+                        yield k, _died(tasks[k], exc)
+                    else:
+                        suspects.append(k)
+            if broken:  # the tasks still in flight fail with the executor
+                for future, (k, _) in running.items():
+                    try:
+                        yield k, future.result()
+                    except BrokenProcessPool:
+                        suspects.append(k)
+                running.clear()
+                suspects.sort()
+                executor = get_reusable_executor(max_workers=n_workers)  # a new one
+    except BaseException:
+        executor.shutdown(wait=False, kill_workers=True)
+        raise
+
+
+def _died(task, exc):
+    """The error record of a task whose worker process died while detecting it."""
+    kind, source, out_dir = task[:3]
+    reason = " ".join(str(exc).split())
+    return {"source": Path(source), "skipped": False, "results":
+            tour_outputs(kind, source, out_dir)[0],
+            "error": f"the worker process detecting it died ({type(exc).__name__}: "
+                     f"{reason}); the other tours went on, and a new run detects "
+                     "this one again"}
 
 
 def _run_dask(model, tasks, address):
+    """The tasks on a Dask cluster, one each; a task that ends as ``KilledWorker``
+    (its worker died, and the worker the scheduler tried next) may have been beside
+    the one that kills them: those run again one at a time once the others are done,
+    and one whose worker dies while it runs alone gets an error record."""
     try:
         from distributed import Client
     except ImportError:
         raise ImportError("detecting on a Dask cluster needs distributed: pip install "
                           "'tunnelsense[distributed]'", name="distributed") from None
+    from distributed import as_completed
+
     with Client(address) as client:
-        shared = client.scatter(model, broadcast=True)
-        futures = [client.submit(_worker_detect_one, shared, *task, pure=False)
-                   for task in tasks]
-        for future in futures:  # in order; the cluster runs them all meanwhile
-            yield future.result()
+        # the model (about 0.1 MB) goes with every task rather than scattered: data
+        # scattered to workers that died is lost, and the tasks needing it cancelled
+        def submit(k):
+            return client.submit(_worker_detect_one, model, *tasks[k], pure=False,
+                                 key=f"detect-{Path(tasks[k][1]).name}-{uuid.uuid4()}")
+
+        futures = {submit(k): k for k in range(len(tasks))}
+        suspects = []
+        for future in as_completed(futures):  # the cluster runs them all meanwhile
+            k = futures.pop(future)
+            try:
+                facts = future.result()
+            except Exception as exc:  # noqa: BLE001 -- reported per tour
+                if type(exc).__name__ == "KilledWorker":
+                    suspects.append(k)
+                else:
+                    facts = _failed(tasks[k], exc)
+            # released: a worker that dies later does not make the cluster detect
+            # this tour again
+            future.release()
+            if k not in suspects:
+                yield k, facts
+        for k in sorted(suspects):
+            future = submit(k)
+            try:
+                facts = future.result()
+            except Exception as exc:  # noqa: BLE001 -- reported per tour
+                facts = (_died if type(exc).__name__ == "KilledWorker"
+                         else _failed)(tasks[k], exc)
+            future.release()
+            yield k, facts
 
 
 def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
@@ -245,7 +341,17 @@ def _worker_detect_one(model, kind, source, out_dir, overwrite, options):
     must all be in by the end of the first task, whatever that task did.
     """
     _import_detector(kind)
+    if Path(source).name in (options or {}).get(_KILL_WORKER, ()):
+        # test-only: this worker dies as a segmentation fault or the system's
+        # out-of-memory killer would end it (no exception, no clean-up)
+        import signal
+
+        os.kill(os.getpid(), signal.SIGKILL)
     return _detect_or_fail(model, kind, source, out_dir, overwrite, options)
+
+
+#: An ``options`` key for tests only: tour names whose worker process is killed.
+_KILL_WORKER = "_kill_worker_on"
 
 
 def _detect_or_fail(model, kind, source, out_dir, overwrite, options):
@@ -253,10 +359,16 @@ def _detect_or_fail(model, kind, source, out_dir, overwrite, options):
     try:
         return detect_one(model, kind, source, out_dir, overwrite, options)
     except Exception as exc:  # noqa: BLE001 -- reported per tour by the caller
-        reason = (str(exc) if isinstance(exc, (ValueError, OSError))
-                  else f"{type(exc).__name__}: {exc}")
-        return {"source": Path(source), "skipped": False, "error": reason,
-                "results": tour_outputs(kind, source, out_dir)[0]}
+        return _failed((kind, source, out_dir), exc)
+
+
+def _failed(task, exc):
+    """The error record of a task that raised ``exc``."""
+    kind, source, out_dir = task[:3]
+    reason = (str(exc) if isinstance(exc, (ValueError, OSError))
+              else f"{type(exc).__name__}: {exc}")
+    return {"source": Path(source), "skipped": False, "error": reason,
+            "results": tour_outputs(kind, source, out_dir)[0]}
 
 
 def _import_detector(kind) -> None:
@@ -298,7 +410,9 @@ def detect_one(model, kind, source, out_dir, overwrite=False, options=None):
         _write_mark(mark, work / final[0].name)
         _fsync(out_dir)
         try:
-            _move(work / final[0].name, final[0], overwrite)
+            # identical: the same tour detected again (Dask recomputes a result
+            # lost with a worker that died after the tour was done)
+            _move(work / final[0].name, final[0], overwrite, identical_ok=True)
         except BaseException:
             mark.unlink(missing_ok=True)
             raise

@@ -26,11 +26,12 @@ from tunnelsense._payload import (
     frame_image,
     inside_boxes,
 )
-from tunnelsense._records import check_frames
+from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense.tunnel._common import (
     FrameModeMixin,
     bin_lut,
     check_intensity_range,
+    is_record_input,
     require_boxes,
 )
 from tunnelsense.tunnel._invariant import (
@@ -345,8 +346,26 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             out.append(np.array(rows).reshape(len(boxes), -1))
         return out
 
+    def fit_transform(self, X, y=None, **fit_params):
+        """Fit, then transform the same ``X`` (frame records or a 2-D array).
+
+        On frame records the features computed for the fit are scored as they are,
+        not computed a second time: the result equals ``fit(X, y).transform(X)``.
+
+        Returns
+        -------
+        X_new : FrameSequence or ndarray
+        """
+        if not is_record_input(X):
+            return super().fit_transform(X, y, **fit_params)
+        described = []
+        self._fit_frames(X, y, _described=described, **fit_params)
+        return FrameSequence(self._scored(described))
+
     @_fit_context(prefer_skip_nested_validation=True)
-    def _fit_frames(self, X, y=None, sample_weight=None):
+    def _fit_frames(self, X, y=None, sample_weight=None, _described=None):
+        """Fit on frame records; ``_described`` (a list), when given, receives
+        ``(record, histograms, features)`` of every frame (without augmentation)."""
         self._check_range()
         records, boxes = check_frames(X, y)
         require_boxes(boxes, "WeightedAdaBoost", "that label keypoint clusters positive")
@@ -357,7 +376,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         )
         H, labels = [], []
         frames = zip(self._frame_histograms(records), boxes, strict=True)
-        for i, ((r, b, _, f), gt) in enumerate(frames):
+        for i, ((r, b, h, f), gt) in enumerate(frames):
+            if _described is not None:
+                _described.append((r, h, f))
             lab = centres_in_boxes(b, gt)
             H.append(f)
             labels.append(lab)
@@ -386,8 +407,12 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 f"{self.classes_.tolist()}; label frame records with a machine "
                 "fitted on frame records (classes [False, True])"
             )
+        return self._scored((r, H, F) for r, _, H, F in self._frame_histograms(records))
+
+    def _scored(self, described):
+        """The records evolved with the machine's labels of their clusters."""
         out = []
-        for r, _, H, F in self._frame_histograms(records):
+        for r, H, F in described:
             score = self._decision(F) if len(F) else np.empty(0)
             out.append(
                 r.evolve(**{

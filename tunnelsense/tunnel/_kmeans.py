@@ -11,13 +11,14 @@ Euclidean distance to the negative centres (the paper's ``Eu``, eq. 3) and keeps
 
 from __future__ import annotations
 
+import functools
 import numbers
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, column_or_1d
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from tunnelsense.tunnel._kmeans_grid import (
     grid_quantum,
@@ -31,10 +32,27 @@ from tunnelsense.utils._sklearn_compat import Interval, _fit_context, validate_d
 
 __all__ = [
     "KMeansHistogramCore",
+    "blas_threads",
     "fit_kmeans",
     "rank_positive_centers",
     "verify_histograms",
 ]
+
+
+@functools.lru_cache(maxsize=1)
+def _controller():
+    # finding the loaded BLAS libraries costs about 0.5 ms: once per process
+    return ThreadpoolController()
+
+
+def blas_threads(n_jobs=None):
+    """A context in which BLAS uses at most ``n_jobs`` threads (``None``: one).
+
+    Spinning BLAS threads make the small products of k-means and of the
+    verification several times slower on a busy machine; no result depends on the
+    thread count (the distances are exact, see :func:`fit_kmeans`).
+    """
+    return _controller().limit(limits=int(n_jobs or 1), user_api="blas")
 
 
 def fit_kmeans(
@@ -96,7 +114,7 @@ def fit_kmeans(
     if quantum is None:
         rows = X if sample_indices is None else X[sample_indices]
         quantum = grid_quantum(np.abs(rows).max(initial=0.0), np.shape(X)[1])
-    with threadpool_limits(limits=int(n_jobs or 1), user_api="blas"):
+    with blas_threads(n_jobs):
         U = _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
                         check_random_state(random_state), sample_indices, quantum)
     return U * quantum

@@ -18,11 +18,12 @@ from tunnelsense._payload import (
     frame_image,
     keypoints_of,
 )
-from tunnelsense._records import check_frames
+from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense.tunnel._common import (
     FrameModeMixin,
     bin_lut,
     check_intensity_range,
+    is_record_input,
     points_in_boxes,
     require_boxes,
 )
@@ -34,6 +35,7 @@ from tunnelsense.tunnel._descriptors import (
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
+    blas_threads,
     fit_kmeans,
     rank_positive_centers,
     verify_histograms,
@@ -314,8 +316,30 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
             return self.bins
         return self.bins * (1 if self.context_size is None else 2)
 
+    def fit_transform(self, X, y=None, **fit_params):
+        """Fit, then transform the same ``X`` (frame records or a 2-D array).
+
+        On frame records the descriptors computed for the fit are verified as they
+        are, not computed a second time: the result equals ``fit(X, y).transform(X)``.
+
+        Returns
+        -------
+        X_new : FrameSequence or ndarray
+        """
+        if not is_record_input(X):
+            return super().fit_transform(X, y, **fit_params)
+        described = []
+        self._fit_frames(X, y, _described=described, **fit_params)
+        with blas_threads(self.n_jobs):
+            return FrameSequence([
+                r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp})
+                for r, kp, keep in ((r, kp, self._verified(H)) for r, kp, H in described)
+            ])
+
     @_fit_context(prefer_skip_nested_validation=True)
-    def _fit_frames(self, X, y=None):
+    def _fit_frames(self, X, y=None, _described=None):
+        """Fit on frame records; ``_described`` (a list), when given, receives
+        ``(record, keypoints, descriptors)`` of every frame (without augmentation)."""
         self._check_settings()
         records, boxes = check_frames(X, y)
         require_boxes(boxes, "KMeansHistogramVerifier", "that label keypoints positive")
@@ -331,14 +355,20 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 check_random_state(self.random_state).randint(0, 2**31 - 1))
         pos, neg = [], []
         frames = zip(self._frame_histograms(records, rng), boxes, strict=True)
-        for (_, kp, H), b in frames:
+        for (r, kp, H), b in frames:
             inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
             if len(kp):  # the augmented copy's rows follow the frame's
                 inside = np.tile(inside, len(H) // len(kp))
             pos.append(H[inside])
             neg.append(H[~inside])
+            if _described is not None:
+                _described.append((r, kp, H[:len(kp)]))
         empty = np.empty((0, self._n_descriptor), np.float32)
-        self._fit_centers(np.concatenate(pos or [empty]), np.concatenate(neg or [empty]))
+        # one BLAS thread (n_jobs): spinning BLAS threads make the distances several
+        # times slower on a busy machine, and the centres do not depend on it
+        with blas_threads(self.n_jobs):
+            self._fit_centers(np.concatenate(pos or [empty]),
+                              np.concatenate(neg or [empty]))
         self.n_features_in_ = int(self._n_descriptor)
         self.n_frames_fit_ = len(records)
         return self
@@ -353,7 +383,8 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 "context_size"
             )
         out = []
-        for r, kp, H in self._frame_histograms(records):
-            keep = self._verified(H)
-            out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
+        with blas_threads(self.n_jobs):
+            for r, kp, H in self._frame_histograms(records):
+                keep = self._verified(H)
+                out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
         return out
