@@ -159,12 +159,14 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         many consecutive beams whose beams just below and above both pass farther
         (to the surface behind it, or nowhere within range) is dropped before
         clustering; it builds no object and hides nothing.  0: keep every return.
-    separate_ground : bool, default=False
-        True: a cluster lying wholly below the kerb-and-sidewalk height (0.3 m: a
+    separate_ground : bool, default=True
+        A cluster lying wholly below the kerb-and-sidewalk height (0.3 m: a
         kerb, the footway, a surface near road level) never links with one of the
         next scan that rises above it (beyond the paper): the footway under a
         motorbike parked across the kerb does not carry it into the footway object,
         or the hedge or wall behind.  False: the paper's link by mean depth.
+        (A fragment already final still bars a bridge across it, as it did while
+        pending, so that online and batch detection agree.)
     object_ends : bool, default=True
         An object's ends (beyond the paper): past the end of a narrow object - a
         motorbike parked across the kerb - a scan sees its widest part alone, its
@@ -299,7 +301,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_roof_height=0.5,
         beam_occlusion=True,
         spray_beams=2,
-        separate_ground=False,
+        separate_ground=True,
         object_ends=True,
         min_across_length=0.5,
         min_across_raised=0.3,

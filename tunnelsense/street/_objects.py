@@ -282,7 +282,7 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
 
 
 def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None,
-                    **rule):
+                    blockers=None, **rule):
     """Three-region merging: union-find root of every fragment (object-cluster).
 
     Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans and
@@ -304,6 +304,10 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None
         The window's distances, nearest depths and scan continuity.
     reach : float
         ``max_length + merge_gap``.
+    blockers : ndarray of shape (k, 4) of int, default=None
+        ``(first, last, region, body)`` of fragments already final: like the
+        fragments given, they bar a bridge across them (so that the merge does
+        not depend on when a fragment became final).
 
     Returns
     -------
@@ -354,6 +358,10 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None
                 # never across another fragment of the region lying in the gap
                 between = ((region == region[a]) & (first > last[lo])
                            & (last < first[hi]) & body)
+                if blockers is not None and len(blockers):
+                    between = concat(between, (
+                        (blockers[:, 2] == region[a]) & (blockers[:, 0] > last[lo])
+                        & (blockers[:, 1] < first[hi]) & (blockers[:, 3] > 0)))
                 gap = dict(rule)
                 if gap_regions is not None and not gap_regions[region[a]]:
                     gap["bridge_gap"] = None

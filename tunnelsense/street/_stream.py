@@ -53,7 +53,7 @@ from tunnelsense.street._objects import (
     near_side,
 )
 from tunnelsense.street._splitting import split_objects
-from tunnelsense.street._window import ScanWindow
+from tunnelsense.street._window import SIDE_HEIGHT, ScanWindow
 
 __all__ = ["ScanStream"]
 
@@ -141,6 +141,8 @@ class _RunState(ScanWindow):
         self.spans = []  # (first, last, id, code) of numbered objects not yet released
         self.rows = []  # object-table rows numbered, not yet given to a record
         self.released = 0  # absolute position of the next scan to release
+        # (first, last, region, body) of final fragments still in the window
+        self.blockers = np.empty((0, 4), dtype=np.int64)
         self.reach = est.max_length + est.merge_gap
         self.cap = (max(est.min_length, est.occluded_length)
                     if est.occluded_length is not None else 0.0)
@@ -190,9 +192,11 @@ class _RunState(ScanWindow):
                                   self.top[pending], self.n_points[pending], **occlusion)
             region = depth_region(self._region_depth(fragment, pending, prof),
                                   est.region_edges_)
+            self.blockers = self.blockers[self.blockers[:, 1] >= self.base]
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
                                    reach=self.reach, **self.rule, **self._horizon(),
-                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)))
+                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)),
+                                   blockers=self.blockers - [self.base, self.base, 0, 0])
             final = np.ones(prof.n, dtype=bool)
             np.logical_and.at(final, root, self._final_fragments(prof, root, ended))
             if check and est.max_pending_length is not None:
@@ -201,6 +205,11 @@ class _RunState(ScanWindow):
             if not final_fragment.all():
                 frontier = self.base + int(prof.first[~final_fragment].min())
             if final_fragment.any():
+                # final fragments still bar bridges across them (as when pending)
+                self.blockers = np.concatenate([self.blockers, np.column_stack([
+                    self.base + prof.first[final_fragment],
+                    self.base + prof.last[final_fragment], region[final_fragment],
+                    prof.top[final_fragment] >= SIDE_HEIGHT])])
                 done = final_fragment[fragment]  # clusters of final object-clusters
                 _, objects = np.unique(root[fragment[done]], return_inverse=True)
                 self._finalize(pending[done], objects.ravel(), position[done], ended)
