@@ -118,7 +118,57 @@ def test_separate_ground_finds_a_motorbike_on_the_footway():
                             motorbike_fraction=0.6, motorbike_across_fraction=0.6,
                             motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
                             parked_gap_m=12.0)
-    scores = [street_scores(run.gt, ScanClusterer(separate_ground=sg).fit(
-        run.scans).detect(run.scans))["parked"] for sg in (False, True)]
+    # (object_ends off: on this run it finds the same motorbike by itself)
+    scores = [street_scores(run.gt, ScanClusterer(separate_ground=sg, object_ends=False)
+                            .fit(run.scans).detect(run.scans))["parked"]
+              for sg in (False, True)]
     assert scores[1]["tp"] > scores[0]["tp"]
     assert scores[1]["fp"] <= scores[0]["fp"]
+
+
+def test_object_ends_find_a_motorbike_on_the_footway():
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import ScanClusterer
+
+    # with either setting of separate_ground, on the run where each finds more
+    for seed, ground in ((112, False), (113, True)):
+        run = make_street_scans(600, scenario="sparse", random_state=seed,
+                                motorbike_fraction=0.6, motorbike_across_fraction=0.6,
+                                motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
+                                parked_gap_m=12.0)
+        scores = [street_scores(run.gt, ScanClusterer(
+            object_ends=oe, separate_ground=ground).fit(run.scans).detect(
+            run.scans))["parked"] for oe in (False, True)]
+        assert scores[1]["tp"] > scores[0]["tp"]
+        assert scores[1]["fp"] <= scores[0]["fp"]
+
+
+def test_an_end_links_only_when_it_hangs_in_the_air():
+    from tunnelsense.street._clustering import end_of
+
+    # scan 0: the screen alone (6.64-6.72 m, top 1.27 m); scan 1: the whole
+    # motorbike (5.8-6.7 m, top 1.27 m); the same pair as a wall standing on the
+    # ground (narrow, top 1.2 m) beside a car joined to that wall (4.8-7.1 m)
+    span = np.array([[6.64, 6.72], [5.8, 6.7], [7.0, 7.1], [4.8, 7.1]])
+    top = np.array([1.27, 1.27, 1.2, 1.2])
+    earlier, later = np.array([0, 2]), np.array([1, 3])
+    assert end_of(earlier, later, span, top, 0.1).tolist() == [True, True]
+    suspended = np.array([True, False, False, False])
+    assert end_of(earlier, later, span, top, 0.1, suspended).tolist() == [True, False]
+    # a top elsewhere, or an extent beyond the other's, is not an end
+    assert not end_of(earlier[:1], later[:1], span, np.array([1.0, 1.27, 0, 0]),
+                      0.1, suspended)[0]
+    span[0] = (6.64, 6.95)
+    assert not end_of(earlier[:1], later[:1], span, top, 0.1, suspended)[0]
+
+
+def test_end_match_follows_the_top():
+    from tunnelsense.street._objects import end_match
+
+    upper = np.array([[6.6, 1.25], [6.65, 1.3]])
+    hedge = np.array([[6.5, 0.12], [7.2, 1.3], [7.2, 1.0], [7.3, 1.6]])
+    assert len(end_match(upper, hedge, 0.1)) == 0  # the hedge behind: no end
+    with_screen = np.vstack([hedge, [[6.62, 1.28]]])
+    assert end_match(upper, with_screen, 0.1).tolist() == [[6.62, 1.28]]
+    assert len(end_match(upper[:0], with_screen, 0.1)) == 0

@@ -314,8 +314,67 @@ def seen_past(earlier, later, span, hidden, link_distance, occluder=None):
     return (hidden[earlier] & a_in_b) | (hidden[later] & b_in_a)
 
 
+def end_of(earlier, later, span, top, tolerance, suspended=None):
+    """Whether one cluster of a pair is an end of the other's object.
+
+    The scans past an object's end see only its widest part: the screen and
+    handlebars of a motorbike parked across the kerb, a mirror.  Such a cluster is
+    narrow, its body lies within the other's depth extent (widened by
+    ``tolerance``) and its top is the other's (within ``tolerance``): the beams
+    reach the same highest part of one object from both scans.  Its mean depth,
+    though, says little (the rest of the object is missing), and beside the
+    footway it would link with the footway instead.
+
+    Parameters
+    ----------
+    earlier, later : ndarray of int
+        Candidate pairs of clusters of consecutive scans.
+    span : ndarray of shape (n_clusters, 2)
+        Nearest and farthest depth (m) of every cluster's body (NaN: none).
+    top : ndarray of shape (n_clusters,)
+        Highest point (m) of every cluster.
+    tolerance : float or ndarray of shape (n_clusters,)
+        Depth and height tolerance (m), per cluster or one for all (the depth
+        and height resolution of the beams at the cluster).
+    suspended : ndarray of shape (n_clusters,) of bool, default=None
+        Whether every cluster hangs in the air (its lowest point above the
+        ground, the beam below it passing farther); when given, only such a
+        cluster is an end (a wall or hedge standing on the ground, narrower than
+        a car joined to it, is not the car's end).
+
+    Returns
+    -------
+    link : ndarray of bool, one per pair
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._clustering import end_of
+    >>> # the screen alone (6.64-6.72 m, 1.27 m high) past a motorbike's body
+    >>> # (5.8-6.7 m, 1.27 m high); a hedge top behind it (7.0-7.3 m, 1.5 m)
+    >>> span = np.array([[6.64, 6.72], [5.8, 6.7], [7.0, 7.3]])
+    >>> top = np.array([1.27, 1.27, 1.5])
+    >>> end_of(np.array([0, 2]), np.array([1, 1]), span, top, 0.1).tolist()
+    [True, False]
+    """
+    tol = np.broadcast_to(np.asarray(tolerance, float), top.shape)
+    a, b = span[earlier], span[later]
+    ta, tb = top[earlier], top[later]
+    t = np.maximum(tol[earlier], tol[later])
+    with np.errstate(invalid="ignore"):
+        wa, wb = a[:, 1] - a[:, 0], b[:, 1] - b[:, 0]
+        same_top = np.abs(ta - tb) <= t
+        a_in_b = (wa < wb) & (a[:, 0] >= b[:, 0] - t) & (a[:, 1] <= b[:, 1] + t)
+        b_in_a = (wb < wa) & (b[:, 0] >= a[:, 0] - t) & (b[:, 1] <= a[:, 1] + t)
+    if suspended is not None:
+        a_in_b &= suspended[earlier]
+        b_in_a &= suspended[later]
+    return same_top & (a_in_b | b_in_a)
+
+
 def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
-               hidden=None, occluder=None, top=None, ground_height=None):
+               hidden=None, occluder=None, top=None, ground_height=None,
+               end_tolerance=None, suspended=None):
     """Inter-scan links: the pairs of intra-clusters of consecutive scans that link.
 
     Parameters are those of :func:`link_scans`; ``position`` must be non-decreasing.
@@ -354,6 +413,9 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
     close = np.abs(depth[earlier] - depth[later]) < link_distance
     if span is not None and hidden is not None:
         close |= seen_past(earlier, later, span, hidden, link_distance, occluder)
+    if span is not None and top is not None and end_tolerance is not None:
+        close |= end_of(earlier, later, span, np.asarray(top, float), end_tolerance,
+                        suspended)
     if top is not None and ground_height is not None:
         ground = np.asarray(top, float) < ground_height
         close &= ground[earlier] == ground[later]

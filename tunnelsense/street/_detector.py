@@ -159,12 +159,25 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         many consecutive beams whose beams just below and above both pass farther
         (to the surface behind it, or nowhere within range) is dropped before
         clustering; it builds no object and hides nothing.  0: keep every return.
-    separate_ground : bool, default=False
-        True: a cluster lying wholly below the kerb-and-sidewalk height (0.3 m: a
+    separate_ground : bool, default=True
+        A cluster lying wholly below the kerb-and-sidewalk height (0.3 m: a
         kerb, the footway, a surface near road level) never links with one of the
         next scan that rises above it (beyond the paper): the footway under a
         motorbike parked across the kerb does not carry it into the footway object,
         or the hedge or wall behind.  False: the paper's link by mean depth.
+        (A fragment already final still bars a bridge across it, as it did while
+        pending, so that online and batch detection agree.)
+    object_ends : bool, default=True
+        An object's ends (beyond the paper): past the end of a narrow object - a
+        motorbike parked across the kerb - a scan sees its widest part alone, its
+        screen and handlebars, whose mean depth says little.  A cluster narrower
+        than one of the neighbouring scan, lying within its depth extent and
+        reaching its top (within two beam spacings at that depth) links with it.
+        When such an end touches something behind (a hedge, a wall) and single
+        linkage joins it to that, the scans past a short parked object whose
+        points reach the object's top where the scan before saw it (at most
+        ``merge_gap`` on each side) still count to its length and interval.
+        False: the ends link by mean depth only.
     min_across_length : float or None, default=0.5
         Shortest motorbike parked at right angles to the kerb (m along the street;
         handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
@@ -250,6 +263,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "beam_occlusion": ["boolean"],
         "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
         "separate_ground": ["boolean"],
+        "object_ends": ["boolean"],
         "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
         "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
@@ -287,7 +301,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         min_roof_height=0.5,
         beam_occlusion=True,
         spray_beams=2,
-        separate_ground=False,
+        separate_ground=True,
+        object_ends=True,
         min_across_length=0.5,
         min_across_raised=0.3,
         min_across_top=1.05,
@@ -323,6 +338,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.beam_occlusion = beam_occlusion
         self.spray_beams = spray_beams
         self.separate_ground = separate_ground
+        self.object_ends = object_ends
         self.min_across_length = min_across_length
         self.min_across_raised = min_across_raised
         self.min_across_top = min_across_top

@@ -18,6 +18,7 @@ __all__ = [
     "ObjectProfiles",
     "bridged",
     "depth_region",
+    "end_match",
     "extend_occluded",
     "hidden_ends",
     "is_vehicle",
@@ -36,6 +37,11 @@ HIDDEN_FLAG = 0b1000
 #: (:func:`~tunnelsense.street.passed_under`): counts as raised for a motorbike
 #: across the kerb only.
 PASSED_FLAG = 0b10000
+#: Bit of the per-cluster evidence flags of a cluster seen hanging in the air: its
+#: lowest point above the clearance, the beam just below it passing farther
+#: (a motorbike's screen and handlebars; walls, hedges and people stand on the
+#: ground).
+SUSPENDED_FLAG = 0b100000
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
 #: Lowest height (m) of the points that give a cluster's near side: above kerbs,
@@ -276,7 +282,7 @@ def bridged(end_depth, start_depth, after, before, cum, near, *, link_distance,
 
 
 def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None,
-                    **rule):
+                    blockers=None, **rule):
     """Three-region merging: union-find root of every fragment (object-cluster).
 
     Fragment ``b`` (later start) joins fragment ``a`` of the same stretch of scans and
@@ -298,6 +304,10 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None
         The window's distances, nearest depths and scan continuity.
     reach : float
         ``max_length + merge_gap``.
+    blockers : ndarray of shape (k, 4) of int, default=None
+        ``(first, last, region, body)`` of fragments already final: like the
+        fragments given, they bar a bridge across them (so that the merge does
+        not depend on when a fragment became final).
 
     Returns
     -------
@@ -348,6 +358,10 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None
                 # never across another fragment of the region lying in the gap
                 between = ((region == region[a]) & (first > last[lo])
                            & (last < first[hi]) & body)
+                if blockers is not None and len(blockers):
+                    between = concat(between, (
+                        (blockers[:, 2] == region[a]) & (blockers[:, 0] > last[lo])
+                        & (blockers[:, 1] < first[hi]) & (blockers[:, 3] > 0)))
                 gap = dict(rule)
                 if gap_regions is not None and not gap_regions[region[a]]:
                     gap["bridge_gap"] = None
@@ -394,7 +408,7 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
                min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
-               top=np.inf, min_across_top=0.0, inside=True):
+               top=np.inf, min_across_top=0.0, inside=True, end_length=0.0):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -412,7 +426,9 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     ``min_across_top`` (handlebars and screen; ``None``: never); a beam passing
     under it counts as that evidence only when it lies ``inside`` its stretch of
     consecutive scans (a run's first or last scans cut what they show: a van's end
-    is not a motorbike).
+    is not a motorbike).  ``end_length`` (m) is the length of the scans past its
+    ends that see its top joined to something behind (:func:`end_match`); it
+    counts to the length of a motorbike across the kerb.
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -434,13 +450,58 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     if vehicle and length + hidden_length < min_car_length:
         vehicle = raised >= min_raised_fraction
     elif (not vehicle and min_across_length is not None and hidden_length == 0
-          and min_across_length <= length < min_length and top >= min_across_top
+          and min_across_length <= length + end_length < min_length
+          and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
         evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
         under = float(np.mean((flags & evidence) > 0))
         vehicle = under >= min_across_raised  # a motorbike across the kerb
         body = max(body, under)  # its body: raised, or a beam passing under it
     return bool(vehicle and body >= min_body_fraction)
+
+
+def end_match(upper, points, tolerance):
+    """The points of a scan that reach the same highest part of an object as
+    ``upper`` (its points near its top in the neighbouring scan).
+
+    Past the end of a narrow object (a motorbike across the kerb) a scan sees its
+    widest part alone: the screen and handlebars, at the height and depth where the
+    scan before saw them.  When that part touches something behind (a hedge, a
+    wall, the footway), single linkage joins it to that; its points still say that
+    the object reaches into the scan.
+
+    Parameters
+    ----------
+    upper : ndarray of shape (n, 2)
+        ``(depth, height)`` of the object's points near its top in one scan.
+    points : ndarray of shape (m, 2)
+        ``(depth, height)`` of every point of the neighbouring scan.
+    tolerance : float
+        Largest depth and height difference (m): the resolution of the beams there.
+
+    Returns
+    -------
+    matched : ndarray of shape (k, 2)
+        The points of ``points`` within ``tolerance`` (both ways) of a point of
+        ``upper`` and no lower than ``upper``'s lowest by more than ``tolerance``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import end_match
+    >>> upper = np.array([[6.6, 1.25], [6.65, 1.3]])
+    >>> scan = np.array([[6.5, 0.12], [6.62, 1.28], [7.2, 1.3], [7.2, 1.0]])
+    >>> end_match(upper, scan, 0.1).tolist()
+    [[6.62, 1.28]]
+    """
+    if not len(upper) or not len(points):
+        return points[:0]
+    cand = points[points[:, 1] >= upper[:, 1].min() - tolerance]
+    if not len(cand):
+        return cand
+    near = ((np.abs(cand[:, None, 0] - upper[None, :, 0]) <= tolerance)
+            & (np.abs(cand[:, None, 1] - upper[None, :, 1]) <= tolerance)).any(axis=1)
+    return cand[near]
 
 
 def extend_occluded(cum, first, last, lowest, highest, occluded_length):

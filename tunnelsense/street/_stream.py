@@ -45,6 +45,7 @@ from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
     depth_region,
+    end_match,
     extend_occluded,
     hidden_ends,
     is_vehicle,
@@ -52,7 +53,7 @@ from tunnelsense.street._objects import (
     near_side,
 )
 from tunnelsense.street._splitting import split_objects
-from tunnelsense.street._window import ScanWindow
+from tunnelsense.street._window import SIDE_HEIGHT, ScanWindow
 
 __all__ = ["ScanStream"]
 
@@ -140,6 +141,8 @@ class _RunState(ScanWindow):
         self.spans = []  # (first, last, id, code) of numbered objects not yet released
         self.rows = []  # object-table rows numbered, not yet given to a record
         self.released = 0  # absolute position of the next scan to release
+        # (first, last, region, body) of final fragments still in the window
+        self.blockers = np.empty((0, 4), dtype=np.int64)
         self.reach = est.max_length + est.merge_gap
         self.cap = (max(est.min_length, est.occluded_length)
                     if est.occluded_length is not None else 0.0)
@@ -189,9 +192,11 @@ class _RunState(ScanWindow):
                                   self.top[pending], self.n_points[pending], **occlusion)
             region = depth_region(self._region_depth(fragment, pending, prof),
                                   est.region_edges_)
+            self.blockers = self.blockers[self.blockers[:, 1] >= self.base]
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
                                    reach=self.reach, **self.rule, **self._horizon(),
-                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)))
+                                   gap_regions=np.isin(est.labels_, list(RUN_LABELS)),
+                                   blockers=self.blockers - [self.base, self.base, 0, 0])
             final = np.ones(prof.n, dtype=bool)
             np.logical_and.at(final, root, self._final_fragments(prof, root, ended))
             if check and est.max_pending_length is not None:
@@ -200,6 +205,11 @@ class _RunState(ScanWindow):
             if not final_fragment.all():
                 frontier = self.base + int(prof.first[~final_fragment].min())
             if final_fragment.any():
+                # final fragments still bar bridges across them (as when pending)
+                self.blockers = np.concatenate([self.blockers, np.column_stack([
+                    self.base + prof.first[final_fragment],
+                    self.base + prof.last[final_fragment], region[final_fragment],
+                    prof.top[final_fragment] >= SIDE_HEIGHT])])
                 done = final_fragment[fragment]  # clusters of final object-clusters
                 _, objects = np.unique(root[fragment[done]], return_inverse=True)
                 self._finalize(pending[done], objects.ravel(), position[done], ended)
@@ -306,9 +316,8 @@ class _RunState(ScanWindow):
             region = int(depth_region(region_depth[o], est.region_edges_))
             parked = est.labels_[region] == "parked"  # motorbikes across park
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
-            vehicle = is_vehicle(
-                prof.profile(o)[0], prof.flags(o), mean_depth, hidden_length, cum,
-                self.near, min_length=est.min_length, max_length=est.max_length,
+            vehicle_test = dict(
+                min_length=est.min_length, max_length=est.max_length,
                 link_distance=est.link_distance,
                 min_body_fraction=est.min_body_fraction,
                 min_car_length=est.min_car_length,
@@ -316,8 +325,22 @@ class _RunState(ScanWindow):
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
                 min_across_top=est.min_across_top, inside=inside)
+            vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
+                                 hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)
             mine = clusters[of]
+            if (not vehicle and est.object_ends and parked and hidden_length == 0
+                    and est.min_across_length is not None
+                    and cum[last + 1] - cum[first] < est.min_length):
+                # its ends joined to something behind still count (end_match)
+                lo, hi = self._merged_ends(mine, position[of], first, last)
+                if lo or hi:
+                    vehicle = is_vehicle(
+                        prof.profile(o)[0], prof.flags(o), mean_depth, 0.0, cum,
+                        self.near, end_length=(cum[first] - cum[first - lo])
+                        + (cum[last + 1 + hi] - cum[last + 1]), **vehicle_test)
+                    if vehicle:
+                        first, last = first - lo, last + hi
             # (a passing vehicle's seen length follows the two speeds, not its body)
             features = class_features(
                 prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
@@ -335,6 +358,38 @@ class _RunState(ScanWindow):
                 "features": features,
             })
         self.queue.sort(key=lambda q: q["key"])
+
+    def _object_points(self, mine, pos, p):
+        """``(depth, height)`` of the points of clusters ``mine`` (window indices,
+        at window positions ``pos``) in the scan at window position ``p``."""
+        points, _, local = self.payload[p]
+        want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+        return points[np.isin(local, want)]
+
+    def _merged_ends(self, mine, pos, first, last):
+        """Scans before ``first`` and after ``last`` (at most ``merge_gap`` each
+        way, consecutive) whose points reach the object's top where the scan next
+        to them saw it (:func:`~tunnelsense.street._objects.end_match`)."""
+        cum, gap = self.cum, self.est.merge_gap
+        out = []
+        for start, step in ((first, -1), (last, 1)):
+            ref = self._object_points(mine, pos, start)
+            n = 0
+            if len(ref):
+                tol = float(self.resolution(ref[:, 0].max()))
+                upper = ref[ref[:, 1] >= ref[:, 1].max() - tol]
+                p = start + step
+                while 0 <= p < len(self.records) and self.follows[max(p, p - step)]:
+                    reach = cum[first] - cum[p] if step < 0 else cum[p + 1] - cum[last + 1]
+                    if reach > gap + 1e-9:
+                        break
+                    upper = end_match(upper, self.payload[p][0], tol)
+                    if not len(upper):
+                        break
+                    n += 1
+                    p += step
+            out.append(n)
+        return out
 
     def _number_and_release(self, frontier, ended, next_id):
         est = self.est
@@ -369,6 +424,11 @@ class _RunState(ScanWindow):
             release_end = base + len(self.records)
         else:
             release_end = min(int(stop), base + len(self.records))
+            if est.object_ends and release_end > self.released:
+                # an object's ends may reach merge_gap before its first scan
+                limit = cum[release_end - base] - est.merge_gap
+                release_end = min(release_end,
+                                  base + int(np.searchsorted(cum, limit, side="left")))
             if est.occluded_length is not None and release_end > self.released:
                 limit = cum[release_end - base] - est.occluded_length
                 release_end = min(release_end,

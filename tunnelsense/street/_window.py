@@ -13,10 +13,13 @@ import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import History, roi_points
-from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT
+from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
-__all__ = ["SIDE_HEIGHT", "ScanWindow"]
+__all__ = ["MIN_RESOLUTION", "SIDE_HEIGHT", "ScanWindow"]
+
+#: Finest depth and height resolution (m) assumed of the returns (range noise).
+MIN_RESOLUTION = 0.05
 
 
 def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=None):
@@ -203,6 +206,11 @@ class ScanWindow:
             :len(lowest)]]
         occluder = np.full(k, np.nan)
         occluder[cluster[lowest]] = roi.below[lowest, 0]
+        # hanging in the air: lowest point above the clearance, nothing nearer below
+        suspended = np.zeros(k, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            suspended[cluster[lowest]] = ((y[lowest] >= est.min_clearance)
+                                          & ~(roi.below[lowest, 0] < x[lowest]))
         roof, wall, raised, hidden = section_evidence(
             x, y, cluster, roi.beam, roi.above, roi.below, n_clusters=k,
             roof_width=est.roof_width, max_height=est.max_height, cut=est.cut,
@@ -211,7 +219,8 @@ class ScanWindow:
                               min_clearance=est.min_clearance)
         flags = (roof.astype(np.int8) | (wall.astype(np.int8) << 1)
                  | (raised.astype(np.int8) << 2) | (hidden.astype(np.int8) << 3)
-                 | (passed.astype(np.int8) << 4))
+                 | (passed.astype(np.int8) << 4)
+                 | np.where(suspended, SUSPENDED_FLAG, 0).astype(np.int8))
         near = np.full(n, np.inf)
         np.minimum.at(near, position, depth)
         # inter-scan links: the previous scan's clusters against the block's
@@ -221,6 +230,13 @@ class ScanWindow:
         occlusion = {}
         if est.separate_ground:  # the footway never carries a body into what is behind
             occlusion.update(top=concat(self.top[old], top), ground_height=SIDE_HEIGHT)
+        if est.object_ends:  # an object's ends: its widest part seen alone
+            span_e = np.column_stack([concat(self.side[old], side),
+                                      concat(self.far[old], far)])
+            span_e[~np.isfinite(span_e[:, 0])] = np.nan
+            occlusion.update(top=concat(self.top[old], top), span=span_e,
+                             end_tolerance=self.resolution(span_e[:, 1]),
+                             suspended=concat(self.flags[old], flags) & SUSPENDED_FLAG > 0)
         if est.beam_occlusion:  # clusters seen past an occluder (lower part hidden)
             span = np.column_stack([concat(self.side[old], side),
                                     concat(self.far[old], far)])
@@ -260,6 +276,13 @@ class ScanWindow:
         self.links = (concat(self.links[0], absolute[earlier]),
                       concat(self.links[1], absolute[later]))
         self.n_seen += n
+
+    def resolution(self, depth):
+        """Depth and height resolution (m) of the beams at ``depth``: two beam
+        spacings, at least ``MIN_RESOLUTION`` (range noise); NaN depth gives it."""
+        step = abs(float(self.geometry.angle_increment))
+        with np.errstate(invalid="ignore"):
+            return np.fmax(2 * step * np.asarray(depth, float), MIN_RESOLUTION)
 
     def drop(self, d):
         """Drop the oldest ``d`` scans and their clusters."""
