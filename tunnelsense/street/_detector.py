@@ -438,7 +438,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         ...         released += 1
         ...         for row in done.payload["finished_objects"]:   # 4 m after its end
         ...             print(f"after scan {i}:", row[1:5], f"{released} scans out")
-        after scan 66: (1, 10, 39, 'parked') 41 scans out
+        after scan 66: (1, 10, 39, 'parked') 38 scans out
         >>> len(stream.close()) + released
         300
         """
