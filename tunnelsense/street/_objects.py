@@ -50,7 +50,8 @@ SIDE_HEIGHT = 0.3
 
 
 def depth_region(depth, edges):
-    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``.
+    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``
+    (two depths, or one pair per depth: shape (n, 2)).
 
     Examples
     --------
@@ -58,7 +59,11 @@ def depth_region(depth, edges):
     >>> depth_region([2.5, 5.0, 7.0], (4.0, 6.6)).tolist()
     [0, 1, 2]
     """
-    return np.searchsorted(edges, depth, side="right")
+    edges = np.asarray(edges, dtype=np.float64)
+    if edges.ndim == 1:
+        return np.searchsorted(edges, depth, side="right")
+    depth = np.asarray(depth, dtype=np.float64)  # one pair of edges per depth
+    return (edges[..., 0] <= depth).astype(np.int64) + (edges[..., 1] <= depth)
 
 
 def near_side(objects, side, n_objects):

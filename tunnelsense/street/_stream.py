@@ -191,7 +191,7 @@ class _RunState(ScanWindow):
             prof = ObjectProfiles(fragment, position, self.depth[pending],
                                   self.top[pending], self.n_points[pending], **occlusion)
             region = depth_region(self._region_depth(fragment, pending, prof),
-                                  est.region_edges_)
+                                  self.edges(prof.first))
             self.blockers = self.blockers[self.blockers[:, 1] >= self.base]
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
                                    reach=self.reach, **self.rule, **self._horizon(),
@@ -228,7 +228,7 @@ class _RunState(ScanWindow):
         if self.est.region_depth == "mean":
             return prof.depth
         side = near_side(objects, self.side[clusters], prof.n)
-        lo, hi = self.est.region_edges_
+        lo, hi = self.edges(prof.first).T
         with np.errstate(invalid="ignore"):
             inside = (prof.depth >= hi) & (side < hi)
         return np.where(inside, np.maximum(side, lo), prof.depth)
@@ -313,7 +313,7 @@ class _RunState(ScanWindow):
                                             self.cap)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
-            region = int(depth_region(region_depth[o], est.region_edges_))
+            region = int(depth_region(region_depth[o], self.edges([first])[0]))
             parked = est.labels_[region] == "parked"  # motorbikes across park
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
             vehicle_test = dict(
