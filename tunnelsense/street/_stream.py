@@ -316,6 +316,9 @@ class _RunState(ScanWindow):
             region = int(depth_region(region_depth[o], self.edges([first])[0]))
             parked = est.labels_[region] == "parked"  # motorbikes across park
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
+            # a run's first or last scans may cut a van short to a motorbike's
+            # length; a van's end reaches van_height, a motorbike's screen does not
+            passed_ok = bool(inside) or float(prof.top[o]) < est.van_height
             vehicle_test = dict(
                 min_length=est.min_length, max_length=est.max_length,
                 link_distance=est.link_distance,
@@ -324,7 +327,7 @@ class _RunState(ScanWindow):
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top, inside=inside)
+                min_across_top=est.min_across_top, inside=passed_ok)
             vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
                                  hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)
