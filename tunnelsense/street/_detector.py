@@ -143,7 +143,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
     min_raised_fraction : float, default=0.2
         Smallest fraction of a short object's scans showing a body raised between
-        wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
+        wheels, or hanging in the air (its lowest point at least ``min_clearance``
+        high, the beam below it passing farther): a motorbike; communal bins,
+        wheelie bins and people stand on the ground.
     min_roof_height : float, default=0.5
         Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
     beam_occlusion : bool, default=True
