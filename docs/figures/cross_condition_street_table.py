@@ -67,7 +67,7 @@ EVALUATION_SEEDS = (7001, 7002, 7003)
 PAPER = {"split_merged": False, "min_body_fraction": 0.0, "occluded_length": None,
          "bridge_occluded": False, "region_depth": "mean", "min_car_length": 0.0,
          "beam_occlusion": False, "spray_beams": 0, "min_across_length": None,
-         "separate_ground": False, "object_ends": False}
+         "separate_ground": False, "object_ends": False, "follow_kerb": False}
 
 
 def fit(condition, n_scans):

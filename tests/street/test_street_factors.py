@@ -69,3 +69,27 @@ def test_motorbikes_at_right_angles_are_deep_and_short():
     assert checked >= 10
     assert min(deep) >= 0.4 and max(deep) >= 1.5  # turned round: the whole of it
     assert footway >= 3
+
+
+@pytest.mark.parametrize("kerb", [5.2, 7.3])
+def test_regions_follow_the_kerb(kerb):
+    """A narrower or wider street: the regions move with the kerb step the scans
+    show, so the parked row stays parked (regions fixed in metres lose it)."""
+    from tunnelsense.datasets import make_street_scans
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import ScanClusterer
+    from tunnelsense.street._geometry import History, kerb_steps, roi_points
+
+    run = make_street_scans(600, scenario="sparse", random_state=5, kerb_depth=kerb)
+    records = list(run.scans)
+    ranges = np.stack([r.ranges for r in records])
+    roi = roi_points(ranges, records[0].geometry, History())
+    seen = roi.kerb[np.isfinite(roi.kerb)]
+    assert len(seen) >= 50 and abs(np.median(seen) - kerb) < 0.1
+    assert np.all(np.isnan(kerb_steps(np.full((2, 9), 5.0), np.full((2, 9), 0.5))))
+    scores = [street_scores(run.gt, ScanClusterer(follow_kerb=f).fit(
+        run.scans).detect(run.scans))["parked"] for f in (False, True)]
+    assert scores[1]["recall"] >= 0.9 and scores[1]["precision"] >= 0.9
+    assert scores[1]["tp"] >= scores[0]["tp"]
+    if kerb < 6.0:  # the parked row's mean depth falls in region I of the fixed ones
+        assert scores[0]["recall"] < 0.5 and scores[1]["tp"] > scores[0]["tp"]

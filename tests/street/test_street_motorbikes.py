@@ -172,3 +172,20 @@ def test_end_match_follows_the_top():
     with_screen = np.vstack([hedge, [[6.62, 1.28]]])
     assert end_match(upper, with_screen, 0.1).tolist() == [[6.62, 1.28]]
     assert len(end_match(upper[:0], with_screen, 0.1)) == 0
+
+
+def test_a_short_object_hanging_in_the_air_is_a_motorbike():
+    from tunnelsense.street._objects import SUSPENDED_FLAG
+
+    cum = np.arange(15) * 0.15
+    near = np.full(14, np.inf)
+    seen = np.arange(1, 13)  # 1.8 m: longer than min_length, shorter than a car
+    rule = dict(min_length=1.5, max_length=25.0, link_distance=0.5,
+                min_body_fraction=0.3, min_car_length=2.4, min_raised_fraction=0.2)
+    flags = np.zeros(12, np.int8)
+    flags[4:8] = SUSPENDED_FLAG  # a third of its scans: its body over the gap
+    flags[[4, 7]] |= RAISED_FLAG
+    assert is_vehicle(seen, flags, 5.2, 0.0, cum, near, **rule)
+    # raised alone in 2 of 12 scans is too little, and standing on the ground nothing
+    assert not is_vehicle(seen, flags & RAISED_FLAG, 5.2, 0.0, cum, near, **rule)
+    assert not is_vehicle(seen, np.zeros(12, np.int8), 5.2, 0.0, cum, near, **rule)

@@ -143,7 +143,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
     min_raised_fraction : float, default=0.2
         Smallest fraction of a short object's scans showing a body raised between
-        wheels (a motorbike; communal bins, wheelie bins and people stand on the ground).
+        wheels, or hanging in the air (its lowest point at least ``min_clearance``
+        high, the beam below it passing farther): a motorbike; communal bins,
+        wheelie bins and people stand on the ground.
     min_roof_height : float, default=0.5
         Lowest top (m) of a roof (a kerb and sidewalk are flat, wide and low).
     beam_occlusion : bool, default=True
@@ -178,6 +180,17 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         points reach the object's top where the scan before saw it (at most
         ``merge_gap`` on each side) still count to its length and interval.
         False: the ends link by mean depth only.
+    follow_kerb : bool, default=True
+        Regions that follow the kerb (beyond the paper): ``regions`` are given for
+        a street whose kerb stands ``kerb_depth`` from the sensor; every scan that
+        shows the kerb step (the road's last return, at most three returns of the
+        kerb's face, then the footway lying flat 5-35 cm above the road) gives the
+        kerb's depth, and the region edges at an object's first scan move with the
+        median of the last 151 such depths (once five are known; before that, and
+        False: ``regions`` as given).  A narrower or wider street, or the
+        measurement vehicle in another lane, keeps the parking lane in region II.
+    kerb_depth : float, default=6.45
+        Depth (m) of the kerb that ``regions`` are given for (the paper's street).
     min_across_length : float or None, default=0.5
         Shortest motorbike parked at right angles to the kerb (m along the street;
         handlebars 0.7-0.85 m).  An object of the region labelled ``"parked"``
@@ -264,6 +277,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
         "separate_ground": ["boolean"],
         "object_ends": ["boolean"],
+        "follow_kerb": ["boolean"],
+        "kerb_depth": [Interval(numbers.Real, 0, None, closed="neither")],
         "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
         "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
@@ -303,6 +318,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         spray_beams=2,
         separate_ground=True,
         object_ends=True,
+        follow_kerb=True,
+        kerb_depth=6.45,
         min_across_length=0.5,
         min_across_raised=0.3,
         min_across_top=1.05,
@@ -339,6 +356,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.spray_beams = spray_beams
         self.separate_ground = separate_ground
         self.object_ends = object_ends
+        self.follow_kerb = follow_kerb
+        self.kerb_depth = kerb_depth
         self.min_across_length = min_across_length
         self.min_across_raised = min_across_raised
         self.min_across_top = min_across_top

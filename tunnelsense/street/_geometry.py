@@ -28,6 +28,7 @@ __all__ = [
     "HORIZON_STEP",
     "History",
     "horizon",
+    "kerb_steps",
     "RoiPoints",
     "roi_points",
     "running_median",
@@ -73,6 +74,7 @@ class History:
         self.periods = np.empty(0)
         self.speeds = np.empty(0)
         self.tilts = np.empty(0)  # known tilts only
+        self.kerbs = np.empty(0)  # known kerb depths only
 
     def steps(self, periods, speeds):
         """Metres travelled per scan: recent median speed x recent median period.
@@ -102,6 +104,89 @@ class History:
         return tilts
 
 
+    def fill_kerbs(self, kerbs):
+        """Every scan's kerb depth: the median of the recent known ones (NaN until
+        ``KERB_MIN_SEEN`` are known; ``kerbs`` NaN where a scan shows no kerb step)."""
+        out = np.full(len(kerbs), np.nan)
+        for i, k in enumerate(np.asarray(kerbs, dtype=np.float64)):
+            if np.isfinite(k):
+                self.kerbs = np.append(self.kerbs[-(HISTORY - 1):], k)
+            if len(self.kerbs) >= KERB_MIN_SEEN:
+                out[i] = float(np.median(self.kerbs))
+        return out
+
+
+#: Scans showing a kerb step before the kerb depth is trusted.
+KERB_MIN_SEEN = 5
+#: Heights (m) of a kerb step: lowest and highest footway above the road.
+KERB_STEP = (0.05, 0.35)
+#: Footway beams after the step that must lie flat (within ``KERB_FLAT`` m).
+KERB_RUN = 3
+KERB_FLAT = 0.03
+#: Returns of the kerb's face between road and footway: at most this many, within
+#: ``KERB_FACE_DEPTH`` (m) of the road's last return.
+KERB_FACE = 3
+KERB_FACE_DEPTH = 0.3
+
+
+def kerb_steps(depth, height, road=0.04):
+    """Per scan, the depth (m) of a kerb step, or NaN where none shows.
+
+    Going out along the beams of one scan: a return of the road (within ``road``
+    of height 0 after tilt compensation), then at most ``KERB_FACE`` returns of
+    the kerb's face (within ``KERB_FACE_DEPTH`` of the road's last depth), then
+    ``KERB_RUN`` returns going outwards and lying flat (within ``KERB_FLAT``) at a
+    height in ``KERB_STEP``: the footway behind the kerb.  The step lies halfway
+    between the road's last return and the next one.  Scans where a parked vehicle hides the kerb show none.
+
+    Parameters
+    ----------
+    depth, height : ndarray of shape (n_scans, n_beams)
+        Restored, tilt-compensated returns, in beam order (NaN: none).
+    road : float, default=0.04
+
+    Returns
+    -------
+    kerb : ndarray of shape (n_scans,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import kerb_steps
+    >>> d = np.array([[5.9, 6.3, 6.49, 6.43, 6.45, 6.52, 6.73, 7.0, 7.18]])
+    >>> h = np.array([[0.0, 0.01, -0.02, 0.06, 0.12, 0.16, 0.16, 0.15, 0.17]])
+    >>> kerb_steps(d, h).tolist(), kerb_steps(d, h + 0.5).tolist()
+    ([6.46], [nan])
+    """
+    n_scans, n_beams = depth.shape
+    out = np.full(n_scans, np.nan)
+    lo, hi = KERB_STEP
+    n = n_beams - KERB_RUN + 1  # beams that can start a footway run
+    if n < 2:
+        return out
+    with np.errstate(invalid="ignore"):
+        is_road = np.abs(height) < road
+        step = (height >= lo) & (height <= hi)
+        run = step[:, :n].copy()  # a flat footway run starts at the beam
+        for k in range(1, KERB_RUN):
+            run &= (step[:, k:n + k] & (np.abs(height[:, k:n + k] - height[:, :n])
+                                        <= KERB_FLAT)
+                    & (depth[:, k:n + k] > depth[:, k - 1:n + k - 1]))
+        found = np.zeros((n_scans, n), dtype=bool)
+        kerb = np.full((n_scans, n), np.nan)
+        for gap in range(KERB_FACE + 1, 0, -1):  # the road's last return gap beams back
+            j = np.arange(gap, n)
+            i = j - gap
+            ok = run[:, j] & is_road[:, i]
+            for f in range(1, gap):  # the beams between: the kerb's face
+                ok &= np.abs(depth[:, i + f] - depth[:, i]) <= KERB_FACE_DEPTH
+            kerb[:, j] = np.where(ok, (depth[:, i] + depth[:, i + 1]) / 2, kerb[:, j])
+            found[:, j] |= ok
+    rows = np.flatnonzero(found.any(axis=1))
+    out[rows] = kerb[rows, found[rows].argmax(axis=1)]
+    return out
+
+
 class RoiPoints(NamedTuple):
     """Region-of-interest points of a block of scans, in scan then beam order."""
 
@@ -116,6 +201,8 @@ class RoiPoints(NamedTuple):
     #: (n, 2) whether the beam just above / below returned nothing within range
     #: (it passes everything; a dropout, NaN, says nothing)
     passes: np.ndarray
+    #: (n_scans,) depth of the kerb step every scan shows (NaN: none)
+    kerb: np.ndarray
 
 
 def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10.0,
@@ -176,7 +263,7 @@ def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10
                               passes[scan, down] & (beam > 0)])
     return RoiPoints(scan, beam, points, above, below, tilt, horizon(
         np.where(passes, far_depth, depth), np.where(passes, far_height, height),
-        sensor), sensor, beyond)
+        sensor), sensor, beyond, kerb_steps(depth, height))
 
 
 def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):

@@ -50,7 +50,8 @@ SIDE_HEIGHT = 0.3
 
 
 def depth_region(depth, edges):
-    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``.
+    """Region index (0, 1, 2 for I, II, III) of mean depths, split at ``edges``
+    (two depths, or one pair per depth: shape (n, 2)).
 
     Examples
     --------
@@ -58,7 +59,11 @@ def depth_region(depth, edges):
     >>> depth_region([2.5, 5.0, 7.0], (4.0, 6.6)).tolist()
     [0, 1, 2]
     """
-    return np.searchsorted(edges, depth, side="right")
+    edges = np.asarray(edges, dtype=np.float64)
+    if edges.ndim == 1:
+        return np.searchsorted(edges, depth, side="right")
+    depth = np.asarray(depth, dtype=np.float64)  # one pair of edges per depth
+    return (edges[..., 0] <= depth).astype(np.int64) + (edges[..., 1] <= depth)
 
 
 def near_side(objects, side, n_objects):
@@ -417,8 +422,10 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     not longer than ``max_length``; a vehicle body (roof, wall or raised body) in at
     least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
     the hidden part) it can only be a motorbike: a body raised above the road between
-    its wheels in at least ``min_raised_fraction`` of its scans (communal bins,
-    wheelie bins and people stand on the ground).  Shorter than ``min_length`` but
+    its wheels, or hanging in the air (``SUSPENDED_FLAG``: its lowest point above the
+    clearance, the beam below it passing farther), in at least
+    ``min_raised_fraction`` of its scans (communal bins, wheelie bins and people
+    stand on the ground); those scans count as body.  Shorter than ``min_length`` but
     at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
     motorbike at right angles to the kerb when at least ``min_across_raised`` of its
     scans show a body raised between wheels or a beam passing under it
@@ -446,9 +453,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
     body = float(np.mean((flags & BODY_FLAGS) > 0))
-    raised = float(np.mean((flags & RAISED_FLAG) > 0))
     if vehicle and length + hidden_length < min_car_length:
-        vehicle = raised >= min_raised_fraction
+        # a body raised between the wheels, or seen hanging in the air
+        hanging = float(np.mean((flags & (RAISED_FLAG | SUSPENDED_FLAG)) > 0))
+        vehicle = hanging >= min_raised_fraction
+        body = max(body, hanging)
     elif (not vehicle and min_across_length is not None and hidden_length == 0
           and min_across_length <= length + end_length < min_length
           and top >= min_across_top

@@ -191,7 +191,7 @@ class _RunState(ScanWindow):
             prof = ObjectProfiles(fragment, position, self.depth[pending],
                                   self.top[pending], self.n_points[pending], **occlusion)
             region = depth_region(self._region_depth(fragment, pending, prof),
-                                  est.region_edges_)
+                                  self.edges(prof.first))
             self.blockers = self.blockers[self.blockers[:, 1] >= self.base]
             root = merge_fragments(prof, region, self.cum, self.near, self.follows,
                                    reach=self.reach, **self.rule, **self._horizon(),
@@ -228,7 +228,7 @@ class _RunState(ScanWindow):
         if self.est.region_depth == "mean":
             return prof.depth
         side = near_side(objects, self.side[clusters], prof.n)
-        lo, hi = self.est.region_edges_
+        lo, hi = self.edges(prof.first).T
         with np.errstate(invalid="ignore"):
             inside = (prof.depth >= hi) & (side < hi)
         return np.where(inside, np.maximum(side, lo), prof.depth)
@@ -313,9 +313,12 @@ class _RunState(ScanWindow):
                                             self.cap)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
-            region = int(depth_region(region_depth[o], est.region_edges_))
+            region = int(depth_region(region_depth[o], self.edges([first])[0]))
             parked = est.labels_[region] == "parked"  # motorbikes across park
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
+            # a run's first or last scans may cut a van short to a motorbike's
+            # length; a van's end reaches van_height, a motorbike's screen does not
+            passed_ok = bool(inside) or float(prof.top[o]) < est.van_height
             vehicle_test = dict(
                 min_length=est.min_length, max_length=est.max_length,
                 link_distance=est.link_distance,
@@ -324,7 +327,7 @@ class _RunState(ScanWindow):
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top, inside=inside)
+                min_across_top=est.min_across_top, inside=passed_ok)
             vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
                                  hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)

@@ -106,6 +106,7 @@ class ScanWindow:
         self.near = np.empty(0)  # mean depth of the nearest cluster
         self.cum = np.zeros(1)  # cum[p]: metres from the run's start to scan p
         self.tilt = np.empty(0)
+        self.kerb = np.empty(0)  # kerb depth at every scan (NaN: not yet known)
         self.horizon = np.empty((0, 0))  # per scan and depth: see ``horizon``
         self.n_clusters = np.empty(0, np.int64)
         self.first_cluster = np.empty(0, np.int64)  # absolute number of its first
@@ -260,6 +261,7 @@ class ScanWindow:
         self.near = concat(self.near, near)
         self.cum = concat(self.cum, np.cumsum(concat(self.cum[-1], step))[1:])
         self.tilt = concat(self.tilt, roi.tilt)
+        self.kerb = concat(self.kerb, self.history.fill_kerbs(roi.kerb))
         self.horizon = (roi.horizon if not len(self.horizon)
                         else np.concatenate([self.horizon, roi.horizon]))
         self.n_clusters = concat(self.n_clusters, n_clusters)
@@ -284,12 +286,23 @@ class ScanWindow:
         with np.errstate(invalid="ignore"):
             return np.fmax(2 * step * np.asarray(depth, float), MIN_RESOLUTION)
 
+    def edges(self, positions):
+        """Region edges (m) at window ``positions``, shape (n, 2): the detector's
+        ``regions``, moved with the kerb seen there when ``follow_kerb``."""
+        est = self.est
+        edges = np.broadcast_to(est.region_edges_, (len(positions), 2))
+        if not est.follow_kerb:
+            return edges
+        shift = self.kerb[np.asarray(positions, dtype=np.int64)] - est.kerb_depth
+        return edges + np.where(np.isfinite(shift), shift, 0.0)[:, None]
+
     def drop(self, d):
         """Drop the oldest ``d`` scans and their clusters."""
         self.base += d
         del self.records[:d]
         del self.payload[:d]
-        for name in ("scans", "follows", "near", "cum", "tilt", "horizon", "n_clusters",
+        for name in ("scans", "follows", "near", "cum", "tilt", "kerb", "horizon",
+                     "n_clusters",
                      "first_cluster"):
             setattr(self, name, getattr(self, name)[d:])
         dropped = (int(self.first_cluster[0]) - self.cluster_base
