@@ -105,9 +105,11 @@ class TunnelPositioner(BaseEstimator):
         Focal length of the camera (px).  With ``sign_height_m``, a sign's size in
         the image is known: the growth of its box (``1 / h`` falls by ``c / (f H)``
         per metre of odometry) then measures the odometry's scale ``c`` from one
-        trajectory (:func:`scale_from_slope`), before a second sign is passed and
-        in each lock-on hypothesis.  None: not known (the scale is then observed
-        from the distances between passes alone).
+        trajectory (:func:`scale_from_slope`), before a second sign is passed
+        (not while locking on without a start: a scale known that well, with a
+        missed sign and a false pass among the first passes, can favour a wrong
+        place).  None: not known (the scale is then observed from the distances
+        between passes alone).
     sign_height_m : float or None, default=None
         Height of the indicators (m), as the detector's boxes measure it.
     size_sigma : float, default=0.03
