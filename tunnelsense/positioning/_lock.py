@@ -96,15 +96,12 @@ class LockOn:
     def n_hypotheses(self) -> int:
         return len(self._last)
 
-    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None, scale=None):
+    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None):
         """A pass at odometry distance ``dist`` (variance ``var``).
 
         ``q_s, q_c``: process noise of the chainage and the scale accumulated since
         the previous pass.  ``tag`` is given back with the pass's association at the
-        lock.  ``scale``: ``(c, variance)``, the odometry's scale measured by the
-        trajectory's box growth (known sign size), or None; each hypothesis that
-        explains the pass is updated with it and scored by it.  Returns the lock
-        (:meth:`lock`) or None.
+        lock.  Returns the lock (:meth:`lock`) or None.
         """
         h = self._h
         if self.n_hypotheses:
@@ -143,8 +140,6 @@ class LockOn:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
             assign = self._spawn(float(dist), float(var), assign)
-        if scale is not None:
-            self._scale_update(scale)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
@@ -189,23 +184,6 @@ class LockOn:
             return None
         return self.lock(self.unseen_since(dist, margin) * self.log_miss,
                          self.min_passes + 1)
-
-    def _scale_update(self, scale):
-        """Update every hypothesis with a measurement ``(c, variance)`` of the scale;
-        score it by it.  Every hypothesis, whether it explains the pass or not: a
-        false pass is of an object that looks like an indicator, sized like one,
-        and a term for some hypotheses only would favour those that explain more
-        passes, false ones included."""
-        z, r = float(scale[0]), float(scale[1])
-        h = self._h
-        S = h["p11"] + r
-        res = z - h["c"]
-        k0, k1 = h["p01"] / S, h["p11"] / S
-        h["score"] = h["score"] - 0.5 * res * res / S - 0.5 * np.log(2 * np.pi * S)
-        p01, p11 = h["p01"], h["p11"]
-        h["s"], h["c"] = h["s"] + k0 * res, h["c"] + k1 * res
-        h["p00"], h["p01"], h["p11"] = (h["p00"] - k0 * p01, p01 - k0 * p11,
-                                        p11 - k1 * p11)
 
     def _spawn(self, dist, var, assign):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""

@@ -105,15 +105,19 @@ class TunnelPositioner(BaseEstimator):
         Focal length of the camera (px).  With ``sign_height_m``, a sign's size in
         the image is known: the growth of its box (``1 / h`` falls by ``c / (f H)``
         per metre of odometry) then measures the odometry's scale ``c`` from one
-        trajectory (:func:`scale_from_slope`), before a second sign is passed and
-        in each lock-on hypothesis.  None: not known (the scale is then observed
-        from the distances between passes alone).
+        trajectory (:func:`scale_from_slope`), before a second sign is passed
+        (not while locking on without a start: a scale known that well, with a
+        missed sign and a false pass among the first passes, can favour a wrong
+        place).  None: not known (the scale is then observed from the distances
+        between passes alone).
     sign_height_m : float or None, default=None
         Height of the indicators (m), as the detector's boxes measure it.
-    size_sigma : float, default=0.01
-        Relative standard deviation of ``focal_length_px * sign_height_m`` (the
-        calibration, and how tightly the boxes fit the signs), added to each
-        trajectory's own: a size believed 2 % off biases the scale by 2 %.
+    size_sigma : float, default=0.03
+        Relative standard deviation of ``focal_length_px * sign_height_m`` as the
+        detector's boxes see it (the calibration, and how tightly the boxes fit
+        the signs: a detector's boxes of far, small signs tend to be a little too
+        large, which makes the scale read low), added to each trajectory's own: a
+        size believed 2 % off biases the scale by 2 %.
     window : int, default=3000
         Frames the stream holds (100 s at 30 fps): a pass older than this is not
         used, and the fixed-lag smoother releases a frame ``window // 2`` to
@@ -201,7 +205,7 @@ class TunnelPositioner(BaseEstimator):
         max_extrapolation=60.0,
         focal_length_px=None,
         sign_height_m=None,
-        size_sigma=0.01,
+        size_sigma=0.03,
         window=3000,
         lock_margin=9.0,
         lock_passes=3,

@@ -537,9 +537,11 @@ class PositionStream:
         self._post[k % W] = x
         self._propagate(k)
 
-    def _scale_fix(self, x, k, row):
+    def _scale_fix(self, x, k, row, held=True):
         """Use the scale a kept pass's box growth measured (``focal_length_px`` and
-        ``sign_height_m`` given), if it agrees with the state's within the gate."""
+        ``sign_height_m`` given), if it agrees with the state's within the gate.
+        ``held``: also kept with frame ``k``'s fixes (not at the lock, whose state
+        is set at ``k`` with it)."""
         c_meas, var = row.pop("_scale", (math.nan, math.nan))
         if not (c_meas == c_meas and var == var):
             return x
@@ -547,7 +549,8 @@ class PositionStream:
         r = var + (c_meas * float(p.size_sigma)) ** 2
         if abs(c_meas - x[1]) > float(p.gate) * math.sqrt(x[4] + r):
             return x
-        self._fixes.setdefault(k, []).append((math.nan, c_meas, r))
+        if held:
+            self._fixes.setdefault(k, []).append((math.nan, c_meas, r))
         if self.fix_list is not None:
             self.fix_list.append((k, math.nan, c_meas, r))
         return _update(x, math.nan, c_meas, r)
@@ -600,14 +603,11 @@ class PositionStream:
         q = (0.0, 0.0) if self._lock_q is None else (cq[0] - self._lock_q[0],
                                                      cq[1] - self._lock_q[1])
         self._lock_q = cq
-        scale = row.get("_scale")
-        if scale is not None:
-            c_meas, v = scale
-            scale = None if not (c_meas == c_meas and v == v) else (
-                c_meas, v + (c_meas * float(self._p.size_sigma)) ** 2)
-            row["_scale"] = scale
-        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row),
-                                scale=scale)
+        # the scale the boxes measure (sign size known) is not given to the
+        # hypotheses: with a false pass and a missed sign among the first passes, a
+        # scale known that well let a wrong place explain them best (1 tour in 200
+        # with such failures); it is used from the lock on
+        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row))
         row.update(accepted=False, reason=(f"{row['reason']}; " if row["reason"] else "")
                    + "locking on")
         if lock is not None:
@@ -644,11 +644,9 @@ class PositionStream:
                 continue
             z = float(self._map[j])
             rr.pop("_noise2", None)
-            scale = rr.pop("_scale", None)  # used by the hypotheses already
             if self.fix_list is not None:
                 self.fix_list.append((kk, uu, z, float(p.fix_sigma) ** 2 + c * c * vv))
-                if scale is not None:
-                    self.fix_list.append((kk, math.nan, *scale))
+            x = self._scale_fix(x, k, rr, held=False)
             rr.update(accepted=True, reason="lock-on", indicator_id=int(self._ids[j]),
                       indicator_chainage=z)
         self._lock_k = k
