@@ -5,9 +5,10 @@ Every frame of a training tour (heavy traffic) and of two test tours (light and 
 traffic) is mapped by ``gain * I + offset`` (clipped to 8 bits); the detector is
 fitted on the mapped training tour and evaluated on the mapped test tours.  Rows: the
 paper's method (``make_indicator_pipeline(preset="paper")``, keypoints in the fixed
-intensity band [160, 190]), the default detector with that fixed band
-(``keypoints__band="fixed"``), and the default detector (``make_indicator_pipeline()``,
-which learns its band from the training tour).  A cell gives the indicators found out
+intensity band [160, 190]), the detector with the grey-level band
+(``keypoints__radiometry="raw"``, the earlier default) fixed at [160, 190]
+(``keypoints__band="fixed"``) and learned from the training tour, and the default
+detector (``make_indicator_pipeline()``: keypoints on local contrast).  A cell gives the indicators found out
 of those at least 14 px tall, and the false-alarm trajectories (FA).
 
 Run from a source checkout or an unpacked sdist, with the ``plot`` extra installed::
@@ -29,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import load, machine, output_path, save_figure  # noqa: E402
+from cross_condition_tunnel_table import GREY  # noqa: E402
 
 from tunnelsense import FrameRecord, FrameSequence, Tour, to_xy  # noqa: E402
 from tunnelsense.datasets import make_tunnel_tour  # noqa: E402
@@ -41,8 +43,9 @@ CAMERAS = [(0.8, 0.0), (1.0, 0.0), (1.2, 5.0)]
 #: Method name -> arguments of :func:`~tunnelsense.tunnel.make_indicator_pipeline`.
 METHODS = {
     "the paper's method": dict(preset="paper"),
-    "default, fixed band": dict(keypoints__band="fixed"),
-    "default": {},
+    "grey-level band, fixed": dict(GREY, keypoints__band="fixed"),
+    "grey-level band, learned": dict(GREY),
+    "default (local contrast)": {},
 }
 TRAIN = ("heavy", 4001)
 TESTS = (("light", 5001), ("heavy", 5002))
@@ -96,7 +99,7 @@ def draw(result, path, note):
     methods = list(result)
     share = np.array([[np.nan if c is None else c[0] / max(c[1], 1) for c in result[m]]
                       for m in methods])
-    fig, ax = plt.subplots(figsize=(9, 4), layout="constrained")
+    fig, ax = plt.subplots(figsize=(9, 4.6), layout="constrained")
     cmap = plt.get_cmap("viridis").copy()
     cmap.set_bad("0.85")
     im = ax.imshow(np.ma.masked_invalid(share), vmin=0, vmax=1, cmap=cmap, aspect="auto")

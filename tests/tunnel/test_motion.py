@@ -149,3 +149,25 @@ def test_principal_criterion_accepts_straight_lines_of_any_direction():
     out = PCCVerifier(criterion="principal").fit(still).predict(still)
     assert all(len(r.payload["detections"]) == 0 for r in out)
     assert straightness([0, 1, 2], [0, 2, 4]) == pytest.approx(1.0)
+
+
+def test_path_travel_is_a_ratio_of_lengths():
+    from tunnelsense.tunnel._pcc_stream import path_travel
+
+    x, y, h = np.arange(12.0) * 3, np.arange(12.0), np.full(12, 10.0)
+    assert path_travel(x, y, h) == pytest.approx(path_travel(2 * x, 2 * y, 2 * h))
+    assert path_travel(x, y, h) == pytest.approx(np.hypot(24, 8) / 10)
+    assert path_travel([5.0], [5.0], [10.0]) == 0.0
+
+
+def test_min_travel_rejects_a_box_that_jitters_along_a_line_in_place():
+    """A rectangle anchored at its top-left corner whose size jitters moves its
+    centre along one diagonal: a "path" with r near 1, but it goes nowhere."""
+    rng = np.random.default_rng(0)
+    grow = rng.uniform(0, 6, 20)
+    jitter = [(k + 1, [80.0, 40.0, 8 + grow[k], 16 + 2 * grow[k]], True) for k in range(20)]
+    X = track_frames({1: jitter, 2: line(20)})
+    for min_travel, expected in ((0.0, {1, 2}), (0.25, {2})):
+        out = PCCVerifier(criterion="quadratic", min_travel=min_travel).fit(X).predict(X)
+        found = {int(d[4]) for r in out for d in r.payload["detections"]}
+        assert found == expected

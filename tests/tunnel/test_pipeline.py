@@ -178,6 +178,7 @@ def test_pipeline_defaults_and_paper_settings():
     assert (p["keypoints__radiometry"], p["keypoints__min_contrast"],
             p["keypoints__max_contrast"]) == ("contrast", 0.45, 1.5)
     assert p["verifier__augment_contrast"] == (0.45, 1.0)
+    assert p["motion__min_travel"] == 0.25
     grey = make_indicator_pipeline(**GREY).get_params()
     assert (grey["keypoints__radiometry"], grey["clusters__box"]) == ("raw", "region")
     assert grey["verifier__augment_contrast"] is None

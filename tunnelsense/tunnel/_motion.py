@@ -5,7 +5,8 @@ away from the vanishing point; vehicles ahead and their warm road patches stay n
 still or wander.  Each trajectory is fitted with a straight line ``y = a0 + a1 x`` and
 the Pearson correlation coefficient ``r`` of the fit (eq. 5) decides.  A keypoint
 cluster is an indicator iff its appearance label is positive, its trajectory is at
-least ``min_length`` long and ``|r| >= min_r``; a trajectory is positive when more
+least ``min_length`` long, ``|r| >= min_r`` (and, optionally, it travels at least
+``min_travel`` times its own size); a trajectory is positive when more
 than ``vote`` (80 %) of the decisions it connects are positive.  The math and the
 stream state are in :mod:`tunnelsense.tunnel._pcc_stream`.
 """
@@ -91,6 +92,15 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     vote : float, default=0.8
         A trajectory is positive when more than this fraction of its clusters are
         indicators (the paper's 80 %).
+    min_travel : float, default=0.0
+        Least travel of an indicator's trajectory in units of its own size
+        (:func:`~tunnelsense.tunnel._pcc_stream.path_travel`: the distance between
+        the mean centres of its first and last thirds over its median rectangle
+        height); 0, the paper's, checks nothing.  A sign the camera approaches moves
+        away from the vanishing point as it grows; a bright object that keeps its
+        place in the image (the far end of a curving row of lamps, which the view
+        follows) only jitters, however well the jitter fits a path.  A ratio of
+        lengths in the image, so it holds at any resolution and focal length.
     criterion : {"pearson", "principal", "quadratic"}, default="pearson"
         The path measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
         eq. 5 (the paper); ``"principal"`` is :func:`straightness`, which does not
@@ -129,9 +139,12 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_length": [Interval(numbers.Integral, 1, None, closed="left")],
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
         "criterion": [StrOptions({"pearson", "principal", "quadratic"})],
+        "min_travel": [Interval(numbers.Real, 0, None, closed="left")],
     }
 
-    def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson"):
+    def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
+                 min_travel=0.0):
+        self.min_travel = min_travel
         self.min_r = min_r
         self.min_length = min_length
         self.vote = vote
