@@ -35,7 +35,6 @@ from tunnelsense.tunnel._common import (
     require_boxes,
 )
 from tunnelsense.tunnel._invariant import (
-    _crop,
     _crop_bounds,
     _features,
     invariant_features,
@@ -330,11 +329,12 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         image = frame_image(record, index)
         lut = bin_lut(image.dtype, self.bins, self.intensity_range)
         out = []
+        bounds = np.column_stack(
+            _crop_bounds(boxes, image.shape, float(self.margin))).tolist()
+        patches = [image[r0:r1, c0:c1] for c0, r0, c1, r1 in bounds]
         for _ in range(int(self.augment)):
-            seen = []
-            for box in boxes.tolist():
-                patch, _ = _crop(image, box, float(self.margin))
-                seen.append(perturb_patch(patch, rng, (box[3], box[2])))
+            seen = [perturb_patch(patch, rng, (box[3], box[2]))
+                    for patch, box in zip(patches, boxes.tolist(), strict=True)]
             if self.features == "invariant":
                 rows = _features([q for q, _ in seen], [hw for _, hw in seen],
                                  _INVARIANT_BINS)
