@@ -240,7 +240,8 @@ def _run_processes(model, tasks, n_workers):
 
     queue = list(range(len(tasks)))[::-1]  # popped from the end: in order
     suspects = []
-    executor = get_reusable_executor(max_workers=n_workers)
+    env = _worker_env(n_workers)
+    executor = get_reusable_executor(max_workers=n_workers, env=env)
     running = {}  # future -> (task index, whether it runs alone)
     try:
         while queue or suspects or running:
@@ -270,10 +271,27 @@ def _run_processes(model, tasks, n_workers):
                         suspects.append(k)
                 running.clear()
                 suspects.sort()
-                executor = get_reusable_executor(max_workers=n_workers)  # a new one
+                executor = get_reusable_executor(max_workers=n_workers, env=env)  # new
     except BaseException:
         executor.shutdown(wait=False, kill_workers=True)
         raise
+
+
+#: The thread-pool variables joblib sets for its worker processes.
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMBA_NUM_THREADS",
+                "NUMEXPR_NUM_THREADS")
+
+
+def _worker_env(n_workers):
+    """The worker processes' thread pools, as joblib's ``Parallel`` sets them: the
+    CPUs shared among the workers, unless the environment says otherwise."""
+    from joblib.externals.loky import cpu_count
+
+    share = str(max(cpu_count() // n_workers, 1))
+    env = {var: os.environ.get(var, share) for var in _THREAD_VARS}
+    env.setdefault("ENABLE_IPC", os.environ.get("ENABLE_IPC", "1"))
+    return env
 
 
 def _died(task, exc):

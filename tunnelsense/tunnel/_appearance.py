@@ -35,7 +35,6 @@ from tunnelsense.tunnel._common import (
     require_boxes,
 )
 from tunnelsense.tunnel._invariant import (
-    _crop,
     _crop_bounds,
     _features,
     invariant_features,
@@ -329,22 +328,24 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         """Features of the frame's clusters as ``augment`` other cameras see them."""
         image = frame_image(record, index)
         lut = bin_lut(image.dtype, self.bins, self.intensity_range)
-        out = []
-        for _ in range(int(self.augment)):
-            seen = []
-            for box in boxes.tolist():
-                patch, _ = _crop(image, box, float(self.margin))
-                seen.append(perturb_patch(patch, rng, (box[3], box[2])))
-            if self.features == "invariant":
-                rows = _features([q for q, _ in seen], [hw for _, hw in seen],
-                                 _INVARIANT_BINS)
-            else:
-                rows = []
-                for q, _ in seen:
-                    counts = np.bincount(lut[q].ravel(), minlength=self.bins)
-                    rows.append(counts / counts.sum())
-            out.append(np.array(rows).reshape(len(boxes), -1))
-        return out
+        bounds = np.column_stack(
+            _crop_bounds(boxes, image.shape, float(self.margin))).tolist()
+        patches = [image[r0:r1, c0:c1] for c0, r0, c1, r1 in bounds]
+        # every copy drawn first (the draws in the same order as copy by copy),
+        # then the features of all of them at once: each row is its patch's alone
+        seen = [perturb_patch(patch, rng, (box[3], box[2]))
+                for _ in range(int(self.augment))
+                for patch, box in zip(patches, boxes.tolist(), strict=True)]
+        if self.features == "invariant":
+            rows = _features([q for q, _ in seen], [hw for _, hw in seen],
+                             _INVARIANT_BINS)
+        else:
+            rows = []
+            for q, _ in seen:
+                counts = np.bincount(lut[q].ravel(), minlength=self.bins)
+                rows.append(counts / counts.sum())
+        rows = np.array(rows).reshape(int(self.augment), len(boxes), -1)
+        return list(rows)
 
     def fit_transform(self, X, y=None, **fit_params):
         """Fit, then transform the same ``X`` (frame records or a 2-D array).

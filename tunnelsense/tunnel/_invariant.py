@@ -117,10 +117,9 @@ def _features(patches, box_hws, bins):
     """The invariant features of raw patches, one row each (see :func:`invariant_features`).
 
     Only the median filter runs patch by patch (OpenCV, on each patch's own border);
-    the histograms, percentiles, border medians and bright extents are computed for
-    all patches at once from their concatenated pixels.  The spread of the bright
-    values is each patch's ``ndarray.std`` over its own pixels in image order, as
-    the figure is defined.
+    the histograms, percentiles, border medians, bright extents and spreads are
+    computed for all patches at once from their concatenated pixels (the spread
+    equals each patch's ``ndarray.std`` of its bright values to rounding).
     """
     import cv2  # noqa: PLC0415
 
@@ -179,15 +178,20 @@ def _features(patches, box_hws, bins):
     # contrast of the bright region against its surroundings, relative to the level
     # of the surroundings: a gain does not change it, an offset little
     out[:, bins + 5] = span / np.maximum(lo, 1.0)
+    # spread: the standard deviation of z over the bright pixels (two passes: the
+    # mean, then the mean squared deviation from it)
+    bright_ids = ids[bright]
     z_bright = z[bright]
-    for i, (bh, bw) in enumerate(box_hws):
-        inner = z_bright[ends[i] - n_bright[i]:ends[i]]
-        out[i, bins + 1] = float(inner.std()) if inner.size > 1 else 0.0  # spread
-        if n_bright[i]:
-            out[i, bins + 3] = np.log((r1[i] - r0[i] + 1) / (c1[i] - c0[i] + 1))
-        else:
-            out[i, bins + 3] = 0.0
-        out[i, bins + 4] = np.log(max(bh, 1.0) / max(bw, 1.0))
+    nb = np.maximum(n_bright, 1)
+    mean = np.bincount(bright_ids, weights=z_bright, minlength=m) / nb
+    dev = z_bright - mean[bright_ids]
+    spread = np.sqrt(np.bincount(bright_ids, weights=dev * dev, minlength=m) / nb)
+    out[:, bins + 1] = np.where(n_bright > 1, spread, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        aspect = np.log((r1 - r0 + 1) / (c1 - c0 + 1))
+    out[:, bins + 3] = np.where(has, aspect, 0.0)
+    hw = np.maximum(np.asarray(box_hws, dtype=np.float64).reshape(m, 2), 1.0)
+    out[:, bins + 4] = np.log(hw[:, 0] / hw[:, 1])
     return out
 
 

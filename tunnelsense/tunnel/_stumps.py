@@ -39,7 +39,7 @@ __all__ = [
 FEATURE_THRESHOLD = 1e-7
 
 
-def fit_stump(values, order, onehot, weights):
+def fit_stump(values, order, onehot, weights, distinct=None):
     """The best depth-1 Gini split of weighted samples, as scikit-learn finds it.
 
     Candidate thresholds lie half-way between consecutive distinct values of a feature
@@ -60,6 +60,9 @@ def fit_stump(values, order, onehot, weights):
         Class membership of each sample.
     weights : ndarray of shape (n,), float64
         Positive sample weights.
+    distinct : ndarray of shape (n - 1, n_features), bool, or None
+        Where a split may fall, ``values[1:] > values[:-1] + FEATURE_THRESHOLD`` (in
+        float64): computed once by a caller that fits many stumps on ``values``.
 
     Returns
     -------
@@ -75,14 +78,26 @@ def fit_stump(values, order, onehot, weights):
     root = int(np.argmax(total))
     if 1.0 - ((total / W) ** 2).sum() <= np.finfo(np.float64).eps:
         return 0, np.inf, root, root
-    CL = np.cumsum(Wk[order], axis=0)[:-1]  # (n - 1, F, K): left sums
-    WL = CL.sum(-1)
-    CR = total - CL
+    # per class, the left sums (n - 1, F) at every split; class by class the same
+    # running sums, and the same sums over classes (left to right), as on one
+    # (n - 1, F, K) array
+    CL = [np.cumsum(Wk[:, k].take(order), axis=0)[:-1] for k in range(Wk.shape[1])]
+    CR = [t - c for t, c in zip(total, CL, strict=True)]
+    WL, sq_left, sq_right = CL[0].copy(), CL[0] * CL[0], CR[0] * CR[0]
+    for cl, cr in zip(CL[1:], CR[1:], strict=True):
+        WL += cl
+        sq_left += cl * cl
+        sq_right += cr * cr
+    if len(CL) >= 8:  # numpy sums 8 or more terms pairwise: sum them as it does
+        CLa, CRa = np.stack(CL, axis=-1), np.stack(CR, axis=-1)
+        WL, sq_left, sq_right = CLa.sum(-1), (CLa * CLa).sum(-1), (CRa * CRa).sum(-1)
     WR = W - WL
     with np.errstate(divide="ignore", invalid="ignore"):
-        proxy = (CL * CL).sum(-1) / WL + (CR * CR).sum(-1) / WR
-    v = values.astype(np.float64)
-    valid = (v[1:] > v[:-1] + FEATURE_THRESHOLD) & (WL > 0) & (WR > 0)
+        proxy = sq_left / WL + sq_right / WR
+    if distinct is None:
+        v = values.astype(np.float64)
+        distinct = v[1:] > v[:-1] + FEATURE_THRESHOLD
+    valid = distinct & (WL > 0) & (WR > 0)
     if not valid.any():
         return 0, np.inf, root, root
     proxy = np.where(valid, proxy, -np.inf)
@@ -91,15 +106,15 @@ def fit_stump(values, order, onehot, weights):
     # lowest feature first, then lowest position
     feats, positions = np.nonzero(tie.T)
     feat, pos = feats[0], positions[0]
-    lo, hi = float(v[pos, feat]), float(v[pos + 1, feat])
+    lo, hi = float(values[pos, feat]), float(values[pos + 1, feat])
     threshold = lo / 2.0 + hi / 2.0
     if threshold == hi or np.isinf(threshold):
         threshold = lo
     return (
         int(feat),
         threshold,
-        int(np.argmax(CL[pos, feat])),
-        int(np.argmax(CR[pos, feat])),
+        int(np.argmax([c[pos, feat] for c in CL])),
+        int(np.argmax([c[pos, feat] for c in CR])),
     )
 
 
@@ -137,8 +152,11 @@ def samme(X, y_index, n_classes, sample_weight, *, n_estimators=50, learning_rat
     eps = np.finfo(np.float64).eps
     sw = np.clip(sw, eps, None)
     stumps, weights, errors = [], [], []
+    v = values.astype(np.float64)
+    distinct = v[1:] > v[:-1] + FEATURE_THRESHOLD
+    del v
     for iboost in range(n_estimators):
-        f, t, left, right = fit_stump(values, order, onehot, sw)
+        f, t, left, right = fit_stump(values, order, onehot, sw, distinct)
         pred = np.where(X32[:, f] <= t, left, right)
         incorrect = pred != y_index
         error = float(np.average(incorrect, weights=sw))

@@ -328,18 +328,30 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         """
         if not is_record_input(X):
             return super().fit_transform(X, y, **fit_params)
-        described = []
+        described = {}
         self._fit_frames(X, y, _described=described, **fit_params)
+        P, N = described["positive"], described["negative"]
+        out, at_p, at_n = [], 0, 0
         with blas_threads(self.n_jobs):
-            return FrameSequence([
-                r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp})
-                for r, kp, keep in ((r, kp, self._verified(H)) for r, kp, H in described)
-            ])
+            for r, kp, inside, copies in described["frames"]:
+                # the frame's rows of the fit: its positives, then its negatives,
+                # each followed by those of its augmented copy
+                n_in = int(inside.sum())
+                H = np.empty((len(kp), P.shape[1]), P.dtype)
+                H[inside] = P[at_p:at_p + n_in]
+                H[~inside] = N[at_n:at_n + len(kp) - n_in]
+                at_p += copies * n_in
+                at_n += copies * (len(kp) - n_in)
+                keep = self._verified(H)
+                out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
+        return FrameSequence(out)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_frames(self, X, y=None, _described=None):
-        """Fit on frame records; ``_described`` (a list), when given, receives
-        ``(record, keypoints, descriptors)`` of every frame (without augmentation)."""
+        """Fit on frame records; ``_described`` (a dict), when given, receives the
+        descriptors of the fit (``"positive"``, ``"negative"``) and per frame
+        ``(record, keypoints, inside, copies)`` (``"frames"``), which locate its rows
+        in them."""
         self._check_settings()
         records, boxes = check_frames(X, y)
         require_boxes(boxes, "KMeansHistogramVerifier", "that label keypoints positive")
@@ -353,22 +365,27 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 )
             rng = np.random.default_rng(
                 check_random_state(self.random_state).randint(0, 2**31 - 1))
-        pos, neg = [], []
+        pos, neg, frames_of = [], [], []
         frames = zip(self._frame_histograms(records, rng), boxes, strict=True)
         for (r, kp, H), b in frames:
             inside = points_in_boxes(kp[:, 0], kp[:, 1], b)
+            copies = len(H) // len(kp) if len(kp) else 1
+            frames_of.append((r, kp, inside, copies))
             if len(kp):  # the augmented copy's rows follow the frame's
-                inside = np.tile(inside, len(H) // len(kp))
+                inside = np.tile(inside, copies)
             pos.append(H[inside])
             neg.append(H[~inside])
-            if _described is not None:
-                _described.append((r, kp, H[:len(kp)]))
         empty = np.empty((0, self._n_descriptor), np.float32)
+        P = np.concatenate(pos or [empty])
+        del pos
+        N = np.concatenate(neg or [empty])
+        del neg
         # one BLAS thread (n_jobs): spinning BLAS threads make the distances several
         # times slower on a busy machine, and the centres do not depend on it
         with blas_threads(self.n_jobs):
-            self._fit_centers(np.concatenate(pos or [empty]),
-                              np.concatenate(neg or [empty]))
+            self._fit_centers(P, N)
+        if _described is not None:
+            _described.update(positive=P, negative=N, frames=frames_of)
         self.n_features_in_ = int(self._n_descriptor)
         self.n_frames_fit_ = len(records)
         return self
