@@ -89,6 +89,7 @@ METHODS = {
     "contrast": dict(keypoints__radiometry="contrast", keypoints__min_contrast=0.45,
                      keypoints__max_contrast=1.5,
                      verifier__augment_contrast=(0.45, 1.0),
+                     verifier__augment_draw="reciprocal",
                      clusters__box="contrast"),
 }
 

@@ -176,14 +176,15 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         drawn uniformly from this range (:func:`contrast_copy`), at the same
         keypoints, so that a sign seen with less contrast (warmer air) or through
         another gain is verified.  ``None``: the paper's training set.
-        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``(0.45, 1.0)``.
+        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``(0.45, 1.0)``
+        with ``augment_draw="reciprocal"``.
     augment_draw : {"uniform", "log-uniform", "reciprocal"}, default="uniform"
         How the factors of ``augment_contrast`` are drawn (:func:`augment_factors`):
         ``"uniform"``, one copy per frame with a factor uniform in the range;
         ``"log-uniform"``, one copy with a factor uniform in log; ``"reciprocal"``,
         two copies, at a factor ``f`` uniform in the range and at ``1 / f``: a sign
         with less contrast (warmer air) and one with more (colder air) are verified
-        alike.
+        alike (:func:`~tunnelsense.tunnel.make_indicator_pipeline`'s choice).
     normalize : {"none", "surround"}, default="none"
         Frame records: ``"none"``, the histogram of the patch's grey levels (the
         paper's).  ``"surround"``: the histogram of the patch's values normalized by
