@@ -21,7 +21,9 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   view, frame by frame);
 * ``warm-air``: camera A in warmer air: lining and road 37 grey levels warmer, the
   lit signs not (their contrast halved);
-* ``320x240``: camera A's field of view on a 320x240 sensor (focal length 350 px).
+* ``320x240``: camera A's field of view on a 320x240 sensor (focal length 350 px);
+* ``colder-30`` / ``colder-45``: camera A in colder air: lining and road 30 and 45
+  grey levels colder, the lit signs not (more contrast).
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -66,6 +68,8 @@ CONDITIONS = {
     "agc": dict(scenario="light", agc=True, **CAMERA_A),
     "warm-air": dict(scenario="light", ambient_warming=37.0, **CAMERA_A),
     "320x240": dict(scenario="light", sensor_scale=0.5, **CAMERA_A),
+    "colder-30": dict(scenario="light", ambient_warming=-30.0, **CAMERA_A),
+    "colder-45": dict(scenario="light", ambient_warming=-45.0, **CAMERA_A),
 }
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
@@ -89,6 +93,7 @@ METHODS = {
     "contrast": dict(keypoints__radiometry="contrast", keypoints__min_contrast=0.45,
                      keypoints__max_contrast=1.5,
                      verifier__augment_contrast=(0.45, 1.0),
+                     verifier__augment_draw="reciprocal",
                      clusters__box="contrast"),
 }
 

@@ -15,7 +15,7 @@ from tunnelsense.tunnel import (
     make_indicator_pipeline,
 )
 from tunnelsense.tunnel._intensity import background_levels, normalize_frame
-from tunnelsense.tunnel._verification import contrast_copy
+from tunnelsense.tunnel._verification import augment_factors, contrast_copy
 from tunnelsense.utils import record_stage_checks
 
 QUIET = dict(first_indicator_m=40.0, lateral_jitter_m=0.0, pitch_jitter_deg=0.0,
@@ -213,6 +213,47 @@ def test_verifier_contrast_augmentation_trains_on_both_copies(tours):
     assert kept_on_signs(aug) > kept_on_signs(plain)
     with pytest.raises(ValueError, match="augment_contrast"):
         KMeansHistogramVerifier(augment_contrast=(0.0, 1.0), **kw).fit(Z, y)
+
+
+def test_augment_factors_draws():
+    rng = np.random.default_rng(0)
+    u = np.array([augment_factors(rng, (0.45, 1.0))[0] for _ in range(400)])
+    assert u.min() >= 0.45 and u.max() <= 1.0
+    lg = np.log([augment_factors(rng, (0.5, 2.0), "log-uniform")[0]
+                 for _ in range(400)])
+    assert lg.min() >= np.log(0.5) and lg.max() <= np.log(2.0)
+    assert abs(np.mean(lg < 0) - 0.5) < 0.1  # as many copies below 1 as above
+    pairs = np.array([augment_factors(rng, (0.45, 1.0), "reciprocal")
+                      for _ in range(50)])
+    assert pairs.shape == (50, 2)
+    assert np.all(pairs[:, 0] <= 1.0) and np.all(pairs[:, 1] >= 1.0)
+    assert np.allclose(pairs[:, 0] * pairs[:, 1], 1.0)
+
+
+def test_verifier_reciprocal_augmentation_keeps_higher_contrast_signs(tours):
+    """The reciprocal draw trains on a copy with less and one with more contrast:
+    a frame at 1.8 times its contrast keeps more sign keypoints than with copies
+    with less contrast only."""
+    X, y, _ = to_xy([tours[0]])
+    Z = IntensityKeypointSampler(band="learned", min_contrast=0.5).fit_transform(X, y)
+    kw = dict(context_size=None, n_negative_clusters=40, random_state=0,
+              augment_contrast=(0.5, 0.6))
+    low = KMeansHistogramVerifier(**kw).fit(Z, y)
+    both = KMeansHistogramVerifier(augment_draw="reciprocal", **kw).fit(Z, y)
+    assert both.n_positive_ == 3 * low.n_positive_ // 2
+    high = FrameSequence([r.__class__(r.tour, r.frame, contrast_copy(r.image, 1.8),
+                                      r.payload) for r in Z])
+
+    def kept_on_signs(v):
+        n = 0
+        for r, b in zip(v.transform(high), y, strict=True):
+            kp = r.payload["keypoints"]
+            for left, top, w, h in np.asarray(b).reshape(-1, 4):
+                n += int(((kp[:, 1] >= left) & (kp[:, 1] < left + w)
+                          & (kp[:, 0] >= top) & (kp[:, 0] < top + h)).sum())
+        return n
+
+    assert kept_on_signs(both) > kept_on_signs(low)
 
 
 def test_detect_to_files_on_a_smaller_tour_writes_its_own_pixels(tours, full_size_model,

@@ -174,10 +174,12 @@ def test_pipeline_defaults_and_paper_settings():
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
     assert (p["clusters__box"], p["tracks__max_gap"]) == ("contrast", 6)
     # keypoints on local contrast, the band widened to 0.45-1.5 times the training
-    # contrast, the verifier trained on copies of 0.45-1.0 times the contrast
+    # contrast, the verifier trained on copies of f = 0.45-1.0 times the contrast
+    # and of 1 / f
     assert (p["keypoints__radiometry"], p["keypoints__min_contrast"],
             p["keypoints__max_contrast"]) == ("contrast", 0.45, 1.5)
     assert p["verifier__augment_contrast"] == (0.45, 1.0)
+    assert p["verifier__augment_draw"] == "reciprocal"
     assert p["motion__min_travel"] == 0.25
     grey = make_indicator_pipeline(**GREY).get_params()
     assert (grey["keypoints__radiometry"], grey["clusters__box"]) == ("raw", "region")

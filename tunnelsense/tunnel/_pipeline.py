@@ -38,8 +38,9 @@ PIPELINE_DEFAULTS = {
     # offset and an automatic gain control scale or shift the background and the
     # sign together, so the band holds by construction; the band is widened to
     # 0.45-1.5 times the training contrast (a sign in warmer air or behind another
-    # gain), the verifier trains on copies of each patch with 0.45-1.0 times its
-    # contrast, and a cluster's rectangle is the region above half its brightest
+    # gain), the verifier trains on copies of each frame at a factor f of 0.45-1.0
+    # times its contrast and at 1 / f (1.0-2.2 times: a sign in colder air), so
+    # that it is indifferent to the sign's contrast both ways, and a cluster's rectangle is the region above half its brightest
     # keypoint's contrast.  The grey-level band (the earlier default) is
     # keypoints__radiometry="raw", verifier__augment_contrast=None,
     # clusters__box="region"; canonical radiometry (each frame mapped to the
@@ -52,6 +53,7 @@ PIPELINE_DEFAULTS = {
     "keypoints__max_contrast": 1.5,
     "keypoints__gain_tolerance": 0.08,
     "verifier__augment_contrast": (0.45, 1.0),
+    "verifier__augment_draw": "reciprocal",
     "clusters__box": "contrast",
     # a 14-20 px indicator is about one grid step wide: the grid can miss it for a
     # few frames (0.2 s at 30 fps) as it moves; bridge such gaps
@@ -131,8 +133,10 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     detections are mapped back, another aspect ratio is refused); keypoints on
     local contrast rather than grey level (``keypoints__radiometry="contrast"``,
     band 0.45-1.5 times the training contrast, ``keypoints__min_contrast=0.45``,
-    ``keypoints__max_contrast=1.5``), the verifier trained also on lower-contrast
-    copies (``verifier__augment_contrast=(0.45, 1.0)``) and cluster rectangles at
+    ``keypoints__max_contrast=1.5``), the verifier trained also on copies with a
+    factor ``f`` of 0.45-1.0 times the contrast and with ``1 / f``
+    (``verifier__augment_contrast=(0.45, 1.0)``,
+    ``verifier__augment_draw="reciprocal"``) and cluster rectangles at
     half the brightest keypoint's contrast (``clusters__box="contrast"``), so that
     a unit's gain and offset or an automatic gain control does not move the band.
     The grey-level band is ``keypoints__radiometry="raw",

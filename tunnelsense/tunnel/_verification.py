@@ -44,6 +44,7 @@ from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = [
     "KMeansHistogramVerifier",
+    "augment_factors",
     "contrast_copy",
     "fit_kmeans",
     "keypoint_descriptors",
@@ -51,6 +52,31 @@ __all__ = [
     "rank_positive_centers",
     "verify_histograms",
 ]
+
+
+def augment_factors(rng, bounds, draw="uniform"):
+    """The contrast factors of one training frame's augmented copies.
+
+    ``"uniform"``: one factor drawn uniformly from ``bounds``; ``"log-uniform"``: one
+    factor whose logarithm is uniform between the logarithms of ``bounds``;
+    ``"reciprocal"``: a factor ``f`` drawn uniformly from ``bounds`` and its reciprocal
+    ``1 / f``, so a copy with less and one with more contrast (symmetric in log
+    about 1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f = augment_factors(np.random.default_rng(0), (0.5, 1.0), "reciprocal")
+    >>> len(f), bool(np.isclose(f[0] * f[1], 1.0))
+    (2, True)
+    """
+    lo, hi = bounds
+    if draw == "log-uniform":
+        return [float(np.exp(rng.uniform(np.log(lo), np.log(hi))))]
+    f = float(rng.uniform(lo, hi))
+    if draw == "reciprocal":
+        return [f, 1.0 / f]
+    return [f]
 
 
 def contrast_copy(image, factor):
@@ -150,7 +176,15 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         drawn uniformly from this range (:func:`contrast_copy`), at the same
         keypoints, so that a sign seen with less contrast (warmer air) or through
         another gain is verified.  ``None``: the paper's training set.
-        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``(0.45, 1.0)``.
+        :func:`~tunnelsense.tunnel.make_indicator_pipeline` uses ``(0.45, 1.0)``
+        with ``augment_draw="reciprocal"``.
+    augment_draw : {"uniform", "log-uniform", "reciprocal"}, default="uniform"
+        How the factors of ``augment_contrast`` are drawn (:func:`augment_factors`):
+        ``"uniform"``, one copy per frame with a factor uniform in the range;
+        ``"log-uniform"``, one copy with a factor uniform in log; ``"reciprocal"``,
+        two copies, at a factor ``f`` uniform in the range and at ``1 / f``: a sign
+        with less contrast (warmer air) and one with more (colder air) are verified
+        alike (:func:`~tunnelsense.tunnel.make_indicator_pipeline`'s choice).
     normalize : {"none", "surround"}, default="none"
         Frame records: ``"none"``, the histogram of the patch's grey levels (the
         paper's).  ``"surround"``: the histogram of the patch's values normalized by
@@ -217,6 +251,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         "intensity_range": [tuple, list, None],
         "binning": [StrOptions({"hard", "linear"})],
         "augment_contrast": [tuple, list, None],
+        "augment_draw": [StrOptions({"uniform", "log-uniform", "reciprocal"})],
         "normalize": [StrOptions({"none", "surround"})],
     }
     _tabular_methods = ("predict", "distances")
@@ -244,6 +279,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         random_state=None,
         n_jobs=None,
         augment_contrast=None,
+        augment_draw="uniform",
         normalize="none",
     ):
         self.patch_size = patch_size
@@ -264,6 +300,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         self.random_state = random_state
         self.n_jobs = n_jobs
         self.augment_contrast = augment_contrast
+        self.augment_draw = augment_draw
         self.normalize = normalize
 
     def _check_settings(self):
@@ -290,7 +327,8 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
             lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
             images = [image]
             if rng is not None:
-                images.append(contrast_copy(image, rng.uniform(*self.augment_contrast)))
+                images.extend(contrast_copy(image, f) for f in
+                              augment_factors(rng, self.augment_contrast, self.augment_draw))
             if self.normalize == "surround":
                 surround = (25, 13) if self.context_size is None else self.context_size
                 H = np.concatenate([
