@@ -218,6 +218,19 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Narrowest car (m; city cars are 1.5 m wide): a vehicle without a roof-wide top
         surface that is narrower than this one way (along the street or across it),
         or shorter than ``min_car_length``, is a ``"motorbike"``.
+    carve_protrusions : bool, default=True
+        A motorbike against a taller structure (beyond the paper): one whose far
+        end touches a hedge or wall shares its intra-cluster with it in every scan.
+        In an object that is not a parked vehicle, a run of scans shorter than
+        ``min_car_length`` whose near side comes more than ``link_distance`` nearer
+        than the object's face (its median near side), the face seen again on both
+        sides, is carved out: its points nearer than the face (less two beam
+        spacings) are a motorbike of the region labelled ``"parked"`` when at least
+        ``min_across_length`` long, reaching ``min_across_top`` and raised between
+        its wheels (the beam below its lowest point passing farther) in at least
+        ``min_across_raised`` of its scans.  It is reported in :meth:`detect` and
+        :meth:`predict`; its points stay with the structure's intra-clusters in
+        :meth:`transform`'s ``"objects"``.  False: structures keep them.
 
     Attributes
     ----------
@@ -285,6 +298,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "van_height": [Interval(numbers.Real, None, None, closed="neither")],
         "van_length": [Interval(numbers.Real, 0, None, closed="neither")],
         "motorbike_width": [Interval(numbers.Real, 0, None, closed="left")],
+        "carve_protrusions": ["boolean"],
     }
 
     def __init__(
@@ -326,6 +340,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         van_height=1.8,
         van_length=7.0,
         motorbike_width=1.2,
+        carve_protrusions=True,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -364,6 +379,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.van_height = van_height
         self.van_length = van_length
         self.motorbike_width = motorbike_width
+        self.carve_protrusions = carve_protrusions
 
     def _class_params(self):
         """The keywords of :func:`~tunnelsense.street.vehicle_class`."""

@@ -33,6 +33,12 @@ import numpy as np
 from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
+from tunnelsense.street._carving import (
+    protrusions,
+    raised_section,
+    scan_near_side,
+    widen,
+)
 from tunnelsense.street._classes import class_features, vehicle_class
 from tunnelsense.street._clustering import (
     components,
@@ -360,7 +366,67 @@ class _RunState(ScanWindow):
                 "clusters": mine + self.cluster_base,
                 "features": features,
             })
+            if est.carve_protrusions and not (vehicle and parked):
+                self.queue.extend(self._carve(mine, position[of], first, last))
         self.queue.sort(key=lambda q: q["key"])
+
+    def _carve(self, mine, pos, first, last):
+        """Queue entries of motorbikes standing against the structure of clusters
+        ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``."""
+        est = self.est
+        if est.min_across_length is None or last - first < 2:
+            return []
+        cum = self.cum
+        near = scan_near_side(pos, self.side[mine], first, last)
+        face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
+                                 est.min_car_length)
+        out = []
+        cut_at = face - float(self.resolution(face))
+        for a, b in runs:
+            a, b = widen(near, a, b, cut_at, cum[first:last + 2], est.merge_gap)
+            lo, hi = first + a, first + b
+            parts, raised = [], 0
+            for p in range(lo, hi + 1):
+                points, beams, local = self.payload[p]
+                want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+                section = np.isin(local, want) & (points[:, 0] < cut_at)
+                parts.append(points[section])
+                raised += raised_section(points, beams,
+                                         section & (points[:, 1] >= est.min_clearance),
+                                         est.min_clearance,
+                                         float(self.resolution(face)))
+            pts = np.concatenate(parts)
+            body = [q[q[:, 1] >= SIDE_HEIGHT] for q in parts]
+            if not all(len(q) for q in body):
+                continue
+            length = float(cum[hi + 1] - cum[lo])
+            # its ends, at the face, may lie up to half a scan spacing beyond
+            bound = length + 0.5 * float(cum[lo] - cum[max(lo - 1, 0)]
+                                         + cum[min(hi + 2, len(cum) - 1)] - cum[hi + 1])
+            top = float(pts[:, 1].max())
+            depth = float(pts[:, 0].mean())
+            side = np.array([q[:, 0].min() for q in body])
+            far = np.array([q[:, 0].max() for q in body])
+            lo_edge, hi_edge = self.edges([lo])[0]
+            region_depth = (max(float(np.median(side)), lo_edge)
+                            if depth >= hi_edge > np.median(side) else depth)
+            region = int(depth_region(region_depth, self.edges([lo])[0]))
+            if not (est.labels_[region] == "parked" and bound >= est.min_across_length
+                    and face - side.min() >= est.motorbike_width
+                    and raised >= est.min_across_raised * (hi - lo + 1)):
+                continue
+            features = class_features(
+                np.zeros(hi - lo + 1, np.int64),
+                np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
+                side, far, length)
+            out.append({
+                "key": (self.base + lo, depth), "first": self.base + lo,
+                "last": self.base + hi, "before": 0, "after": 0, "extend": False,
+                "vehicle": True, "region": region, "depth": depth, "top": top,
+                "n_points": len(pts), "clusters": np.empty(0, np.int64),
+                "features": features,
+            })
+        return out
 
     def _object_points(self, mine, pos, p):
         """``(depth, height)`` of the points of clusters ``mine`` (window indices,
