@@ -470,13 +470,16 @@ class _RunState(ScanWindow):
                 break
             self.queue.pop(0)
             first, last = q["first"], q["last"]
+            kind = vehicle_class(q["features"], **est._class_params()) if q[
+                "vehicle"] else ""
             if q["extend"]:
-                first, last = self._extend(q)
+                # a motorbike is shorter than the shortest car: not extended beyond
+                first, last = self._extend(q, est.occluded_length if kind != "motorbike"
+                                           else min(est.occluded_length,
+                                                    est.min_car_length))
             next_id += 1
             self.object_id[q["clusters"] - self.cluster_base] = next_id
             label = est.labels_[q["region"]] if q["vehicle"] else "other"
-            kind = vehicle_class(q["features"], **est._class_params()) if q[
-                "vehicle"] else ""
             if q["vehicle"]:
                 self.numbered.append((q["region"], last))
             self.rows.append((
@@ -536,9 +539,10 @@ class _RunState(ScanWindow):
         bounds = np.searchsorted(p, np.arange(n + 1))
         return [pairs[bounds[i]:bounds[i + 1]] for i in range(n)]
 
-    def _extend(self, q):
-        """Extend an object cut short by an occluder into the hidden scans (never
-        beyond them, never into another vehicle of the same region)."""
+    def _extend(self, q, length):
+        """Extend an object cut short by an occluder into the hidden scans to
+        ``length`` metres (never beyond them, never into another vehicle of the
+        same region)."""
         base = self.base
         first, last = q["first"] - base, q["last"] - base
         lowest, highest = first - q["before"], last + q["after"]
@@ -550,8 +554,7 @@ class _RunState(ScanWindow):
             lowest = max(lowest, max(previous) + 1)
         if following:
             highest = min(highest, min(following) - 1)
-        first, last = extend_occluded(self.cum, first, last, lowest, highest,
-                                      self.est.occluded_length)
+        first, last = extend_occluded(self.cum, first, last, lowest, highest, length)
         return first + base, last + base
 
     def _trim(self, stop, ended):
