@@ -62,3 +62,26 @@ def test_raised_section_needs_the_beam_below_to_pass_farther():
     assert not raised_section(pts, beams, np.array([True, True, True, False]), 0.2, 0.1)
     # the beam below missing (no return in the region of interest): no evidence
     assert not raised_section(pts[1:], beams[1:], section[1:], 0.2, 0.1)
+
+
+def test_a_motorbike_carved_from_two_runs_of_one_structure_counts_once():
+    from tunnelsense.datasets import make_street_scans
+
+    # a rolled sensor: one motorbike's front comes nearer than the hedge in two
+    # runs of scans, with a scan at the face between them (its screen)
+    run = make_street_scans(2000, scenario="sparse", random_state=104,
+                            motorbike_fraction=0.6, motorbike_across_fraction=0.6,
+                            motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
+                            parked_gap_m=12.0, roll_deg=-5.0)
+    scores = [street_scores(run.gt, ScanClusterer(carve_protrusions=c).fit(
+        run.scans).detect(run.scans))["parked"] for c in (False, True)]
+    assert scores[1]["tp"] >= scores[0]["tp"] + 2
+    assert scores[1]["fp"] == scores[0]["fp"]
+    det = ScanClusterer().fit(run.scans).detect(run.scans)
+    parked = det[det["label"] == "parked"].sort_values("first_scan")
+    # no two parked objects share a scan at the depth of the carved ones
+    carved = parked[parked["mean_depth"] > 6.0]
+    for _, row in carved.iterrows():
+        others = parked[(parked["id"] != row["id"]) & (parked["first_scan"] <= row[
+            "last_scan"]) & (parked["last_scan"] >= row["first_scan"])]
+        assert (abs(others["mean_depth"] - row["mean_depth"]) > 0.5).all()

@@ -382,8 +382,13 @@ class _RunState(ScanWindow):
                                  est.min_car_length)
         out = []
         cut_at = face - float(self.resolution(face))
+        wide = []  # widened runs, those that overlap joined (one object's parts)
         for a, b in runs:
             a, b = widen(near, a, b, cut_at, cum[first:last + 2], est.merge_gap)
+            if wide and a <= wide[-1][1] + 1:
+                a = wide.pop()[0]
+            wide.append((a, b))
+        for a, b in wide:
             lo, hi = first + a, first + b
             parts, raised = [], 0
             for p in range(lo, hi + 1):
@@ -415,6 +420,8 @@ class _RunState(ScanWindow):
                     and face - side.min() >= est.motorbike_width
                     and raised >= est.min_across_raised * (hi - lo + 1)):
                 continue
+            if self._taken(self.base + lo, self.base + hi, region):
+                continue  # already a vehicle there (carved from another object)
             features = class_features(
                 np.zeros(hi - lo + 1, np.int64),
                 np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
@@ -427,6 +434,14 @@ class _RunState(ScanWindow):
                 "features": features,
             })
         return out
+
+    def _taken(self, first, last, region):
+        """Whether a vehicle of ``region`` already holds a scan of ``first .. last``
+        (absolute positions): queued, or numbered and not yet released."""
+        code = RUN_LABELS.get(self.est.labels_[region])
+        return any(q["vehicle"] and q["region"] == region and q["first"] <= last
+                   and first <= q["last"] for q in self.queue) or any(
+            c == code and f <= last and first <= e for f, e, _, c in self.spans)
 
     def _object_points(self, mine, pos, p):
         """``(depth, height)`` of the points of clusters ``mine`` (window indices,
