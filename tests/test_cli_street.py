@@ -193,3 +193,34 @@ def test_train_street_equals_fit_in_python(rundirs, tmp_path):
     assert all(np.array_equal(a, b)
                for a, b in zip(est.predict(X), cli.predict(X), strict=True))
     assert est.detect(X).equals(cli.detect(X))
+
+
+def test_a_run_without_speed_asks_for_it(tmp_path, capsys):
+    """A run folder whose info gives no ego speed is never measured at a guessed
+    speed: train and detect refuse it, naming the run and --speed."""
+    from tunnelsense import Run, ScanSequence
+
+    run = make_street_scans(300, scenario="sparse", random_state=24)
+    info = {k: v for k, v in run.info.items() if not k.startswith("speed")}
+    bare = Run(run.name, ScanSequence([r.evolve(speed=float("nan")) for r in run.scans]),
+               run.gt, info)
+    path = tmp_path / "bare"
+    io.write_run(bare, path)
+    assert io.ego_speed(io.read_run(path).info) is None
+    model = tmp_path / "m.skops"
+    assert run_cli(["train", "street", str(path), "--model", str(model)]) == 1
+    err = capsys.readouterr().err
+    assert str(path) in err and "no ego speed" in err and "--speed M/S" in err
+    assert not model.exists()
+    assert run_cli(["train", "street", str(path), "--model", str(model),
+                    "--speed", "11.1"]) == 0
+    out = tmp_path / "o.csv"
+    capsys.readouterr()
+    assert run_cli(["detect", "street", "--model", str(model), str(path),
+                    "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert str(path) in err and "no ego speed" in err and "--speed M/S" in err
+    assert not out.exists()
+    assert run_cli(["detect", "street", "--model", str(model), str(path),
+                    "--out", str(out), "--speed", "11.1"]) == 0
+    assert len(pd.read_csv(out)) > 0

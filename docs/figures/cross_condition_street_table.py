@@ -63,11 +63,13 @@ FIT_SEED = 6001
 #: Seeds of the evaluation runs (used for nothing else).
 EVALUATION_SEEDS = (7001, 7002, 7003)
 #: The paper's plain method: no merge splitting, no body evidence, no occlusion
-#: handling, regions by mean depth, no length prior for short vehicles.
+#: handling, regions by mean depth, no length prior for short vehicles, no carving
+#: of vehicles out of structures, lengths at the paper's 40 km/h.
 PAPER = {"split_merged": False, "min_body_fraction": 0.0, "occluded_length": None,
          "bridge_occluded": False, "region_depth": "mean", "min_car_length": 0.0,
          "beam_occlusion": False, "spray_beams": 0, "min_across_length": None,
-         "separate_ground": False, "object_ends": False, "follow_kerb": False}
+         "separate_ground": False, "object_ends": False, "follow_kerb": False,
+         "carve_protrusions": False, "speed": "paper"}
 
 
 def fit(condition, n_scans):

@@ -4,13 +4,13 @@ An object is a box: along-track interval ``[s0, s1]`` (m), near face at ``depth`
 ``width`` deep, bottom ``bottom`` and a top height that may vary along the track
 (``top`` a number or a callable of the along-track offset into the object).  Each scan
 casts the beams of a vertical scanner mounted ``mount_height`` above the road at
-along-track position ``speed * t``.
+along-track position ``speed * t``; every scan carries ``speed`` in its payload.
 """
 
 import numpy as np
 import pandas as pd
 
-from tunnelsense import LaserGeometry, Run
+from tunnelsense import LaserGeometry, Run, ScanSequence
 
 
 def geometry(n_beams=361, mount_height=2.0):
@@ -66,4 +66,7 @@ def make_run(boxes, labels, *, n_scans, speed=11.0, rate=75.0, tilt=0.0, name="r
     gt = pd.DataFrame(rows, columns=["id", "first_scan", "last_scan", "label"])
     gt = gt.astype({"id": "int64", "first_scan": "int64", "last_scan": "int64",
                     "label": object})
-    return Run.from_arrays(name, ranges, stamps, geom, gt, info={"speed": speed})
+    run = Run.from_arrays(name, ranges, stamps, geom, gt, info={"speed": speed})
+    # every scan carries the ego speed, as read_run and a bag's odometry give it
+    return Run(run.name, ScanSequence([r.evolve(speed=speed) for r in run.scans]),
+               run.gt, run.info)

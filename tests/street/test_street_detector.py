@@ -103,7 +103,8 @@ def test_objects_break_at_scan_gaps_and_runs(scene):
     det = est.detect(X, all_objects=True)
     assert not ((det.first_scan < mid) & (det.last_scan > mid)).any()
     # two copies of the run under two names: twice the objects, none across runs
-    other = [ScanRecord("copy", r.scan, r.ranges, r.stamp, r.geometry) for r in scene.scans]
+    other = [ScanRecord("copy", r.scan, r.ranges, r.stamp, r.geometry).evolve(
+        speed=r.payload["speed"]) for r in scene.scans]
     both = est.detect(list(scene.scans) + other)
     assert len(both) == 2 * len(whole)
     assert set(both.run) == {scene.name, "copy"}
@@ -115,7 +116,8 @@ GEOM = LaserGeometry(np.deg2rad(-80), np.deg2rad(0.5), 0.1, 8.191, 2.0)
 def scans(ranges, stamps=None, run="bad"):
     ranges = np.asarray(ranges, dtype=float)
     stamps = np.arange(len(ranges)) / 75 if stamps is None else stamps
-    return ScanSequence.from_arrays(ranges, stamps, GEOM, run=run)
+    X = ScanSequence.from_arrays(ranges, stamps, GEOM, run=run)
+    return ScanSequence([r.evolve(speed=11.1) for r in X])  # the ego speed (m/s)
 
 
 @pytest.mark.parametrize("fill", [np.nan, np.inf, 8.191, 50.0])
@@ -147,7 +149,7 @@ def test_single_point_scan():
 
 def test_mismatched_angle_count_raises():
     X = list(scans(np.full((3, 241), 5.0)))
-    X.append(ScanRecord("bad", 3, np.full(240, 5.0), 0.04, GEOM))
+    X.append(ScanRecord("bad", 3, np.full(240, 5.0), 0.04, GEOM).evolve(speed=11.1))
     with pytest.raises(ValueError, match="240 ranges.*241"):
         ScanClusterer().fit(X).transform(X)
 
@@ -312,3 +314,26 @@ def test_occlusion_bridging_joins_one_car_but_not_two():
     det = ScanClusterer(speed=SPEED).fit(run2.scans).detect(run2.scans)
     s = street_scores(run2.gt, det)["parked"]
     assert s["tp"] == 2 and s["fp"] == 0
+
+
+def test_scans_without_speed_are_refused_not_guessed():
+    run = make_street_scans(300, scenario="sparse", random_state=5)
+    bare = ScanSequence([r.evolve(speed=float("nan")) for r in run.scans])
+    with pytest.raises(ValueError, match=r"run '.*', scan 0: no ego speed.*speed=M/S"):
+        ScanClusterer().fit(bare).detect(bare)
+    # the paper's 40 km/h, asked for by name: the same as that speed given
+    paper = ScanClusterer(speed="paper").fit(bare).detect(bare)
+    given = ScanClusterer(speed=40 / 3.6).fit(bare).detect(bare)
+    pd.testing.assert_frame_equal(paper, given)
+    assert len(paper) > 0
+    # the scans' own speed (the simulator's odometry) is read from their payload
+    own = ScanClusterer().fit(run.scans).detect(run.scans)
+    fixed = ScanClusterer(speed="paper").fit(run.scans).detect(run.scans)
+    assert not np.allclose(own["length"], fixed["length"])
+    # a speed appearing later in a run is no excuse for its first scans
+    late = ScanSequence([r if i >= 10 else r.evolve(speed=float("nan"))
+                         for i, r in enumerate(run.scans)])
+    with pytest.raises(ValueError, match="scan 0: no ego speed"):
+        ScanClusterer().fit(late).detect(late)
+    with pytest.raises(ValueError, match="speed"):
+        ScanClusterer(speed="fast").fit(bare)

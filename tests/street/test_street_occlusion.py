@@ -11,7 +11,7 @@ import functools
 import numpy as np
 from _street_scenes import make_run, sedan
 
-from tunnelsense import Run
+from tunnelsense import Run, ScanSequence
 from tunnelsense.datasets._street import _simulate
 from tunnelsense.metrics import street_scores
 from tunnelsense.street import ScanClusterer, make_parking_pipeline
@@ -28,6 +28,9 @@ def simulated(seed):
     sim = _simulate(2000, "sparse", seed, **BEHIND)
     run = Run.from_arrays("behind", sim["ranges"], sim["stamps"], sim["geometry"],
                           sim["gt"], info=sim["info"])
+    run = Run(run.name, ScanSequence([r.evolve(speed=float(v)) for r, v in
+                                      zip(run.scans, sim["speed"], strict=True)]),
+              run.gt, run.info)
     return sim, run
 
 

@@ -29,6 +29,8 @@ def test_raindrops_build_no_passing_vehicle_and_parked_ones_stay():
 def test_the_echoes_dropped_are_the_drops():
     sim = _simulate(300, "sparse", 8, **RAIN)
     X = ScanSequence.from_arrays(sim["ranges"], sim["stamps"], sim["geometry"], run="r")
+    X = ScanSequence([r.evolve(speed=float(v)) for r, v in
+                      zip(X, sim["speed"], strict=True)])
     kept = ScanClusterer().fit(X).transform(X)
     every = ScanClusterer(spray_beams=0).fit(X).transform(X)
     dropped = drops = 0

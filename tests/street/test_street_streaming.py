@@ -18,6 +18,7 @@ from tunnelsense.street import (
     make_parking_pipeline,
     stream_objects,
 )
+from tunnelsense.street._stream import CHECK_EVERY
 
 
 def _rows(table):
@@ -234,15 +235,32 @@ def test_roadside_wall_memory_bounded():
     assert most > 1500
 
 
+def _closing_limit(whole, most=12.0):
+    """A ``max_pending_length`` that closes an object-cluster of this run: at most
+    ``most``, and half the metres that the longest-pending object outside the
+    vehicle regions (region III: its limit is ``max_pending_length`` itself) had
+    been pending at the last check (every ``CHECK_EVERY``-th scan) it reached.
+    (The scans of a simulated run are numbered from 0: scan number = position.)"""
+    far = whole[whole["region"] == 3]
+    pending = []
+    for first, last, length in far[["first_scan", "last_scan", "length"]].itertuples(
+            index=False):
+        check = (last + 1) // CHECK_EVERY * CHECK_EVERY  # scans seen at that check
+        if check > first:  # it has a cluster in the newest scan there (it is alive)
+            pending.append(length * (check - first) / (last + 1 - first))
+    assert pending, "the run must have an object beyond region II across a check"
+    return min(most, 0.5 * max(pending))
+
+
 @pytest.mark.parametrize("scenario", ["dense", "crowded"])
 def test_pending_limit_any_chunking(scenario, global_random_seed):
     """Object-clusters closed by max_pending_length (here short, so that many are,
     in every region) are the same for any chunking and in batch."""
     run = make_street_scans(900, scenario=scenario, random_state=global_random_seed)
     X = list(run.scans)
-    est = ScanClusterer(max_pending_length=12.0).fit(X)
-    table = est.detect(X, all_objects=True)
     whole = ScanClusterer(max_pending_length=None).fit(X).detect(X, all_objects=True)
+    est = ScanClusterer(max_pending_length=_closing_limit(whole)).fit(X)
+    table = est.detect(X, all_objects=True)
     assert _rows(table) != _rows(whole)  # the limit closed some object-clusters
     batch = est.transform(X)
     for chunk in (1, 5, 64, 100):

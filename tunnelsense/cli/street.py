@@ -22,33 +22,41 @@ def _read_runs(paths, args):
         runs.append(read_run(p, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
                              speed_topic=args.speed_topic))
-        _check_bag_speed(p, runs[-1].info)
+        _check_speed(p, runs[-1].info)
     return runs
 
 
-def _check_bag_speed(path, info, model=None) -> None:
-    """Refuse a bag that gives no ego speed when the model fixes none: its lengths
-    would come from an assumed 40 km/h."""
+def _check_speed(path, info, model=None) -> None:
+    """Refuse a run that gives no ego speed when the model fixes none: its lengths
+    would come from a guessed speed (a bag without odometry, a run folder whose
+    info_json gives no speed), unless ``--speed`` is given."""
+    from tunnelsense.io import ego_speed
     from tunnelsense.io._rosbag import is_bag
 
-    if not is_bag(path) or "speed" in info or "speed_topic" in info:
-        return
     if model is not None and getattr(model[-1], "speed", None) is not None:
         return
-    raise InputFormatError(
-        f"{path}: the bag gives no ego speed (no nav_msgs/Odometry or "
-        "geometry_msgs/TwistStamped topic), which turns scan counts into lengths; "
-        "pass --speed M/S (e.g. --speed 11.1 at 40 km/h)")
+    if is_bag(path):
+        if "speed" in info or "speed_topic" in info:
+            return
+        raise InputFormatError(
+            f"{path}: the bag gives no ego speed (no nav_msgs/Odometry or "
+            "geometry_msgs/TwistStamped topic), which turns scan counts into lengths; "
+            "pass --speed M/S (e.g. --speed 11.1 at 40 km/h)")
+    if ego_speed(info) is None:
+        raise InputFormatError(
+            f"{path}: the run gives no ego speed (none of speed, speed_mps, "
+            "speed_kmh_mean, speed_kmh in its info_json), which turns scan counts "
+            "into lengths; pass --speed M/S (e.g. --speed 11.1 at 40 km/h)")
 
 
-def _check_bags(paths, reading, model) -> None:
-    """:func:`_check_bag_speed` of every ROS bag of a fleet, before any detection."""
+def _check_speeds(paths, reading, model) -> None:
+    """:func:`_check_speed` of every run of a fleet, before any detection."""
     from tunnelsense.io._laser import open_run_stream
-    from tunnelsense.io._rosbag import is_bag
 
+    if model is not None and getattr(model[-1], "speed", None) is not None:
+        return
     for path in paths:
-        if is_bag(path):
-            _check_bag_speed(path, open_run_stream(path, **reading).info, model)
+        _check_speed(path, open_run_stream(path, **reading).info, model)
 
 
 def _cmd_train(args) -> int:
@@ -78,7 +86,7 @@ def _cmd_detect(args) -> int:
                    "speed_topic": args.speed_topic}
         return fleet.run_fleet(args, "street", sources,
                                {"all_objects": args.all_objects, **reading},
-                               check=lambda model: _check_bags(sources, reading, model))
+                               check=lambda model: _check_speeds(sources, reading, model))
     from tunnelsense.io._laser import open_run_stream
     from tunnelsense.street._run import format_objects_written, write_objects
 
@@ -88,7 +96,7 @@ def _cmd_detect(args) -> int:
     source = open_run_stream(args.source, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
                              speed_topic=args.speed_topic, ground_truth=False)
-    _check_bag_speed(args.source, source.info, model)
+    _check_speed(args.source, source.info, model)
     counts, resumed = write_objects(
         model, source, args.out, all_objects=args.all_objects, resume=args.resume,
         overwrite=args.force, progress=common.progress(

@@ -8,7 +8,7 @@ from pathlib import Path
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extra, require_extras_for_runs
 from tunnelsense.cli.position import _positive
-from tunnelsense.cli.street import _add_range_unit, _check_bag_speed
+from tunnelsense.cli.street import _add_range_unit, _check_speed
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io._output import atomic_write, check_output, input_files
 
@@ -98,7 +98,7 @@ def _cmd_survey_street(args) -> int:
     source = open_run_stream(args.rundir, range_unit=args.range_unit, topic=args.topic,
                              mount_height=args.mount_height, speed=args.speed,
                              speed_topic=args.speed_topic)
-    _check_bag_speed(args.rundir, source.info, model)
+    _check_speed(args.rundir, source.info, model)
     what = "detecting" if model is not None else "reading the scans"
     bar = common.progress(args, source.n_scans, f"{source.name}: {what}", unit="scan")
     stamps, speeds = [], []

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
 
-from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run
+from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run, ScanSequence
 from tunnelsense.datasets._street_params import STREET_SCENARIOS, resolve_params
 from tunnelsense.datasets._street_render import ray_cast
 from tunnelsense.datasets._street_scene import layout, passing
@@ -291,6 +291,8 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         between 0.1 m and 2 m above the road in at least 3 scans, over the scans
         during which its body crosses the scan plane, and ``info``
         (scenario, seed, speeds, true roll summary, per-vehicle facts, parameters).
+        Every scan carries the ego speed (m/s) at its time in its payload
+        (``"speed"``), as a ROS bag's odometry gives it.
 
     Examples
     --------
@@ -308,5 +310,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
         name = f"street-{scenario}-{sim['info']['seed']}"
     elif not isinstance(name, str) or not name:
         raise TypeError(f"name must be a non-empty str or None; got {name!r}")
-    return Run.from_arrays(name, sim["ranges"], sim["stamps"], sim["geometry"], sim["gt"],
-                           info=sim["info"])
+    run = Run.from_arrays(name, sim["ranges"], sim["stamps"], sim["geometry"], sim["gt"],
+                          info=sim["info"])
+    # every scan carries the ego speed (m/s) there, as a bag's odometry gives it
+    return Run(run.name, ScanSequence([r.evolve(speed=float(v)) for r, v in
+                                       zip(run.scans, sim["speed"], strict=True)]),
+               run.gt, run.info)

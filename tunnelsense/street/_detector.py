@@ -102,10 +102,12 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Longest vehicle (m); longer objects (hedges, walls) are ``"other"``.
     merge_gap : float, default=0.5
         Largest gap (m along the track) across which fragments are merged.
-    speed : float or None, default=None
-        Ego speed (m/s) turning scan counts into lengths.  None: the median of the
-        scans' payload ``"speed"`` when the scans carry one, else 40 km/h (the
-        paper's).
+    speed : float, "paper" or None, default=None
+        Ego speed (m/s) turning scan counts into lengths.  None: the running median
+        of the scans' payload ``"speed"`` (as :func:`~tunnelsense.io.read_run` and a
+        ROS bag's odometry give it); a run whose scans carry none is refused
+        (``ValueError`` naming ``speed``) rather than measured at a guessed speed.
+        ``"paper"``: the paper's 40 km/h for every scan, whatever the scans carry.
     roof_width : float, default=0.8
         Smallest depth extent (m) of a cluster's top surface that counts as a
         vehicle roof, bonnet or boot seen from above (see
@@ -123,7 +125,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         something nearer (beyond the paper).
     occluded_length : float or None, default=4.0
         Length (m) to which a vehicle cut short by an occluder is extended into the
-        hidden scans; None: no extension.
+        hidden scans (one classed ``"motorbike"`` to at most ``min_car_length``:
+        it is shorter than any car); None: no extension.
     max_pending_length : float or None, default=80.0
         Longest object-cluster (m along the track, from its first scan) the detector
         waits for.  One not yet final that reaches beyond it at a check (every 64th
@@ -218,6 +221,19 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         Narrowest car (m; city cars are 1.5 m wide): a vehicle without a roof-wide top
         surface that is narrower than this one way (along the street or across it),
         or shorter than ``min_car_length``, is a ``"motorbike"``.
+    carve_protrusions : bool, default=True
+        A motorbike against a taller structure (beyond the paper): one whose far
+        end touches a hedge or wall shares its intra-cluster with it in every scan.
+        In an object that is not a parked vehicle, a run of scans shorter than
+        ``min_car_length`` whose near side comes more than ``link_distance`` nearer
+        than the object's face (its median near side), the face seen again on both
+        sides, is carved out: its points nearer than the face (less two beam
+        spacings) are a motorbike of the region labelled ``"parked"`` when at least
+        ``min_across_length`` long, reaching ``min_across_top`` and raised between
+        its wheels (the beam below its lowest point passing farther) in at least
+        ``min_across_raised`` of its scans.  It is reported in :meth:`detect` and
+        :meth:`predict`; its points stay with the structure's intra-clusters in
+        :meth:`transform`'s ``"objects"``.  False: structures keep them.
 
     Attributes
     ----------
@@ -238,7 +254,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     >>> side = (angles > np.arctan(-1.8 / 5.0)) & (angles < np.arctan(-0.5 / 5.0))
     >>> scans[10:40, side] = 5.0 / np.cos(angles[side])   # a car side 5 m away
     >>> X = ScanSequence.from_arrays(scans, np.arange(60) / 75, geom, run="r")
-    >>> ScanClusterer().fit(X).detect(X)[["id", "first_scan", "last_scan", "label"]]
+    >>> det = ScanClusterer(speed=11.1)   # the ego speed (m/s): the scans carry none
+    >>> det.fit(X).detect(X)[["id", "first_scan", "last_scan", "label"]]
        id  first_scan  last_scan   label
     0   1          10         39  parked
     """
@@ -261,7 +278,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_length": [Interval(numbers.Real, 0, None, closed="left")],
         "max_length": [Interval(numbers.Real, 0, None, closed="neither")],
         "merge_gap": [Interval(numbers.Real, 0, None, closed="left")],
-        "speed": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "speed": [Interval(numbers.Real, 0, None, closed="neither"),
+                  StrOptions({"paper"}), None],
         "roof_width": [Interval(numbers.Real, 0, None, closed="left")],
         "min_clearance": [Interval(numbers.Real, None, None, closed="neither")],
         "min_body_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
@@ -285,6 +303,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "van_height": [Interval(numbers.Real, None, None, closed="neither")],
         "van_length": [Interval(numbers.Real, 0, None, closed="neither")],
         "motorbike_width": [Interval(numbers.Real, 0, None, closed="left")],
+        "carve_protrusions": ["boolean"],
     }
 
     def __init__(
@@ -326,6 +345,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         van_height=1.8,
         van_length=7.0,
         motorbike_width=1.2,
+        carve_protrusions=True,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -364,6 +384,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.van_height = van_height
         self.van_length = van_length
         self.motorbike_width = motorbike_width
+        self.carve_protrusions = carve_protrusions
 
     def _class_params(self):
         """The keywords of :func:`~tunnelsense.street.vehicle_class`."""
@@ -450,14 +471,14 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         >>> side = (angles > np.arctan(-1.8 / 5.0)) & (angles < np.arctan(-0.5 / 5.0))
         >>> scans[10:40, side] = 5.0 / np.cos(angles[side])   # a car side 5 m away
         >>> X = ScanSequence.from_arrays(scans, np.arange(300) / 75, geom, run="r")
-        >>> stream = ScanClusterer().fit(X).start_stream()
+        >>> stream = ScanClusterer(speed=11.1).fit(X).start_stream()
         >>> released = 0
         >>> for i, record in enumerate(X):
         ...     for done in stream.push(record):
         ...         released += 1
         ...         for row in done.payload["finished_objects"]:   # 4 m after its end
         ...             print(f"after scan {i}:", row[1:5], f"{released} scans out")
-        after scan 66: (1, 10, 39, 'parked') 38 scans out
+        after scan 67: (1, 10, 39, 'parked') 38 scans out
         >>> len(stream.close()) + released
         300
         """

@@ -34,8 +34,8 @@ __all__ = [
     "running_median",
 ]
 
-#: Ego speed (m/s) assumed when neither the parameter nor the scans give one:
-#: the paper's measurement vehicle drove at about 40 km/h.
+#: The paper's ego speed (m/s): its measurement vehicle drove at about 40 km/h
+#: (``ScanClusterer(speed="paper")``; never assumed for scans without a speed).
 DEFAULT_SPEED = 40 / 3.6
 #: Scan period (s) assumed when the stamps do not give one yet (75 scans/s).
 DEFAULT_SCAN_PERIOD = 1 / 75
@@ -80,7 +80,8 @@ class History:
         """Metres travelled per scan: recent median speed x recent median period.
 
         ``periods`` (s) and ``speeds`` (m/s) are per new scan, NaN where unknown;
-        ``speeds=None`` keeps no speed history (a fixed speed is given instead).
+        a scalar ``speeds`` keeps no speed history (a fixed speed is given instead).
+        NaN where no speed is known yet (none given, none in the recent scans).
         """
         periods = np.where(np.isfinite(periods) & (periods > 0), periods, np.nan)
         period = running_median(self.periods, periods)
@@ -90,8 +91,7 @@ class History:
             speeds = np.where(np.isfinite(speeds) & (speeds > 0), speeds, np.nan)
             speed = running_median(self.speeds, speeds)
             self.speeds = np.concatenate([self.speeds, speeds])[-HISTORY:]
-        return (np.where(np.isfinite(speed), speed, DEFAULT_SPEED)
-                * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
+        return (speed * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
 
     def fill_tilts(self, tilts):
         """Unknown (NaN) tilts become the median of the recent known ones (0 first)."""

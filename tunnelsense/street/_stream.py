@@ -33,6 +33,12 @@ import numpy as np
 from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
+from tunnelsense.street._carving import (
+    protrusions,
+    raised_section,
+    scan_near_side,
+    widen,
+)
 from tunnelsense.street._classes import class_features, vehicle_class
 from tunnelsense.street._clustering import (
     components,
@@ -360,7 +366,82 @@ class _RunState(ScanWindow):
                 "clusters": mine + self.cluster_base,
                 "features": features,
             })
+            if est.carve_protrusions and not (vehicle and parked):
+                self.queue.extend(self._carve(mine, position[of], first, last))
         self.queue.sort(key=lambda q: q["key"])
+
+    def _carve(self, mine, pos, first, last):
+        """Queue entries of motorbikes standing against the structure of clusters
+        ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``."""
+        est = self.est
+        if est.min_across_length is None or last - first < 2:
+            return []
+        cum = self.cum
+        near = scan_near_side(pos, self.side[mine], first, last)
+        face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
+                                 est.min_car_length)
+        out = []
+        cut_at = face - float(self.resolution(face))
+        wide = []  # widened runs, those that overlap joined (one object's parts)
+        for a, b in runs:
+            a, b = widen(near, a, b, cut_at, cum[first:last + 2], est.merge_gap)
+            if wide and a <= wide[-1][1] + 1:
+                a = wide.pop()[0]
+            wide.append((a, b))
+        for a, b in wide:
+            lo, hi = first + a, first + b
+            parts, raised = [], 0
+            for p in range(lo, hi + 1):
+                points, beams, local = self.payload[p]
+                want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+                section = np.isin(local, want) & (points[:, 0] < cut_at)
+                parts.append(points[section])
+                raised += raised_section(points, beams,
+                                         section & (points[:, 1] >= est.min_clearance),
+                                         est.min_clearance,
+                                         float(self.resolution(face)))
+            pts = np.concatenate(parts)
+            body = [q[q[:, 1] >= SIDE_HEIGHT] for q in parts]
+            if not all(len(q) for q in body):
+                continue
+            length = float(cum[hi + 1] - cum[lo])
+            # its ends, at the face, may lie up to half a scan spacing beyond
+            bound = length + 0.5 * float(cum[lo] - cum[max(lo - 1, 0)]
+                                         + cum[min(hi + 2, len(cum) - 1)] - cum[hi + 1])
+            top = float(pts[:, 1].max())
+            depth = float(pts[:, 0].mean())
+            side = np.array([q[:, 0].min() for q in body])
+            far = np.array([q[:, 0].max() for q in body])
+            lo_edge, hi_edge = self.edges([lo])[0]
+            region_depth = (max(float(np.median(side)), lo_edge)
+                            if depth >= hi_edge > np.median(side) else depth)
+            region = int(depth_region(region_depth, self.edges([lo])[0]))
+            if not (est.labels_[region] == "parked" and bound >= est.min_across_length
+                    and face - side.min() >= est.motorbike_width
+                    and raised >= est.min_across_raised * (hi - lo + 1)):
+                continue
+            if self._taken(self.base + lo, self.base + hi, region):
+                continue  # already a vehicle there (carved from another object)
+            features = class_features(
+                np.zeros(hi - lo + 1, np.int64),
+                np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
+                side, far, length)
+            out.append({
+                "key": (self.base + lo, depth), "first": self.base + lo,
+                "last": self.base + hi, "before": 0, "after": 0, "extend": False,
+                "vehicle": True, "region": region, "depth": depth, "top": top,
+                "n_points": len(pts), "clusters": np.empty(0, np.int64),
+                "features": features,
+            })
+        return out
+
+    def _taken(self, first, last, region):
+        """Whether a vehicle of ``region`` already holds a scan of ``first .. last``
+        (absolute positions): queued, or numbered and not yet released."""
+        code = RUN_LABELS.get(self.est.labels_[region])
+        return any(q["vehicle"] and q["region"] == region and q["first"] <= last
+                   and first <= q["last"] for q in self.queue) or any(
+            c == code and f <= last and first <= e for f, e, _, c in self.spans)
 
     def _object_points(self, mine, pos, p):
         """``(depth, height)`` of the points of clusters ``mine`` (window indices,
@@ -404,13 +485,16 @@ class _RunState(ScanWindow):
                 break
             self.queue.pop(0)
             first, last = q["first"], q["last"]
+            kind = vehicle_class(q["features"], **est._class_params()) if q[
+                "vehicle"] else ""
             if q["extend"]:
-                first, last = self._extend(q)
+                # a motorbike is shorter than the shortest car: not extended beyond
+                first, last = self._extend(q, est.occluded_length if kind != "motorbike"
+                                           else min(est.occluded_length,
+                                                    est.min_car_length))
             next_id += 1
             self.object_id[q["clusters"] - self.cluster_base] = next_id
             label = est.labels_[q["region"]] if q["vehicle"] else "other"
-            kind = vehicle_class(q["features"], **est._class_params()) if q[
-                "vehicle"] else ""
             if q["vehicle"]:
                 self.numbered.append((q["region"], last))
             self.rows.append((
@@ -470,9 +554,10 @@ class _RunState(ScanWindow):
         bounds = np.searchsorted(p, np.arange(n + 1))
         return [pairs[bounds[i]:bounds[i + 1]] for i in range(n)]
 
-    def _extend(self, q):
-        """Extend an object cut short by an occluder into the hidden scans (never
-        beyond them, never into another vehicle of the same region)."""
+    def _extend(self, q, length):
+        """Extend an object cut short by an occluder into the hidden scans to
+        ``length`` metres (never beyond them, never into another vehicle of the
+        same region)."""
         base = self.base
         first, last = q["first"] - base, q["last"] - base
         lowest, highest = first - q["before"], last + q["after"]
@@ -484,8 +569,7 @@ class _RunState(ScanWindow):
             lowest = max(lowest, max(previous) + 1)
         if following:
             highest = min(highest, min(following) - 1)
-        first, last = extend_occluded(self.cum, first, last, lowest, highest,
-                                      self.est.occluded_length)
+        first, last = extend_occluded(self.cum, first, last, lowest, highest, length)
         return first + base, last + base
 
     def _trim(self, stop, ended):

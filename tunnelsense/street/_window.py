@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
-from tunnelsense.street._geometry import History, roi_points
+from tunnelsense.street._geometry import DEFAULT_SPEED, History, roi_points
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
@@ -166,11 +166,20 @@ class ScanWindow:
         """Restore, cluster and link a block of consecutive scans of the run."""
         est = self.est
         scans, periods, follows = self._check_block(block)
-        if est.speed is not None:
+        if isinstance(est.speed, str):  # "paper"
+            speeds = DEFAULT_SPEED
+        elif est.speed is not None:
             speeds = float(est.speed)
         else:
             speeds = np.array([float(r.payload.get("speed", np.nan)) for r in block])
         step = self.history.steps(periods, speeds)
+        if not np.all(np.isfinite(step)):
+            i = int(np.flatnonzero(~np.isfinite(step))[0])
+            raise ValueError(
+                f"run {self.name!r}, scan {scans[i]}: no ego speed, which turns scan "
+                "counts into lengths: the scans carry none (payload \"speed\") and "
+                "the detector's speed is None; pass speed=M/S (e.g. speed=11.1 at "
+                "40 km/h), or speed=\"paper\" for the paper's 40 km/h")
         ranges = np.stack([np.asarray(r.ranges, dtype=np.float64) for r in block])
         roi = roi_points(ranges, self.geometry, self.history,
                          tilt_compensation=est.tilt_compensation, max_tilt=est.max_tilt,
