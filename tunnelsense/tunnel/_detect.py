@@ -15,7 +15,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._streaming import StreamingPipeline
@@ -31,6 +30,7 @@ from tunnelsense.io._sources import decode_ahead, open_tour
 from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.plotting._detections import draw_detections
+from tunnelsense.tunnel._kmeans import blas_threads
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
@@ -288,13 +288,17 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
     True
     """
     stream = StreamingPipeline(model)
+    push = stream.push
     if n_threads > 0:
-        frames = decode_ahead(frames, n_threads=n_threads)
+        # the stages that keep no state (keypoints, verifier, clusters, appearance)
+        # run in the reader threads beside the decode; this thread links the tracks
+        frames = decode_ahead(frames, n_threads=n_threads, then=stream.prepare)
+        push = stream.push_prepared
     # one frame's matrix products are small: BLAS threads would only contend with
     # the reader threads
-    with threadpool_limits(limits=1, user_api="blas"):
+    with blas_threads(1):
         for k, record in enumerate(frames, 1):
-            yield from stream.push(record)
+            yield from push(record)
             if progress is not None:
                 progress.update(k)
         yield from stream.close()
