@@ -113,7 +113,7 @@ def test_reader_threads_run_the_stateless_stages_with_the_same_results(
     plain = list(stream_detect(model, iter(open_tour(folder).frames[:40])))
     decodes.clear()
     threaded = list(stream_detect(model, iter(open_tour(folder).frames[:40]),
-                                  n_threads=n_threads))
+                                  n_threads=n_threads, stages_in_readers=True))
     assert len(decodes) == 40 and set(decodes.values()) == {1}
     assert [r.key for r in threaded] == [r.key for r in plain]
     for a, b in zip(threaded, plain, strict=True):
@@ -136,16 +136,19 @@ def test_a_frame_that_cannot_be_read_stops_after_the_frames_before_it(
     whole = tmp_path / "whole.txt"
     detect_to_files(model, folder, whole)
     written = {}
-    for n_threads in (0, 2):  # in this thread, and in reader threads
-        out = tmp_path / f"r{n_threads}.txt"
+    # in this thread; readers that decode; readers that also run the stages
+    for n_threads, stages in ((0, False), (2, False), (2, True)):
+        out = tmp_path / f"r{n_threads}{stages}.txt"
         with pytest.raises((InputFormatError, ValueError, OSError), match="000080.png"):
-            detect_to_files(model, copy_, out, n_threads=n_threads)
-        written[n_threads] = [out.read_text().splitlines(),
-                              out.with_suffix(".clusters.csv").read_text().splitlines()]
-    # what the readers' run wrote is what the plain run wrote: the uninterrupted
+            detect_to_files(model, copy_, out, n_threads=n_threads,
+                            stages_in_readers=stages)
+        written[n_threads, stages] = [
+            out.read_text().splitlines(),
+            (tmp_path / f"r{n_threads}{stages}.clusters.csv").read_text().splitlines()]
+    # what the readers' runs wrote is what the plain run wrote: the uninterrupted
     # run's lines of the frames finished before frame 80
-    assert written[2] == written[0]
-    lines, clusters = written[2]
+    assert written[2, True] == written[2, False] == written[0, False]
+    lines, clusters = written[2, True]
     assert lines == whole.read_text().splitlines()[:len(lines)]
     assert all(int(line.split(",")[0]) < 80 for line in lines)
     assert len(clusters) > 1 and clusters == (

@@ -148,9 +148,9 @@ def register(verbs) -> None:
                    "keep the lines of --out (and its .clusters.csv) and append the rest")
     common.add_output_arguments(p, quiet=True)
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
-                   "decode the next frames and find their keypoints and clusters while "
-                   "the trajectories are linked (0: all in one thread; several "
-                   "sources: tours detected at once; default: the number of CPUs)")
+                   "decode the next frames while the detector works (0: decode in the "
+                   "detector's thread; several sources: tours detected at once; "
+                   "default: the number of CPUs)")
     common.add_colour_arguments(p)
     fleet.add_fleet_arguments(p, "tour")
     p.set_defaults(func=_cmd_detect)
