@@ -58,8 +58,9 @@ def blas_threads(n_jobs=None):
     Spinning BLAS threads make the small products of k-means and of the
     verification several times slower on a busy machine; no result depends on the
     thread count (the distances are exact, see :func:`fit_kmeans`).  Inside a
-    context that set a limit at most as large, nothing is done: setting the limit
-    costs about 0.15 ms, more than the verification of a frame's keypoints.
+    context that set a limit at most as large, nothing is done: the verifier,
+    called frame by frame inside the detector's own limit, does not set it again
+    for every frame.
 
     Examples
     --------
