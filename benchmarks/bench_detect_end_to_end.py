@@ -9,7 +9,9 @@ those files.  For each tour this script runs, interleaved, ``--repeats`` times:
 * ``detect``: ``tunnelsense detect tunnel --model M TOUR --out R --force --quiet`` in a
   fresh process (imports, model load, reading, detection, writing);
 
-and prints the medians, frames/s and the ratio detect / decode.  The tours (640x480,
+and prints the medians, frames/s and the ratio detect / decode, and beside them the
+CPU seconds (user + system) of each process and their ratio: on a shared machine the
+wall times move with the load (printed before and after), the CPU seconds much less.  The tours (640x480,
 ``--frames`` frames, simulated once into ``--workdir``):
 
 * ``curved-8bit``: the simulator's noisiest built-in scenario (``curved``: another
@@ -27,6 +29,8 @@ another bit depth).
 """
 
 import argparse
+import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -48,10 +52,20 @@ def _cli(*argv):
     return [sys.executable, "-m", "tunnelsense._cli", *argv]
 
 
-def _timed(cmd):
+def _timed(cmd, cpu=None):
+    """Wall seconds of ``cmd``; its CPU seconds appended to ``cpu`` when given."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if cpu is not None:
+        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return wall
+
+
+def _load():
+    return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def _write_tours(workdir: Path, frames: int, gain: float) -> dict:
@@ -131,22 +145,26 @@ def main(argv=None):
           f"({1000 * t / args.frames:.1f} s per 1,000 frames; runs "
           + ", ".join(f"{v:.1f}" for v in train_times) + ")")
 
+    print(f"\n{_load()} before the detection runs")
     print("\n| tour | in-band keypoints / frame | decode (s) | detect (s) | "
-          "detect frames/s | detect / decode |")
-    print("|---|---|---|---|---|---|")
+          "detect frames/s | detect / decode | CPU s: decode | detect | ratio |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, path in tours.items():
         model = models["16bit" if name.endswith("16bit") else "8bit"]
-        decode, detect = [], []
+        decode, detect, decode_cpu, detect_cpu = [], [], [], []
         out = workdir / f"{name}.txt"
         for _ in range(args.repeats):
-            decode.append(_timed([sys.executable, "-c", _DECODE, str(path)]))
+            decode.append(_timed([sys.executable, "-c", _DECODE, str(path)], decode_cpu))
             detect.append(_timed(_cli("detect", "tunnel", "--model", str(model),
                                       str(path), "--out", str(out), "--force",
-                                      "--quiet")))
+                                      "--quiet"), detect_cpu))
         d, e = statistics.median(decode), statistics.median(detect)
+        dc, ec = statistics.median(decode_cpu), statistics.median(detect_cpu)
         density = _in_band_keypoints(model, path)
         print(f"| {name} | {density:.0f} | {d:.2f} | {e:.2f} | "
-              f"{args.frames / e:.0f} | {e / d:.2f} |", flush=True)
+              f"{args.frames / e:.0f} | {e / d:.2f} | {dc:.2f} | {ec:.2f} | "
+              f"{ec / dc:.2f} |", flush=True)
+    print(f"\n{_load()} after")
 
 
 if __name__ == "__main__":

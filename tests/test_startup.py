@@ -154,3 +154,34 @@ def test_detection_reads_no_ground_truth(tmp_path):
     assert open_tour(tour, ground_truth=False).gt is None
     frames, total = open_frames(tour)
     assert total == 3 and [r.frame for r in frames] == [1, 2, 3]
+
+
+_TUNNEL = """
+import sys
+from tunnelsense.cli import main
+sys.argv = ["tunnelsense", *sys.argv[1:]]
+status = main()
+print(" ".join(sorted(m for m in sys.modules if m.startswith(
+    ("tunnelsense.street", "tunnelsense.datasets._tunnel", "tqdm")))))
+sys.exit(status)
+"""
+
+
+def test_the_tunnel_command_imports_neither_the_street_detector_nor_the_simulator(
+        tmp_path):
+    """Reading a tunnel model builds only the classes it names; --quiet draws no
+    progress bar."""
+    from tunnelsense import make_indicator_pipeline, to_xy
+    from tunnelsense.datasets import make_tunnel_tour
+    from tunnelsense.io import save_model, write_tour
+
+    X, y, _ = to_xy(make_tunnel_tour(60, random_state=0, first_indicator_m=20.0))
+    model = save_model(make_indicator_pipeline(random_state=0).fit(X, y),
+                       tmp_path / "m.skops")
+    tour = write_tour(make_tunnel_tour(5, random_state=1), tmp_path / "tour")
+    done = subprocess.run(
+        [sys.executable, "-c", _TUNNEL, "detect", "tunnel", "--model", str(model),
+         str(tour), "--out", str(tmp_path / "r.txt"), "--quiet"],
+        capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == ""

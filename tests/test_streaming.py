@@ -361,3 +361,32 @@ def test_chunked_stream_checks_the_order():
     stream = StreamingPipeline(Pipeline([("b", Brightness())]).fit(X))
     with pytest.raises(ValueError, match="increasing frame order"):
         stream.push_many([X[1], X[0]])
+
+
+def test_prepared_records_in_any_order_and_threads_stream_as_pushed():
+    from concurrent.futures import ThreadPoolExecutor
+
+    X = _frames("a", 6) + _frames("b", 4, offset=10)
+    pipe = Pipeline([("first", Checked()), ("b", Brightness()), ("l", LookAhead()),
+                     ("last", Checked())]).fit(X)
+    expected = list(StreamingPipeline(pipe).run(X))
+    stream = StreamingPipeline(pipe)
+    # the stateless head (first, b) runs in threads, last frames first
+    with ThreadPoolExecutor(2) as pool:
+        prepared = list(pool.map(stream.prepare, X[::-1]))[::-1]
+    assert [r.key for r in prepared] == [r.key for r in X]
+    assert all("mean" in r.payload and "next_mean" not in r.payload for r in prepared)
+    out = [o for r in prepared for o in stream.push_prepared(r)] + stream.close()
+    assert [(r.key, r.payload) for r in out] == [(r.key, r.payload) for r in expected]
+    with pytest.raises(ValueError, match="increasing frame order"):
+        stream.push_prepared(prepared[3]), stream.push_prepared(prepared[2])
+
+
+def test_prepare_leaves_a_stateful_first_stage_and_the_last_stage_to_push():
+    X = _frames("a", 3)
+    first_stateful = StreamingPipeline(
+        Pipeline([("l", LookAhead()), ("b", Brightness())]).fit(_frames("a", 1)))
+    assert first_stateful.prepare(X[0]) is X[0]
+    only = StreamingPipeline(Pipeline([("b", Brightness())]).fit(X))
+    assert only.prepare(X[0]) is X[0]
+    assert only.push_prepared(X[0])[0].payload == {"mean": 0.0}

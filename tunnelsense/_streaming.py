@@ -379,12 +379,54 @@ class StreamingPipeline:
             for i, s in enumerate(stages)
         ]
         self._last_key = None
+        # the leading stages that keep no state (not the last: its output is the
+        # stream's): :meth:`prepare` runs a record through them on its own
+        head = 0
+        while (head < len(self._states) - 1
+               and isinstance(self._states[head], _StatelessStream)):
+            head += 1
+        self._head = head
+
+    def prepare(self, record):
+        """Run one record through the leading stages that keep no state.
+
+        Those stages map each record on its own, so records may be prepared in any
+        order and in several threads at once (as the tunnel detector's reader
+        threads do, beside the decode); :meth:`push_prepared` then takes each
+        prepared record, in stream order, through the rest.  ``push_prepared(
+        prepare(r))`` is ``push(r)``.
+
+        Parameters
+        ----------
+        record : FrameRecord or ScanRecord
+
+        Returns
+        -------
+        prepared : FrameRecord or ScanRecord
+            The record as the last of those stages gives it (``record`` itself when
+            the first stage keeps a state).
+        """
+        for state in self._states[:self._head]:
+            out = state.push(record)
+            if len(out) != 1:
+                raise RuntimeError(f"a stage without state returned {len(out)} "
+                                   f"records for one ({record.key})")
+            record = out[0]
+        return record
+
+    def push_prepared(self, record) -> list:
+        """Feed the next record, already through :meth:`prepare`; return the
+        finished records of the last step (as :meth:`push` of the original)."""
+        self._last_key = check_next_key(self._last_key, record)
+        return self._push_from(self._head, [record])
 
     def push(self, record) -> list:
         """Feed the next record; return the finished records of the last step."""
         self._last_key = check_next_key(self._last_key, record)
-        batch = [record]
-        for state in self._states:
+        return self._push_from(0, [record])
+
+    def _push_from(self, first, batch) -> list:
+        for state in self._states[first:]:
             out = []
             for r in batch:
                 out.extend(state.push(r))

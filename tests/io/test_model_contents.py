@@ -473,3 +473,30 @@ def test_a_scikit_learn_step_that_skops_trusts_is_refused(genuine, tmp_path, cap
     err = capsys.readouterr().err
     assert "FunctionTransformer" in err and "internal error" not in err
     assert not out.exists()
+
+
+def test_the_trusted_types_are_the_detectors_classes():
+    """The strict reader's table of types (imported when a node names one) holds
+    exactly the classes of the two detectors' pipelines."""
+    from sklearn.pipeline import Pipeline
+
+    from tunnelsense import (
+        IntensityKeypointSampler,
+        KMeansHistogramVerifier,
+        MSTClusterer,
+        PCCVerifier,
+        ScanClusterer,
+        TrajectoryLinker,
+        WeightedAdaBoost,
+    )
+    from tunnelsense.io._model_strict import EXPECTED_STEPS, _classes, _is_trusted
+
+    classes = [Pipeline, IntensityKeypointSampler, KMeansHistogramVerifier,
+               MSTClusterer, PCCVerifier, ScanClusterer, TrajectoryLinker,
+               WeightedAdaBoost]
+    assert _classes() == {f"{c.__module__}.{c.__qualname__}": c for c in classes}
+    names = {spec[1] for steps in EXPECTED_STEPS.values() for spec in steps}
+    assert names | {"Pipeline"} == {c.__name__ for c in classes}
+    assert all(_is_trusted(c) for c in classes)
+    impostor = type("MSTClusterer", (MSTClusterer,), {"__module__": MSTClusterer.__module__})
+    assert not _is_trusted(impostor) and not _is_trusted(dict)

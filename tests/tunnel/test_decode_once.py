@@ -1,5 +1,6 @@
 """Each frame is decoded once per pass through the pipeline, in batch and streaming."""
 
+import copy
 import pickle
 from collections import Counter
 
@@ -101,3 +102,54 @@ def test_kmeans_threads_do_not_change_the_centres(global_random_seed):
     one = fit_kmeans(X, 50, n_steps=20, random_state=global_random_seed)
     two = fit_kmeans(X, 50, n_steps=20, random_state=global_random_seed, n_jobs=2)
     np.testing.assert_array_equal(one, two)
+
+
+@pytest.mark.parametrize("n_threads", [1, 2])
+def test_reader_threads_run_the_stateless_stages_with_the_same_results(
+        fitted, decodes, n_threads):
+    from tunnelsense.tunnel import stream_detect
+
+    model, folder, _ = fitted
+    plain = list(stream_detect(model, iter(open_tour(folder).frames[:40])))
+    decodes.clear()
+    threaded = list(stream_detect(model, iter(open_tour(folder).frames[:40]),
+                                  n_threads=n_threads, stages_in_readers=True))
+    assert len(decodes) == 40 and set(decodes.values()) == {1}
+    assert [r.key for r in threaded] == [r.key for r in plain]
+    for a, b in zip(threaded, plain, strict=True):
+        assert a.payload.keys() == b.payload.keys()
+        for k in a.payload:
+            np.testing.assert_array_equal(a.payload[k], b.payload[k], err_msg=k)
+
+
+def test_a_frame_that_cannot_be_read_stops_after_the_frames_before_it(
+        fitted, tmp_path):
+    from tunnelsense.exceptions import InputFormatError
+    from tunnelsense.tunnel import detect_to_files
+
+    model, folder, tour = fitted
+    # trajectories of at most 20 frames: the frames before the bad one are final
+    model = copy.deepcopy(model).set_params(tracks__max_track_length=20)
+    copy_ = write_tour(tour, tmp_path / "t")
+    bad = copy_ / "img1" / "000080.png"
+    bad.write_bytes(bad.read_bytes()[:100])  # truncated
+    whole = tmp_path / "whole.txt"
+    detect_to_files(model, folder, whole)
+    written = {}
+    # in this thread; readers that decode; readers that also run the stages
+    for n_threads, stages in ((0, False), (2, False), (2, True)):
+        out = tmp_path / f"r{n_threads}{stages}.txt"
+        with pytest.raises((InputFormatError, ValueError, OSError), match="000080.png"):
+            detect_to_files(model, copy_, out, n_threads=n_threads,
+                            stages_in_readers=stages)
+        written[n_threads, stages] = [
+            out.read_text().splitlines(),
+            (tmp_path / f"r{n_threads}{stages}.clusters.csv").read_text().splitlines()]
+    # what the readers' runs wrote is what the plain run wrote: the uninterrupted
+    # run's lines of the frames finished before frame 80
+    assert written[2, True] == written[2, False] == written[0, False]
+    lines, clusters = written[2, True]
+    assert lines == whole.read_text().splitlines()[:len(lines)]
+    assert all(int(line.split(",")[0]) < 80 for line in lines)
+    assert len(clusters) > 1 and clusters == (
+        tmp_path / "whole.clusters.csv").read_text().splitlines()[:len(clusters)]

@@ -111,9 +111,11 @@ def colour(args):
 
 def progress(args, total, desc, **kwargs):
     """A progress bar on stderr, or None with ``--quiet``."""
+    if getattr(args, "quiet", False):
+        return None
     from tunnelsense._progress import Progress
 
-    return None if getattr(args, "quiet", False) else Progress(total, desc, **kwargs)
+    return Progress(total, desc, **kwargs)
 
 
 class _StageBars:

@@ -27,6 +27,7 @@ before a frame is read.
 
 from __future__ import annotations
 
+import importlib
 import io
 import json
 import math
@@ -58,28 +59,47 @@ EXPECTED_STEPS = {
 _MAX_DEPTH = 24
 
 
+#: The types a detector's file may build, by ``module.qualname``, and the module
+#: that defines each (the packages' faces import the command-line helpers).  A
+#: class's module is imported when a node of its type is built, so that reading a
+#: tunnel model does not import the street detector, nor the reverse.
+_TRUSTED = {
+    "sklearn.pipeline.Pipeline": "sklearn.pipeline",
+    "tunnelsense.street._detector.ScanClusterer": "tunnelsense.street._detector",
+    "tunnelsense.tunnel._keypoints.IntensityKeypointSampler":
+        "tunnelsense.tunnel._keypoints",
+    "tunnelsense.tunnel._verification.KMeansHistogramVerifier":
+        "tunnelsense.tunnel._verification",
+    "tunnelsense.tunnel._clustering.MSTClusterer": "tunnelsense.tunnel._clustering",
+    "tunnelsense.tunnel._motion.PCCVerifier": "tunnelsense.tunnel._motion",
+    "tunnelsense.tunnel._tracking.TrajectoryLinker": "tunnelsense.tunnel._tracking",
+    "tunnelsense.tunnel._appearance.WeightedAdaBoost": "tunnelsense.tunnel._appearance",
+}
+
+
+def _class(name):
+    """The trusted class named ``name`` (a key of :data:`_TRUSTED`)."""
+    cls = getattr(importlib.import_module(_TRUSTED[name]), name.rpartition(".")[2])
+    if f"{cls.__module__}.{cls.__qualname__}" != name:  # moved: the table is stale
+        raise RuntimeError(f"{name} is now {cls.__module__}.{cls.__qualname__}; "
+                           "update tunnelsense.io._model_strict._TRUSTED")
+    return cls
+
+
 def _classes() -> dict:
     """Exact type name -> class, for the types a detector's file may build."""
-    from sklearn.pipeline import Pipeline
+    return {name: _class(name) for name in _TRUSTED}
 
-    # from the defining modules (the packages' faces import the command-line helpers)
-    from tunnelsense.street._detector import ScanClusterer
-    from tunnelsense.tunnel._appearance import WeightedAdaBoost
-    from tunnelsense.tunnel._clustering import MSTClusterer
-    from tunnelsense.tunnel._keypoints import IntensityKeypointSampler
-    from tunnelsense.tunnel._motion import PCCVerifier
-    from tunnelsense.tunnel._tracking import TrajectoryLinker
-    from tunnelsense.tunnel._verification import KMeansHistogramVerifier
 
-    classes = [Pipeline, ScanClusterer, IntensityKeypointSampler,
-               KMeansHistogramVerifier, MSTClusterer, PCCVerifier, TrajectoryLinker,
-               WeightedAdaBoost]
-    return {f"{c.__module__}.{c.__qualname__}": c for c in classes}
+def _is_trusted(cls) -> bool:
+    """Whether ``cls`` is one of the trusted classes (importing only its own)."""
+    name = f"{cls.__module__}.{cls.__qualname__}"
+    return name in _TRUSTED and _class(name) is cls
 
 
 class _Reader:
     def __init__(self, path, zf):
-        self.path, self.zf, self.classes = path, zf, _classes()
+        self.path, self.zf, self.classes = path, zf, _TRUSTED
 
     def refuse(self, where, what):
         raise UntrustedModelError(f"{self.path}: {where}: {what}; tunnelsense models "
@@ -106,7 +126,7 @@ class _Reader:
         if kind == ("NdArrayNode", "numpy", "ndarray"):
             return self.array(node, where)
         if loader == "ObjectNode" and f"{module}.{name}" in self.classes:
-            cls = self.classes[f"{module}.{name}"]
+            cls = _class(f"{module}.{name}")
             attrs = self.build(node.get("content"), f"{where}.{name}", depth + 1)
             if not isinstance(attrs, dict):
                 self.refuse(where, f"{name} without a dict of attributes")
@@ -442,7 +462,7 @@ def check_detector(model, kind, path):
                                       f"{spec[0]!r} ({spec[1]}) there")
         if optional and isinstance(est, str) and est == "passthrough":
             continue
-        if type(est).__name__ != spec[1] or type(est) not in _classes().values():
+        if type(est).__name__ != spec[1] or not _is_trusted(type(est)):
             raise UntrustedModelError(
                 f"{path}: {where}: a {type(est).__module__}.{type(est).__name__}, "
                 f"expected tunnelsense's {spec[1]}; refusing to load it")

@@ -232,13 +232,16 @@ def open_tour(source, *, colour=None, ground_truth=True) -> Tour:
     )
 
 
-def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
+def decode_ahead(records: Iterable, *, n_threads=1, ahead=8, then=None) -> Iterator:
     """Yield the records with their images decoded, decoding ahead in threads.
 
-    OpenCV releases the interpreter lock while it decodes, so reader threads decode
-    the next frames while the detector works on this one.  Records come out in input
+    OpenCV and NumPy release the interpreter lock while they decode and compute, so
+    reader threads decode the next frames (and, with ``then``, run the first work
+    on them) while the detector works on this one.  Records come out in input
     order, each with a :class:`~tunnelsense.DecodedImage` source (in-memory images
-    pass unchanged); at most ``ahead`` decoded frames wait, so memory stays bounded.
+    pass unchanged); at most ``ahead`` frames wait, so memory stays bounded.  An
+    error of a frame (its file unreadable, say) is raised when that frame's turn
+    comes, after every frame before it.
 
     Parameters
     ----------
@@ -247,20 +250,26 @@ def decode_ahead(records: Iterable, *, n_threads=1, ahead=8) -> Iterator:
         Reader threads; 0 decodes in the calling thread, as the records are taken.
     ahead : int, default=8
         Frames decoded ahead at most.
+    then : callable or None, default=None
+        ``then(record)`` of each decoded record, in the reader thread; what it
+        returns is yielded instead of the record.  It must not depend on the order
+        in which frames are taken.
 
     Yields
     ------
     record : FrameRecord
+        Or what ``then`` returns.
     """
+    work = decode_once if then is None else (lambda r: then(decode_once(r)))
     if n_threads < 1:
         for record in records:
-            yield decode_once(record)
+            yield work(record)
         return
     with ThreadPoolExecutor(max_workers=n_threads,
                             thread_name_prefix="decode") as pool:
         pending = deque()
         for record in records:
-            pending.append(pool.submit(decode_once, record))
+            pending.append(pool.submit(work, record))
             if len(pending) >= ahead:
                 yield pending.popleft().result()
         while pending:

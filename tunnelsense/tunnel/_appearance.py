@@ -37,7 +37,7 @@ from tunnelsense.tunnel._common import (
 from tunnelsense.tunnel._invariant import (
     _crop_bounds,
     _features,
-    invariant_features,
+    box_patches,
     n_invariant_features,
     perturb_patch,
 )
@@ -128,12 +128,16 @@ def box_histograms(
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     if len(boxes) == 0:
         return np.empty((0, bins))
-    # every rectangle's pixels at once: one bincount of (rectangle, bin) pairs
-    bounds = np.column_stack(_crop_bounds(boxes, image.shape, margin)).tolist()
-    pixels = [image[r0:r1, c0:c1].ravel() for c0, r0, c1, r1 in bounds]
-    ids = np.repeat(np.arange(len(boxes)), [p.size for p in pixels])
+    return _patch_histograms(box_patches(image, boxes, margin), bins, lut)
+
+
+def _patch_histograms(patches, bins, lut):
+    """Normalized histograms of non-empty patches through ``lut``, one row each:
+    every patch's pixels at once, one bincount of (patch, bin) pairs."""
+    pixels = [p.ravel() for p in patches]
+    ids = np.repeat(np.arange(len(pixels)), [p.size for p in pixels])
     counts = np.bincount(ids * bins + lut[np.concatenate(pixels)],
-                         minlength=len(boxes) * bins).reshape(-1, bins)
+                         minlength=len(pixels) * bins).reshape(-1, bins)
     return counts / counts.sum(axis=1, keepdims=True)
 
 
@@ -308,7 +312,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
 
     def _frame_histograms(self, records):
         """Per frame: record, boxes, raw histograms and the stumps' features."""
-        kw = dict(bins=self.bins, margin=float(self.margin))
+        margin = float(self.margin)
         for i, r in enumerate(records):
             boxes = boxes_of(r, i, "WeightedAdaBoost")
             if len(boxes) == 0:
@@ -316,10 +320,13 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 continue
             image = frame_image(r, i)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range)
-            H = box_histograms(image, boxes, lut=lut, **kw)
+            # the same patches for the histograms and the invariant features
+            # (box_histograms and invariant_features, one crop for both)
+            rects = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+            patches = box_patches(image, rects, margin)
+            H = _patch_histograms(patches, self.bins, lut)
             if self.features == "invariant":
-                F = invariant_features(image, boxes, bins=_INVARIANT_BINS,
-                                       margin=float(self.margin))
+                F = _features(patches, rects[:, [3, 2]].tolist(), _INVARIANT_BINS)
             else:
                 F = H
             yield r, boxes, H, F

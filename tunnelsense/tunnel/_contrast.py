@@ -303,15 +303,27 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
         ring[int(top) - r0:int(top + bh) - r0, int(left) - c0:int(left + bw) - c0] = False
         if not ring.any():
             continue
-        surround = float(np.median(window[ring]))
+        surround = _median(window[ring])
         values = window[kr, kc]
         b = int(np.argmax(values))
         peak = float(values[b])
         if peak <= surround:
             continue
         mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
-        _, comp = cv2.connectedComponents(mask, connectivity=8)
-        ys, xs = np.nonzero(comp == comp[kr[b], kc[b]])
-        y0, x0 = int(ys.min()) + r0, int(xs.min()) + c0
-        out[k] = (x0, y0, int(xs.max()) + c0 + 1 - x0, int(ys.max()) + r0 + 1 - y0)
+        # the bounding box of the component holding the brightest keypoint
+        _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        x, y, w, h = stats[comp[kr[b], kc[b]], :4].tolist()
+        out[k] = (x + c0, y + r0, w, h)
     return out
+
+
+def _median(values):
+    """``float(np.median(values))`` of a non-empty 1-D array of integers (grey
+    levels), by one partition: the middle value, or the mean of the two middle
+    ones (exact: the sum of two integers below 2**17 is exact in float64)."""
+    n = len(values)
+    half = n // 2
+    if n % 2:
+        return float(np.partition(values, half)[half])
+    part = np.partition(values, (half - 1, half))
+    return (float(part[half - 1]) + float(part[half])) / 2.0

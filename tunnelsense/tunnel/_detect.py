@@ -15,7 +15,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from tunnelsense._records import FrameRecord, FrameSequence, to_xy
 from tunnelsense._streaming import StreamingPipeline
@@ -31,6 +30,7 @@ from tunnelsense.io._sources import decode_ahead, open_tour
 from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.plotting._detections import draw_detections
+from tunnelsense.tunnel._kmeans import blas_threads
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
@@ -255,7 +255,7 @@ def open_frames(source, *, colour=None):
     return frames, total
 
 
-def stream_detect(model, frames, *, progress=None, n_threads=0):
+def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_readers=False):
     """Run a fitted indicator pipeline online; yield the frames as they are final.
 
     Parameters
@@ -267,6 +267,13 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
     progress : Progress or None, default=None
     n_threads : int, default=0
         Reader threads decoding the next frames while this one is detected (0: none).
+    stages_in_readers : bool, default=False
+        Whether the reader threads also run each frame through the stages that look
+        at one frame alone (keypoints, verifier, clusters, appearance), this thread
+        then linking and verifying the trajectories only.  The results are the same
+        either way.  It spreads the work over idle cores; on a machine whose cores
+        are busy it is slower (the readers hold the interpreter lock in turns, and
+        the system suspends one that holds it while the others wait).
 
     Yields
     ------
@@ -288,13 +295,19 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
     True
     """
     stream = StreamingPipeline(model)
-    if n_threads > 0:
+    push = stream.push
+    if n_threads > 0 and stages_in_readers:
+        # the stages that keep no state run in the reader threads beside the decode;
+        # this thread links the tracks
+        frames = decode_ahead(frames, n_threads=n_threads, then=stream.prepare)
+        push = stream.push_prepared
+    elif n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
     # one frame's matrix products are small: BLAS threads would only contend with
     # the reader threads
-    with threadpool_limits(limits=1, user_api="blas"):
+    with blas_threads(1):
         for k, record in enumerate(frames, 1):
-            yield from stream.push(record)
+            yield from push(record)
             if progress is not None:
                 progress.update(k)
         yield from stream.close()
@@ -302,7 +315,7 @@ def stream_detect(model, frames, *, progress=None, n_threads=0):
 
 def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
                     progress=None, draw=None, draw_every=1, draw_video=None,
-                    colour=None):
+                    colour=None, stages_in_readers=False):
     """Detect indicators in a tour or video, writing results as frames are final.
 
     ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
@@ -321,6 +334,8 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
         Continue an interrupted ``out``; replace an existing one.
     n_threads : int, default=0
         Reader threads (see :func:`stream_detect`).
+    stages_in_readers : bool, default=False
+        The reader threads also run the per-frame stages (see :func:`stream_detect`).
     progress : Progress or None, default=None
         Its total is set to the number of frames, then updated after each frame.
     draw : str, Path or None, default=None
@@ -367,7 +382,8 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     drawing = draw is not None or draw_video is not None
     if drawing and Path(source).is_file():
         frames = _keep_images(frames, images)  # video frames are decoded once
-    released = stream_detect(model, frames, progress=progress, n_threads=n_threads)
+    released = stream_detect(model, frames, progress=progress, n_threads=n_threads,
+                             stages_in_readers=stages_in_readers)
     if drawing:
         pictures = draw_detections(_in_own_pixels(_with_images(released, images)))
     else:

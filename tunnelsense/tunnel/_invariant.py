@@ -18,8 +18,8 @@ import functools
 
 import numpy as np
 
-__all__ = ["AUGMENT_RANGES", "invariant_features", "n_invariant_features",
-           "perturb_patch"]
+__all__ = ["AUGMENT_RANGES", "box_patches", "invariant_features",
+           "n_invariant_features", "perturb_patch"]
 
 #: Ranges of the camera changes drawn by :func:`perturb_patch`: gain (factor),
 #: offset (grey levels), extra noise sigma (grey levels, added in quadrature: 4 takes
@@ -236,9 +236,23 @@ def invariant_features(image, boxes, *, bins=16, margin=0.25) -> np.ndarray:
     ((1, 22), True)
     """
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    return _features(box_patches(image, boxes, margin), boxes[:, [3, 2]].tolist(), bins)
+
+
+def box_patches(image, boxes, margin):
+    """The image inside each box grown by ``margin`` times its height (views,
+    clipped to the image, at least one pixel; see :func:`_crop_bounds`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> [p.shape for p in box_patches(np.zeros((40, 40)), np.array([[15, 10, 9, 20.]]),
+    ...                               0.25)]
+    [(30, 19)]
+    """
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     bounds = np.column_stack(_crop_bounds(boxes, image.shape, margin)).tolist()
-    patches = [image[r0:r1, c0:c1] for c0, r0, c1, r1 in bounds]
-    return _features(patches, boxes[:, [3, 2]].tolist(), bins)
+    return [image[r0:r1, c0:c1] for c0, r0, c1, r1 in bounds]
 
 
 def perturb_patch(patch, rng, box_hw, ranges=None):

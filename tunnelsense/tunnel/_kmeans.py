@@ -11,6 +11,7 @@ Euclidean distance to the negative centres (the paper's ``Eu``, eq. 3) and keeps
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import numbers
 
@@ -45,14 +46,39 @@ def _controller():
     return ThreadpoolController()
 
 
+#: The BLAS thread limit a :func:`blas_threads` context has set, process-wide
+#: (as the limit itself is), or None.
+_IN_FORCE = [None]
+
+
+@contextlib.contextmanager
 def blas_threads(n_jobs=None):
     """A context in which BLAS uses at most ``n_jobs`` threads (``None``: one).
 
     Spinning BLAS threads make the small products of k-means and of the
     verification several times slower on a busy machine; no result depends on the
-    thread count (the distances are exact, see :func:`fit_kmeans`).
+    thread count (the distances are exact, see :func:`fit_kmeans`).  Inside a
+    context that set a limit at most as large, nothing is done: the verifier,
+    called frame by frame inside the detector's own limit, does not set it again
+    for every frame.
+
+    Examples
+    --------
+    >>> from tunnelsense.tunnel._kmeans import blas_threads
+    >>> with blas_threads(1):
+    ...     with blas_threads(2):  # within the outer limit of one thread: nothing set
+    ...         pass
     """
-    return _controller().limit(limits=int(n_jobs or 1), user_api="blas")
+    n = int(n_jobs or 1)
+    if _IN_FORCE[0] is not None and _IN_FORCE[0] <= n:
+        yield
+        return
+    with _controller().limit(limits=n, user_api="blas"):
+        outer, _IN_FORCE[0] = _IN_FORCE[0], n
+        try:
+            yield
+        finally:
+            _IN_FORCE[0] = outer
 
 
 def fit_kmeans(

@@ -10,7 +10,6 @@ from __future__ import annotations
 import time
 
 from tunnelsense._records import to_xy
-from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.io import clusters_path
 from tunnelsense.metrics import indicator_scores, tunnel_report
 from tunnelsense.tunnel._detect import detect_tour
@@ -113,6 +112,8 @@ def run_demo(n_frames=900, *, random_state=0, min_height=14.0, progress=None):
     ...
     ValueError: --frames 10 is too short: the simulated training tour holds no indicator at least 14 px tall to learn from (use --frames 300 or more)
     """
+    from tunnelsense.datasets import make_tunnel_tour  # the simulator: only here
+
     start, bar = time.perf_counter(), progress or (lambda total, desc: None)
     train, *tests = [
         make_tunnel_tour(n_frames, scenario=scenario, random_state=random_state + k,
