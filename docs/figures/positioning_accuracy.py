@@ -454,7 +454,7 @@ def main():
                         "10 m off, on --seeds tours from --first-seed")
     parser.add_argument("--first-seed", type=int, default=1000, help="first seed of "
                         "the --lock tours (evaluation seeds: never used to choose a "
-                        "setting; the settings were chosen on 5000-5299)")
+                        "setting; the settings were chosen on 5000-5299 and 6000-6199)")
     parser.add_argument("--harder", action="store_true", help="--lock tours with "
                         "scale errors of 2-4 %% (instead of 1-4 %%)")
     parser.add_argument("--failures", action="store_true", help="--lock tours with "

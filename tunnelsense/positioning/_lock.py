@@ -4,24 +4,29 @@ With no start (a log begun mid-tunnel, GPS lost before the portal, a restart), t
 passes alone say where the vehicle is: the odometry distances between them, times
 an unknown scale near 1, must match the gaps between the indicators they are.  Each
 hypothesis says "this pass was indicator ``j``" and runs its own 1-D Kalman filter
-(chainage and odometry scale) over the later passes, each associated with the
-nearest indicator ahead within the gate.  Its score is the log-likelihood of the
-passes: a Gaussian term for a pass it explains, the log of the false-pass rate for
-one it does not, the log of the miss rate for an indicator it skips -- and, when the
-record's start is known, for each indicator it says the vehicle drove past unseen
-before the first pass it explains (:func:`unseen_before`).  Between passes, the
-odometry driven since the last one is evidence too: a hypothesis that puts an
-indicator surely behind the vehicle by now, though no pass of it came, pays the
-miss rate for it (:meth:`LockOn.silence`), so the lock can be taken before the
-next pass (once the best hypothesis explains one pass more than ``min_passes``:
-a lock on silence alone after the fewest passes was wrong now and then where a
-sign had been missed and a false pass seen among them).  Hypotheses are anchored at each of the first few passes, so one false
-alarm among them does not prevent the lock.
+(chainage and odometry scale) over the later passes.  At each pass a hypothesis
+branches: "this pass was the indicator nearest ahead" (if within the gate) and
+"this pass was false" -- so a false pass near a missed sign, which the right place
+could otherwise only explain as that sign 20-60 m off (pulling its scale away for
+good), leaves the right place its true explanation.  Its score is the
+log-likelihood of the passes: a Gaussian term for a pass it explains, the log of
+the false-pass rate for one it does not, the log of the miss rate for an indicator
+it skips -- and, when the record's start is known, for each indicator it says the
+vehicle drove past unseen before the first pass it explains (:func:`unseen_before`).
+Between passes, the odometry driven since the last one is evidence too: a
+hypothesis that puts an indicator surely behind the vehicle by now, though no pass
+of it came, pays the miss rate for it (:meth:`LockOn.silence`), so the lock can be
+taken before the next pass (once the best hypothesis explains one pass more than
+``min_passes``).  Hypotheses are anchored at each of the first few passes, so one
+false alarm among them does not prevent the lock.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
-its score beats every hypothesis that puts the vehicle at another indicator by
-``margin``.  On a strictly periodic map every interior hypothesis explains the
-passes equally: there is no lock, and nothing is guessed.
+its score beats every hypothesis that puts the vehicle at another place by
+``margin`` -- each rival that counts a missed indicator spared the cost of one:
+a missed sign and a false pass near it can make a wrong stretch of the map (with a
+scale a few per cent off) explain every pass, so the lock must hold even if the
+right place's miss were free.  On a strictly periodic map every interior
+hypothesis explains the passes equally: there is no lock, and nothing is guessed.
 """
 
 from __future__ import annotations
@@ -52,7 +57,8 @@ class LockOn:
     false_pass_rate : float
         False passes per metre (a trajectory of something else that passes).
     margin : float
-        Log-likelihood ratio of the lock over the best rival.
+        Log-likelihood ratio of the lock over the best rival (a rival counting a
+        missed indicator spared the cost of one).
     min_passes : int
         Fewest passes the locked hypothesis explains (the anchor included).
     max_anchors : int, default=3
@@ -67,11 +73,13 @@ class LockOn:
     clearance : float, default=60.0
         A sign whose pass comes less than this (m of odometry) after ``start`` may
         have been in view before the record began: it is not counted as missed.
+    per_indicator : int, default=8
+        Hypotheses kept whose last indicator is the same (the best of them).
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
                  false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
-                 start=None, clearance=60.0):
+                 start=None, clearance=60.0, per_indicator=8):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -84,10 +92,12 @@ class LockOn:
         self.max_anchors = int(max_anchors)
         self.start = None if start is None else float(start)
         self.clearance = float(clearance)
+        self.per_indicator = int(per_indicator)
         self.n_passes = 0
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
-        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
+        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score",
+                                                "nf", "nm")}
         self._last = np.empty(0, np.int64)  # last indicator explained
         self._hits = np.empty(0, np.int64)  # passes explained
         self._assign = deque(maxlen=int(memory))  # per pass: (tag, indicator per hyp)
@@ -124,18 +134,33 @@ class LockOn:
             # an unexplained pass: the indicators surely behind the vehicle now were
             # missed (it is not at the one it should have seen)
             behind = np.searchsorted(self.map, s - np.sqrt(self.gate2 * S)) - 1
-            j = np.where(ok, j, np.maximum(behind, self._last))
-            skipped = np.maximum(j - self._last - (ok > 0), 0)
-            h["score"] = h["score"] + skipped * self.log_miss + np.where(
-                ok, -0.5 * m2 - 0.5 * np.log(2 * np.pi * S) + self.log_hit,
-                self.log_false)
-            k0, k1 = np.where(ok, p00 / S, 0.0), np.where(ok, p01 / S, 0.0)
-            h["s"], h["c"] = s + k0 * res, c + k1 * res
-            h["p00"], h["p01"], h["p11"] = (p00 - k0 * p00, p01 - k0 * p01,
-                                            p11 - k1 * p01)
-            self._last = j
-            self._hits = self._hits + ok
-            assign = np.where(ok, j, -1)
+            j_false = np.maximum(behind, self._last)
+            miss_false = np.maximum(j_false - self._last, 0) * self.log_miss
+            skipped = np.maximum(j - self._last - 1, 0)
+            gauss = -0.5 * m2 - 0.5 * np.log(2 * np.pi * S) + self.log_hit
+            # every hypothesis goes on as "this pass was false" (with the indicators
+            # surely behind by now missed); one that explains it also as "this pass
+            # was indicator j": a false pass within the gate of the right place
+            # must not pull the right place's scale away with no way back
+            k0, k1 = p00 / S, p01 / S
+            e = np.flatnonzero(ok)
+            score = h["score"]
+            h["score"] = np.concatenate([
+                score[e] + skipped[e] * self.log_miss + gauss[e],
+                score + miss_false + self.log_false])
+            h["s"] = np.concatenate([s[e] + k0[e] * res[e], s])
+            h["c"] = np.concatenate([c[e] + k1[e] * res[e], c])
+            h["p00"] = np.concatenate([(p00 - k0 * p00)[e], p00])
+            h["p01"] = np.concatenate([(p01 - k0 * p01)[e], p01])
+            h["p11"] = np.concatenate([(p11 - k1 * p01)[e], p11])
+            h["nf"] = np.concatenate([h["nf"][e], h["nf"] + 1])
+            h["nm"] = np.concatenate([h["nm"][e] + skipped[e],
+                                      h["nm"] + np.maximum(j_false - self._last, 0)])
+            self._last = np.concatenate([j[e], j_false])
+            self._hits = np.concatenate([self._hits[e] + 1, self._hits])
+            self._assign = deque(((t, np.concatenate([a[e], a])) for t, a in self._assign),
+                                 maxlen=self._assign.maxlen)
+            assign = np.concatenate([j[e], np.full(len(ok), -1)])
         else:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
@@ -182,21 +207,21 @@ class LockOn:
         pass.  None: no lock (or nothing new since the last call)."""
         if not self.n_hypotheses or self.n_passes < self.min_passes or dist < self._due:
             return None
-        return self.lock(self.unseen_since(dist, margin) * self.log_miss,
-                         self.min_passes + 1)
+        return self.lock(self.unseen_since(dist, margin), self.min_passes + 1)
 
     def _spawn(self, dist, var, assign):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
         m = len(self.map)
         score = np.full(m, self.n_passes * self.log_false + self.log_hit)
+        unseen = np.zeros(m)
         if self.start is not None:
-            score += self.log_miss * unseen_before(self.map, dist - self.start,
-                                                   self.scale, self.scale_sigma,
-                                                   self.clearance)
+            unseen = unseen_before(self.map, dist - self.start, self.scale,
+                                   self.scale_sigma, self.clearance).astype(np.float64)
+            score += self.log_miss * unseen
         new = {"s": self.map.copy(), "c": np.full(m, self.scale),
                "p00": np.full(m, self.fix_var + self.scale**2 * var),
                "p01": np.zeros(m), "p11": np.full(m, self.scale_sigma**2),
-               "score": score}
+               "score": score, "nf": np.full(m, float(self.n_passes)), "nm": unseen}
         for key, value in new.items():
             self._h[key] = np.concatenate([self._h[key], value])
         self._last = np.concatenate([self._last, np.arange(m)])
@@ -206,9 +231,19 @@ class LockOn:
         return np.concatenate([assign, np.arange(m)])
 
     def _prune(self):
-        """Forget hypotheses far behind the best (they can no longer win)."""
+        """Forget hypotheses far behind the best (they can no longer win), and all
+        but the ``per_indicator`` best of those whose last indicator is the same
+        (the branches "that pass was false" would otherwise double them at each
+        pass on a map that gives no lock)."""
         score = self._h["score"]
         keep = score >= score.max() - 4 * self.margin - 20.0
+        order = np.flatnonzero(keep)[np.argsort(-score[keep], kind="stable")]
+        group = order[np.argsort(self._last[order], kind="stable")]
+        last = self._last[group]
+        first = np.flatnonzero(np.r_[True, last[1:] != last[:-1]])
+        rank = np.arange(len(last)) - np.repeat(first, np.diff(np.r_[first, len(last)]))
+        keep = np.zeros(len(score), bool)
+        keep[group[rank < self.per_indicator]] = True
         if keep.all():
             return
         for key in self._h:
@@ -217,15 +252,28 @@ class LockOn:
         self._assign = deque(((t, a[keep]) for t, a in self._assign),
                              maxlen=self._assign.maxlen)
 
-    def ranking(self, extra=None):
+    def _elsewhere(self, best):
+        """Hypotheses that put the vehicle somewhere else than ``best`` does: more
+        than ``gate`` standard deviations (of the two estimates) away."""
+        h = self._h
+        d = np.abs(h["s"] - h["s"][best])
+        return d * d > self.gate2 * (h["p00"] + h["p00"][best])
+
+    def ranking(self, missed=None):
         """``(best, margin)``: the best hypothesis and its lead over any hypothesis
-        that puts the vehicle at another indicator (inf when there is none);
-        ``extra``: terms added to the scores (not kept)."""
-        score = self._h["score"] if extra is None else self._h["score"] + extra
+        that puts the vehicle at another place (inf when there is none), a rival
+        that counts a missed indicator spared its cost (:class:`LockOn`);
+        ``missed``: misses added to each hypothesis's (not kept).
+        """
+        h = self._h
+        score, nm = h["score"], h["nm"]
+        if missed is not None:
+            score, nm = score + missed * self.log_miss, nm + missed
         if not len(score):
             return None, 0.0
         best = int(np.argmax(score))
-        rival = score[self._last != self._last[best]]
+        other = self._elsewhere(best)
+        rival = score[other] - self.log_miss * (nm[other] > 0)
         return best, float(score[best] - rival.max()) if len(rival) else math.inf
 
     def n_explaining(self):
@@ -233,10 +281,14 @@ class LockOn:
         score = self._h["score"]
         if not len(score):
             return 0
-        near = score >= score.max() - self.margin
-        return len(np.unique(self._last[near]))
+        near = np.flatnonzero(score >= score.max() - self.margin)
+        places = 0
+        while len(near):
+            places += 1
+            near = near[self._elsewhere(near[np.argmax(score[near])])[near]]
+        return places
 
-    def lock(self, extra=None, min_passes=None):
+    def lock(self, missed=None, min_passes=None):
         """The lock, when one hypothesis explains the passes clearly best; else None.
 
         ``extra``: terms added to the scores for this decision, and ``min_passes``
@@ -249,7 +301,7 @@ class LockOn:
             (index of the last indicator explained), ``passes``: ``(tag, index)``
             of each remembered pass (index -1: not explained), ``margin``.
         """
-        best, margin = self.ranking(extra)
+        best, margin = self.ranking(missed)
         least = self.min_passes if min_passes is None else min_passes
         if best is None or self._hits[best] < least or margin < self.margin:
             return None

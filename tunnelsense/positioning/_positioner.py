@@ -45,8 +45,10 @@ class TunnelPositioner(BaseEstimator):
     e.g. from GPS at the portal) with its uncertainty ``initial_sigma``.  With
     ``initial_chainage=None`` the start is unknown: the positioner keeps hypotheses
     over which indicator each pass was (the odometry distances between passes must
-    match the map's gaps) and locks on when one explains the passes clearly better
-    than every other; until then its rows have ``locked=False`` and no chainage.  A
+    match the map's gaps; each pass may also be false) and locks on when one
+    explains the passes clearly better than every other, even were another place's
+    one missed sign free; until then its rows have ``locked=False`` and no
+    chainage.  A
     map whose indicators are evenly spaced gives no such cue: there it does not
     lock.  When the gate rejects ``relock_after`` passes in a row (a wrong start),
     it drops its position and locks on again the same way.
@@ -124,7 +126,9 @@ class TunnelPositioner(BaseEstimator):
         ``window`` frames late.
     lock_margin : float, default=9.0
         Log-likelihood ratio by which the lock's hypothesis must beat every
-        hypothesis that puts the vehicle at another indicator (9: 8000 to 1).
+        hypothesis that puts the vehicle at another place (9: 8000 to 1), a rival
+        that counts a missed indicator spared the cost of one (a missed sign and a
+        false pass near it can make a wrong place explain every pass).
     lock_passes : int, default=3
         Fewest passes the lock's hypothesis explains (two gaps between them).
     miss_rate : float, default=0.05
