@@ -129,6 +129,46 @@ def test_streamed_outputs_equal_batch_predict(tour_dirs, models, batch_records, 
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "r.clusters.csv"), hyp)
 
 
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_readers_decode_or_stages_write_the_same_bytes(tour_dirs, models, batch_records,
+                                                      tmp_path, jobs, monkeypatch):
+    """--readers stages (the reader threads also run the per-frame stages) writes the
+    results and clusters --readers decode writes, byte for byte, alone and in a fleet."""
+    from tunnelsense.tunnel import _detect
+
+    asked, stream_detect = [], _detect.stream_detect
+
+    def spy(*args, **kwargs):  # the mode reaches the streaming detector
+        asked.append(kwargs["stages_in_readers"])
+        return stream_detect(*args, **kwargs)
+
+    monkeypatch.setattr(_detect, "stream_detect", spy)
+    written = {}
+    for mode in ("decode", "stages"):
+        out = tmp_path / mode / "r.txt"
+        assert run(["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]),
+                    "--out", str(out), "--jobs", jobs, "--readers", mode, "--quiet"]) == 0
+        fleet = tmp_path / f"fleet-{mode}"
+        assert run(["detect", "tunnel", "--model", str(models["skops"]),
+                    *map(str, tour_dirs), "--out", str(fleet), "--jobs", "1",
+                    "--readers", mode, "--quiet"]) == 0
+        written[mode] = [out.read_bytes(), out.with_name("r.clusters.csv").read_bytes(),
+                         *(p.read_bytes() for p in sorted(fleet.glob("tour-*")))]
+    assert len(written["decode"]) == 2 + 4  # a results file and its clusters per tour
+    assert asked == [False] * 3 + [True] * 3  # one source, then a fleet of two
+    assert written["stages"] == written["decode"]
+    assert written["decode"][0].decode().splitlines() == lines_of(batch_records)
+    assert any(lines_of(batch_records))
+
+
+def test_readers_refuses_another_choice(tour_dirs, models, tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        run(["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]),
+             "--out", str(tmp_path / "r.txt"), "--readers", "threads"])
+    assert "--readers: invalid choice: 'threads'" in capsys.readouterr().err
+    assert not (tmp_path / "r.txt").exists()
+
+
 @pytest.mark.slow
 def test_video_source(tour_dirs, models, batch_records, tmp_path):
     import cv2

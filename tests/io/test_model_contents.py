@@ -500,3 +500,31 @@ def test_the_trusted_types_are_the_detectors_classes():
     assert all(_is_trusted(c) for c in classes)
     impostor = type("MSTClusterer", (MSTClusterer,), {"__module__": MSTClusterer.__module__})
     assert not _is_trusted(impostor) and not _is_trusted(dict)
+
+
+def test_a_model_of_16_bit_frames_loads_and_its_extra_attributes_are_checked(tmp_path):
+    """A sampler fitted on deeper frames keeps their level and spread (raw_level_,
+    raw_spread_): its file loads and detects as the model does; forged values or a
+    missing one are refused."""
+    from tunnelsense import FrameRecord
+
+    tour = make_tunnel_tour(60, random_state=0, first_indicator_m=20.0)
+    X, y, _ = to_xy([tour])
+    X = [FrameRecord(r.tour, r.frame, r.image.astype(np.uint16) * 257) for r in X]
+    model = make_indicator_pipeline(random_state=0).fit(X, y)
+    sampler = model.named_steps["keypoints"]
+    assert sampler.raw_spread_ > 0
+    loaded = load_trusted_model(save_model(model, tmp_path / "wide.skops"),
+                                last_step="motion", command="x")
+    assert _detections(loaded, X) == _detections(model, X)
+    assert any(_detections(model, X))
+    for name, value in (("raw_spread_", 0.0), ("raw_level_", float("nan")),
+                        ("raw_level_", None)):
+        forged = copy.deepcopy(model)
+        if value is None:
+            del forged.named_steps["keypoints"].raw_level_
+        else:
+            setattr(forged.named_steps["keypoints"], name, value)
+        path = save_model(forged, tmp_path / f"{name}-{value}.skops")
+        with pytest.raises(UntrustedModelError, match=name):
+            load_trusted_model(path, last_step="motion", command="x")

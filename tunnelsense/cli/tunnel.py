@@ -40,7 +40,8 @@ def _cmd_detect(args) -> int:
     sources = fleet.fleet_sources(args)
     if sources is not None:
         return fleet.run_fleet(args, "tunnel", sources,
-                               {"colour": common.colour(args)})
+                               {"colour": common.colour(args),
+                                "stages_in_readers": args.readers == "stages"})
     from tunnelsense.io import clusters_path
     from tunnelsense.tunnel import detect_to_files
     from tunnelsense.tunnel._reports import format_detection
@@ -53,7 +54,8 @@ def _cmd_detect(args) -> int:
         common.cli_model(args, "tunnel"), args.source, out, resume=args.resume,
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
         draw_every=args.draw_every, draw_video=args.draw_video,
-        progress=common.progress(args, 1, "detecting"), colour=common.colour(args))
+        progress=common.progress(args, 1, "detecting"), colour=common.colour(args),
+        stages_in_readers=args.readers == "stages")
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
@@ -151,6 +153,14 @@ def register(verbs) -> None:
                    "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; several sources: tours detected at once; "
                    "default: the number of CPUs)")
+    p.add_argument("--readers", choices=("decode", "stages"), default="decode",
+                   help="what the reader threads do: 'decode' the frames only, the "
+                   "detector's thread running every stage; or also run each frame "
+                   "through the stages that look at one frame alone (keypoints, "
+                   "verifier, clusters, appearance), the detector's thread then only "
+                   "linking the trajectories. The results are the same; 'stages' "
+                   "spreads the work over idle cores and is slower when the cores are "
+                   "busy. No effect with --jobs 0 (default: decode)")
     common.add_colour_arguments(p)
     fleet.add_fleet_arguments(p, "tour")
     p.set_defaults(func=_cmd_detect)

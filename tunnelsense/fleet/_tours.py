@@ -123,9 +123,9 @@ def detect_tours(model, sources, out_dir, *, kind="tunnel", n_jobs=1,
     progress : callable or None, default=None
         ``progress(done, total)`` after each tour.
     options : dict or None, default=None
-        Keyword arguments of each tour's detection: ``colour`` (tunnel);
-        ``all_objects``, ``range_unit``, ``topic``, ``mount_height``, ``speed``,
-        ``speed_topic`` (street).
+        Keyword arguments of each tour's detection: ``colour``, ``stages_in_readers``
+        (tunnel); ``all_objects``, ``range_unit``, ``topic``, ``mount_height``,
+        ``speed``, ``speed_topic`` (street).
 
     Returns
     -------
@@ -446,7 +446,8 @@ def _detect_into(model, kind, source, out, options):
         from tunnelsense.tunnel._detect import detect_to_files
 
         facts = detect_to_files(model, source, out, n_threads=1,
-                                colour=options.get("colour"))
+                                colour=options.get("colour"),
+                                stages_in_readers=bool(options.get("stages_in_readers")))
         return {k: facts[k] for k in ("frames", "detections", "trajectories")}
     from tunnelsense.io._laser import open_run_stream
     from tunnelsense.street._run import write_objects

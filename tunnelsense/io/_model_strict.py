@@ -284,7 +284,15 @@ def _check_keypoints(est):
         if not (_finite(lo) and _finite(hi) and lo <= hi):
             return ("contrast_low_ and contrast_high_ must be finite with "
                     "contrast_low_ <= contrast_high_")
+        if _deep(est) and not (_finite(est.raw_level_) and _finite(est.raw_spread_)
+                               and est.raw_spread_ > 0):
+            return "raw_level_ and raw_spread_ must be finite with raw_spread_ > 0"
     return None
+
+
+def _deep(est):
+    """Whether a keypoint sampler was fitted on frames deeper than 8 bits."""
+    return getattr(est, "pixel_dtype_", "uint8") != "uint8"
 
 
 def _check_verifier(est):
@@ -376,7 +384,10 @@ _FITTED = {
                    *(("ref_level_", "ref_spread_", "gain_tolerance_")
                      if e.radiometry in ("frame", "contrast") else ()),
                    *(("contrast_low_", "contrast_high_")
-                     if e.radiometry == "contrast" else ())),
+                     if e.radiometry == "contrast" else ()),
+                   # deeper frames map to an 8-bit picture from the training level
+                   *(("raw_level_", "raw_spread_")
+                     if e.radiometry == "contrast" and _deep(e) else ())),
         lambda e: _check_frames_fit(e) or _check_keypoints(e)),
     "KMeansHistogramVerifier": (
         ("positive_centers_", "negative_centers_", "center_scores_", "centers_",
