@@ -181,7 +181,8 @@ def test_invariant_features_and_augmentation_in_the_stage():
 def test_paper_preset_and_defaults():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
-    assert (p["appearance__features"], p["motion__criterion"]) == ("invariant", "quadratic")
+    assert (p["appearance__features"], p["motion__criterion"]) == (
+        "invariant", "quadratic-motion")
     paper = make_indicator_pipeline(preset="paper", min_r=0.9).get_params()
     assert all(paper[k] == v for k, v in PAPER_SETTINGS.items())
     assert paper["motion__min_r"] == 0.9
