@@ -11,6 +11,7 @@ from tunnelsense.tunnel import (
     box_histograms,
     curve_fit_r,
     make_indicator_pipeline,
+    motion_fit_r,
     pearson_r,
 )
 from tunnelsense.tunnel._invariant import invariant_features, perturb_patch
@@ -81,6 +82,8 @@ def test_quadratic_criterion_accepts_curved_sign_path_and_rejects_vehicles():
         assert curve_fit_r(*_centres(d)) >= 0.98
     for _, d in vehicles.groupby("id"):
         assert curve_fit_r(*_centres(d)) < 0.9
+        # nor do they move smoothly in time (the "quadratic-motion" criterion)
+        assert motion_fit_r(d["frame"], *_centres(d)) < 0.9
 
 
 def _track(xs, ys, tid=1):
@@ -107,6 +110,41 @@ def test_quadratic_criterion_in_the_verifier():
     J = _track(320 + rng.normal(0, 2, 30), 240 + rng.normal(0, 2, 30))
     out = PCCVerifier(criterion="quadratic").fit(J).predict(J)
     assert sum(len(r.payload["detections"]) for r in out) == 0
+
+
+def test_motion_fit_r_is_scale_free_and_needs_motion():
+    rng = np.random.default_rng(3)
+    t = np.arange(20.0)
+    x, y = 280 - 1.2 * t, 220 - 0.3 * t + rng.normal(0, 0.8, 20)
+    r = motion_fit_r(t, x, y)
+    # another resolution and another image position: the same figure
+    assert motion_fit_r(t, 0.5 * x + 7, 0.5 * y - 3) == pytest.approx(r)
+    # time in other units (frame numbers of another rate) changes nothing
+    assert motion_fit_r(2 * t + 100, x, y) == pytest.approx(r)
+    assert motion_fit_r(t[:3], x[:3], y[:3]) == 0.0
+    assert motion_fit_r(t, np.full(20, 5.0), np.full(20, 9.0)) == 0.0
+    assert motion_fit_r(np.full(20, 4.0), x, y) == 0.0
+
+
+def test_short_flat_path_with_pitch_jitter():
+    """A far sign's short, nearly horizontal stretch (the stream ends) under the
+    camera's body pitch: a smooth motion in time, but no function y(x)."""
+    k = np.arange(30.0)
+    rng = np.random.default_rng(5)
+    pitch = rng.normal(0, 1.0, 30)
+    xs, ys = 285 - 0.85 * k, 223 - 0.25 * k + 1.2 * pitch
+    X = _track(xs, ys)
+    assert curve_fit_r(xs, ys) < 0.95 <= motion_fit_r(k + 1, xs, ys)
+    quadratic = PCCVerifier(criterion="quadratic").fit(X).predict(X)
+    motion = PCCVerifier(criterion="quadratic-motion").fit(X).predict(X)
+    assert sum(len(r.payload["detections"]) for r in quadratic) == 0
+    assert sum(len(r.payload["detections"]) for r in motion) == 30
+    assert all(r.payload["motion_r"][0] >= 0.95 for r in motion)
+    # a cluster jittering in place, also with a flat (pitch-like) jitter: no motion
+    for sx, sy in ((2.0, 2.0), (0.3, 2.0)):
+        J = _track(320 + rng.normal(0, sx, 30), 240 + rng.normal(0, sy, 30))
+        out = PCCVerifier(criterion="quadratic-motion").fit(J).predict(J)
+        assert sum(len(r.payload["detections"]) for r in out) == 0
 
 
 def _frames(n=8, seed=0):
@@ -143,7 +181,8 @@ def test_invariant_features_and_augmentation_in_the_stage():
 def test_paper_preset_and_defaults():
     p = make_indicator_pipeline().get_params()
     assert all(p[k] == v for k, v in PIPELINE_DEFAULTS.items())
-    assert (p["appearance__features"], p["motion__criterion"]) == ("invariant", "quadratic")
+    assert (p["appearance__features"], p["motion__criterion"]) == (
+        "invariant", "quadratic-motion")
     paper = make_indicator_pipeline(preset="paper", min_r=0.9).get_params()
     assert all(paper[k] == v for k, v in PAPER_SETTINGS.items())
     assert paper["motion__min_r"] == 0.9

@@ -34,12 +34,13 @@ from tunnelsense.tunnel._pcc_stream import (
     PCCStream,
     curve_fit_r,
     frame_payload,
+    motion_fit_r,
     pearson_r,
     straightness,
 )
 from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
-__all__ = ["PCCVerifier", "curve_fit_r", "pearson_r", "straightness"]
+__all__ = ["PCCVerifier", "curve_fit_r", "motion_fit_r", "pearson_r", "straightness"]
 
 
 class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
@@ -101,7 +102,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         place in the image (the far end of a curving row of lamps, which the view
         follows) only jitters, however well the jitter fits a path.  A ratio of
         lengths in the image, so it holds at any resolution and focal length.
-    criterion : {"pearson", "principal", "quadratic"}, default="pearson"
+    criterion : {"pearson", "principal", "quadratic", "quadratic-motion"}, \
+            default="pearson"
         The path measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
         eq. 5 (the paper); ``"principal"`` is :func:`straightness`, which does not
         depend on the line's direction. Pearson's r is 0 for a perfectly horizontal
@@ -113,7 +115,14 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         the curve's inside as the road turns, and an indicator's image path bends,
         which a straight line fits ever worse the longer the trajectory; a
         quadratic follows the bend, while a vehicle ahead jittering in place or
-        drifting up and down the image still fits no path.  ``payload["motion_r"]`` holds the
+        drifting up and down the image still fits no path.  ``"quadratic-motion"``
+        is the larger of :func:`curve_fit_r` and :func:`motion_fit_r`, the
+        multiple correlation of both coordinates fitted by quadratics in time: a
+        trajectory that covers only a short, nearly horizontal stretch of a path (a
+        far sign, or one cut by the start or end of the stream) has a vertical
+        spread that the camera's body pitch, a pixel or so up and down, swamps, so
+        no function ``y(x)`` fits it, while its motion in time is smooth; a
+        cluster jittering in place fits neither.  ``payload["motion_r"]`` holds the
         chosen measure (signed r for ``"pearson"``).
 
     Attributes
@@ -138,7 +147,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_r": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_length": [Interval(numbers.Integral, 1, None, closed="left")],
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
-        "criterion": [StrOptions({"pearson", "principal", "quadratic"})],
+        "criterion": [StrOptions({"pearson", "principal", "quadratic", "quadratic-motion"})],
         "min_travel": [Interval(numbers.Real, 0, None, closed="left")],
     }
 

@@ -28,7 +28,14 @@ from tunnelsense._payload import (
 from tunnelsense._records import FrameRecord, release_image
 from tunnelsense._streaming import StreamState
 
-__all__ = ["PCCStream", "curve_fit_r", "frame_payload", "pearson_r", "straightness"]
+__all__ = [
+    "PCCStream",
+    "curve_fit_r",
+    "frame_payload",
+    "motion_fit_r",
+    "pearson_r",
+    "straightness",
+]
 
 
 def pearson_r(x, y) -> float:
@@ -124,6 +131,56 @@ def curve_fit_r(x, y) -> float:
     return float(np.sqrt(np.clip(best, 0.0, 1.0)))
 
 
+def motion_fit_r(t, x, y) -> float:
+    """Multiple correlation of a trajectory's motion in time: both coordinates of
+    the points ``(x_i, y_i)`` at times (frame numbers) ``t_i`` fitted by quadratics
+    in time.
+
+    ``x`` and ``y`` are each fitted by ``a0 + a1 t + a2 t^2`` by least squares and
+    ``R = sqrt(1 - (SS_res,x + SS_res,y) / (SS_tot,x + SS_tot,y))``: the share of
+    the points' whole scatter that a smooth motion explains.  Unlike
+    :func:`curve_fit_r`, which asks whether one coordinate is a function of the
+    other (and so measures the residual against the spread of that coordinate
+    alone), it does not depend on the direction of the motion: a short, nearly
+    horizontal stretch of a path, whose small vertical spread the camera's body
+    pitch (every image point moving up and down by the same angle) swamps, still
+    fits a smooth motion in time.  A cluster jittering in place, whatever the shape
+    of its jitter, fits no motion in time (``R`` near 0).  Over a long stretch of an
+    approaching sign's path (its image position grows as the inverse of its
+    distance) a quadratic in time fits worse than the path's shape does.  A ratio
+    of scatters: the same at any resolution and focal length.  0 for fewer than four
+    points, fewer than three distinct times, or points that do not move.
+
+    Examples
+    --------
+    >>> t = [0., 1, 2, 3, 4, 5, 6, 7]
+    >>> x = [300 - 2 * v for v in t]
+    >>> y = [200 + (1 if v % 2 else -1) * 0.8 for v in t]  # pitch wiggle, flat path
+    >>> round(curve_fit_r(x, y), 3) < 0.5, round(motion_fit_r(t, x, y), 2)
+    (True, 0.99)
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)  # jitter in place
+    >>> motion_fit_r(t, 320 + rng.normal(0, 2, 8), 240 + rng.normal(0, 2, 8)) < 0.7
+    True
+    """
+    t = np.asarray(t, dtype=np.float64)
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(t) < 4 or len(np.unique(t)) < 3:
+        return 0.0
+    u = t - t.mean()
+    u = u / float(np.abs(u).max())
+    design = np.column_stack([np.ones_like(u), u, u * u])
+    points = np.column_stack([x - x.mean(), y - y.mean()])
+    total = float((points * points).sum())
+    scale = float(np.abs(points).max())
+    if total <= 1e-12 * max(scale * scale, 1.0):
+        return 0.0
+    coef, *_ = np.linalg.lstsq(design, points, rcond=None)
+    resid = points - design @ coef
+    return float(np.sqrt(np.clip(1.0 - float((resid * resid).sum()) / total, 0.0, 1.0)))
+
+
 def path_travel(x, y, h) -> float:
     """How far a trajectory travels, in units of its own size: the distance between
     the mean centre of its first third and that of its last third, over the median
@@ -155,7 +212,17 @@ def path_travel(x, y, h) -> float:
     return float(d / max(float(np.median(np.asarray(h, dtype=np.float64))), 1e-9))
 
 
-_MEASURES = {"pearson": pearson_r, "principal": straightness, "quadratic": curve_fit_r}
+def _path_or_motion_r(x, y, t):
+    return max(curve_fit_r(x, y), motion_fit_r(t, x, y))
+
+
+#: the measures of ``PCCVerifier(criterion=...)``, each of ``(x, y, t)``
+_MEASURES = {
+    "pearson": lambda x, y, t: pearson_r(x, y),
+    "principal": lambda x, y, t: straightness(x, y),
+    "quadratic": lambda x, y, t: curve_fit_r(x, y),
+    "quadratic-motion": _path_or_motion_r,
+}
 
 
 class _Released:
@@ -227,10 +294,10 @@ class _Frame:
 
 
 class _Trajectory:
-    __slots__ = ("xs", "ys", "hs", "app", "members")
+    __slots__ = ("ts", "xs", "ys", "hs", "app", "members")
 
     def __init__(self):
-        self.xs, self.ys, self.hs, self.app, self.members = [], [], [], [], []
+        self.ts, self.xs, self.ys, self.hs, self.app, self.members = [], [], [], [], [], []
 
 
 class PCCStream(StreamState):
@@ -263,7 +330,7 @@ class PCCStream(StreamState):
 
     def _decide(self, traj):
         n = len(traj.xs)
-        r = self.measure(traj.xs, traj.ys) if n > 1 else 0.0
+        r = self.measure(traj.xs, traj.ys, traj.ts) if n > 1 else 0.0
         motion_ok = n >= self.min_length and abs(r) >= self.min_r
         if motion_ok and self.min_travel > 0:
             motion_ok = path_travel(traj.xs, traj.ys, traj.hs) >= self.min_travel
@@ -318,6 +385,7 @@ class PCCStream(StreamState):
                 traj = self.open.get(tid)
                 if traj is None:
                     traj = self.open[tid] = _Trajectory()
+                traj.ts.append(record.frame)
                 traj.xs.append(cx[j])
                 traj.ys.append(cy[j])
                 traj.hs.append(hs[j])

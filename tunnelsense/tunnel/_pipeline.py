@@ -72,8 +72,12 @@ PIPELINE_DEFAULTS = {
     "appearance__features": "invariant",
     "appearance__augment": 2,
     # an indicator's image path bends in a curving tunnel: a quadratic path's
-    # multiple correlation instead of the straight line's Pearson r
-    "motion__criterion": "quadratic",
+    # multiple correlation instead of the straight line's Pearson r; or, when
+    # larger, that of its motion in time (both coordinates quadratic in time): a
+    # short, nearly horizontal stretch of a far sign's path (a trajectory cut by
+    # the end of the stream, a camera mounted near the signs' height) is swamped
+    # by the body pitch's pixel of vertical jitter as a path y(x), not as a motion
+    "motion__criterion": "quadratic-motion",
     # an indicator approaches: its trajectory travels at least a quarter of its own
     # height (a sign on the wall: about half over ten frames at 60 km/h, several
     # over its path); the far end of a curving row of lamps keeps its place in the
@@ -124,7 +128,8 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     too few of them in a one-tour training set (``docs/tunnel-detector.md``);
     camera-invariant appearance features with training-time augmentation
     (``appearance__features="invariant"``, ``appearance__augment=2``), the
-    quadratic path criterion of the motion check (``motion__criterion="quadratic"``)
+    quadratic path criterion of the motion check, or the motion's fit in time where
+    larger (``motion__criterion="quadratic-motion"``)
     and a trajectory that travels at least a quarter of its own height
     (``motion__min_travel=0.25``),
     which keep the detector working on another camera and in a curving tunnel
