@@ -8,6 +8,7 @@ import pytest
 from tunnelsense.datasets import make_street_scans
 from tunnelsense.metrics import street_scores
 from tunnelsense.street import ScanClusterer
+from tunnelsense.street._classes import class_features, vehicle_class
 
 QUIET = dict(passing_per_min=0.0, pedestrians_per_100m=0.0, bins_per_100m=0.0,
              bollard_rows_per_100m=0.0)
@@ -58,3 +59,19 @@ def test_stream_equals_batch_across_stops(chunk):
     rows = [row for r in out for row in r.payload["finished_objects"]]
     assert rows == _rows(table) and len(rows) > 5
 
+
+
+def test_class_features_are_shares_of_length_not_of_scans():
+    # a van's 6 scans at full speed, then 60 scans of its low tail lift standing
+    flags = np.array([2] * 6 + [0] * 60)  # the wall above the region of interest
+    top = np.array([2.0] * 6 + [0.9] * 60)
+    seen = np.arange(66)
+    metres = np.r_[np.full(6, 0.8), np.zeros(60)]
+    scan = seen.copy()
+    side, far = np.full(66, 5.0), np.r_[np.full(6, 7.0), np.full(60, 5.4)]
+    by_scan = class_features(flags, top, scan, side, far, 4.8)
+    by_length = class_features(flags, top, scan, side, far, 4.8, seen=seen,
+                               metres=metres)
+    assert vehicle_class(by_scan) != "van"  # the stand decides by its scan count
+    assert by_length["wall"] == pytest.approx(1.0) and by_length["top"] == 2.0
+    assert by_length["extent"] == 2.0 and vehicle_class(by_length) == "van"

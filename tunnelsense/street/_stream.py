@@ -353,7 +353,8 @@ class _RunState(ScanWindow):
             # (a passing vehicle's seen length follows the two speeds, not its body)
             features = class_features(
                 prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
-                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan)
+                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan,
+                seen=prof.profile(o)[0], metres=np.diff(cum))
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
                 "last": self.base + last, "before": before, "after": after,
@@ -425,7 +426,7 @@ class _RunState(ScanWindow):
             features = class_features(
                 np.zeros(hi - lo + 1, np.int64),
                 np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
-                side, far, length)
+                side, far, length, seen=np.arange(lo, hi + 1), metres=np.diff(cum))
             out.append({
                 "key": (self.base + lo, depth), "first": self.base + lo,
                 "last": self.base + hi, "before": 0, "after": 0, "extend": False,
