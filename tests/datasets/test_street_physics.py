@@ -121,3 +121,28 @@ def test_pitch_leans_the_scan_plane_and_drifts():
     # no pitch: nothing drawn for it, the run unchanged
     flat = _simulate(300, "sparse", 11)
     assert not flat["pitch"].any() and "pitch_deg_max" not in flat["info"]
+
+
+def test_stop_and_go_brakes_stands_and_drives_on_with_the_speed_in_the_scans():
+    base = _simulate(3000, "sparse", 12, **QUIET)
+    kw = dict(stops_per_min=2.0, stop_duration_s=10.0)
+    s = _simulate(3000, "sparse", 12, **QUIET, **kw)
+    v, t, x = s["speed"], s["stamps"], s["x"]
+    standing = v == 0
+    assert standing.any() and not standing[0] and not standing[-1]
+    # one stop in every 30 s of a 40 s run: one or two stands of 5-15 s each
+    edges = np.flatnonzero(np.diff(standing.astype(int)))
+    stands = [t[b] - t[a] for a, b in zip(edges[::2], edges[1::2], strict=False)]
+    assert 1 <= len(stands) <= 2 and all(4.9 < d < 15.1 for d in stands)
+    assert np.all(np.diff(x) >= 0) and np.all(np.diff(x)[standing[1:] & standing[:-1]] == 0)
+    # braking and accelerating: at most 3 m/s2 down, 2 m/s2 up (between scans)
+    dv = np.diff(v) / np.diff(t)
+    assert dv.min() > -3.1 and dv.max() < 2.1 + 1.0  # (+ the slow speed changes)
+    # before the first braking the run is the one without stops
+    brake = int(np.flatnonzero(v < base["speed"])[0])
+    assert brake > 0 and np.array_equal(v[:brake], base["speed"][:brake])
+    run = make_street_scans(3000, scenario="sparse", random_state=12, **QUIET, **kw)
+    assert np.array_equal([r.payload["speed"] for r in run.scans], v)
+    assert run.info["speed_kmh_min"] == 0.0
+    with pytest.raises(ValueError, match="stops_per_min"):
+        make_street_scans(100, stops_per_min=-1.0)

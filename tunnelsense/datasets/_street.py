@@ -81,7 +81,7 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
     seed = _seed(random_state)
     rng = np.random.default_rng(seed)
     p = resolve_params(scenario, overrides, rng)
-    stamps, speed, x_ego, roll, height = ego(p, n_scans, rng)
+    stamps, speed, x_ego, roll, height = ego(p, n_scans, rng, seed)
     pitch = sensor_pitch(p, stamps, seed)
     inc = math.radians(p["angle_increment_deg"])
     n_beams = int(math.floor((p["angle_max_deg"] - p["angle_min_deg"]) /
@@ -247,6 +247,9 @@ def make_street_scans(n_scans=4000, *, scenario="sparse", random_state=None, nam
     **overrides : float
         Physical parameters replacing the scenario's values: ``speed_kmh`` (mean ego
         speed), ``speed_variation_kmh`` (amplitude of its slow changes),
+        ``stops_per_min`` (stop-and-go: one stop in every ``60 / stops_per_min`` s,
+        braking at 1.5-3 m/s2 to a standstill, standing ``stop_duration_s`` x
+        0.5-1.5, then accelerating at 1-2 m/s2; 0, the default, never stops),
         ``scan_rate_hz``, ``mount_height`` (m, true and nominal), ``roll_deg`` (the
         true sensor roll at the start of the run; positive turns the beams up),
         ``roll_drift_deg`` (amplitude of its drift), ``pitch_deg`` (the true pitch,

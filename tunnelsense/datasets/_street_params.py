@@ -21,6 +21,8 @@ from tunnelsense.datasets._scenarios import STREET_SCENARIOS  # noqa: E402
 _PARAMS = {
     "speed_kmh": (40.0, 5.0, 120.0),
     "speed_variation_kmh": (3.0, 0.0, 15.0),
+    "stops_per_min": (0.0, 0.0, 10.0),
+    "stop_duration_s": (15.0, 0.0, 120.0),
     "scan_rate_hz": (75.0, 1.0, 1000.0),
     "mount_height": (2.0, 0.5, 4.0),
     "roll_deg": (0.0, -15.0, 15.0),

@@ -15,7 +15,7 @@ from tunnelsense.datasets._street_shapes import GLASS as _GLASS
 from tunnelsense.datasets._street_shapes import TYRE as _TYRE
 
 __all__ = ["HIT_KERB", "HIT_NONE", "HIT_RAIN", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT",
-           "ego", "measure", "rain", "sensor_pitch"]
+           "ego", "measure", "rain", "sensor_pitch", "stop_profile"]
 
 #: Range the paper's sensor reports for no return or an object beyond 8.0 m (m).
 MAX_RANGE = 8.191
@@ -38,12 +38,38 @@ def _smooth(rng, t, periods, amplitude):
     return amplitude * out
 
 
-def ego(p, n_scans, rng):
+def stop_profile(p, stamps, seed):
+    """Ceiling (m/s) on the ego speed per scan from stops: ``stops_per_min`` stops
+    (one in every ``60 / stops_per_min`` s, at a random moment of it), each
+    decelerating at 1.5-3 m/s2 to a standstill, standing ``stop_duration_s`` x
+    0.5-1.5 and accelerating again at 1-2 m/s2 (a light, a bus ahead); +inf without
+    stops.  Its own random stream (nothing is drawn without stops, so that the rest of
+    a run does not change with them)."""
+    ceiling = np.full(len(stamps), np.inf)
+    if not p["stops_per_min"]:
+        return ceiling
+    rng = np.random.default_rng([seed, 3])
+    every = 60.0 / p["stops_per_min"]
+    t0, t1 = float(stamps[0]), float(stamps[-1])
+    start = t0
+    while start < t1:
+        stand = start + rng.uniform(0.2, 0.8) * every  # the car stands still from here
+        duration = p["stop_duration_s"] * rng.uniform(0.5, 1.5)
+        decel, accel = rng.uniform(1.5, 3.0), rng.uniform(1.0, 2.0)
+        v = np.where(stamps < stand, decel * (stand - stamps),
+                     np.where(stamps > stand + duration,
+                              accel * (stamps - stand - duration), 0.0))
+        ceiling = np.minimum(ceiling, v)
+        start += every
+    return ceiling
+
+
+def ego(p, n_scans, rng, seed=0):
     dt = 1.0 / p["scan_rate_hz"]
     stamps = np.arange(n_scans) * dt + rng.uniform(-0.02, 0.02, n_scans) * dt
     v0 = p["speed_kmh"] / 3.6
     speed = v0 + _smooth(rng, stamps, [(8.0, 20.0), (25.0, 60.0)], p["speed_variation_kmh"] / 3.6)
-    speed = np.maximum(speed, 0.5 * v0)
+    speed = np.minimum(np.maximum(speed, 0.5 * v0), stop_profile(p, stamps, seed))
     # distance travelled: trapezoidal integration over the stamps
     steps = np.diff(stamps) * 0.5 * (speed[1:] + speed[:-1])
     x = np.concatenate([[0.0], np.cumsum(steps)])

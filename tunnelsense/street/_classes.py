@@ -23,14 +23,42 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._census import VEHICLE_CLASSES
+from tunnelsense.street._objects import length_share
 
-__all__ = ["VEHICLE_CLASSES", "class_features", "vehicle_class"]
+__all__ = ["VEHICLE_CLASSES", "class_features", "vehicle_class", "weighted_median"]
 
 #: Bits of the per-cluster evidence flags (see ``_objects.BODY_FLAGS``).
 ROOF_FLAG, WALL_FLAG = 0b0001, 0b0010
 
 
-def class_features(scan_flags, scan_top, scan, side, far, length):
+def weighted_median(values, weights):
+    """The median of ``values`` weighted by ``weights`` (the plain median where the
+    weights are all equal or sum to 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._classes import weighted_median
+    >>> weighted_median(np.array([0.9, 1.4, 1.5, 1.6]), np.array([0.0, 0.1, 0.1, 0.1]))
+    1.5
+    >>> weighted_median(np.array([0.9, 1.4, 1.5, 1.6]), np.ones(4))
+    1.45
+    """
+    values = np.asarray(values, dtype=np.float64)
+    weights = np.asarray(weights, dtype=np.float64)
+    total = float(weights.sum())
+    if total <= 0 or np.all(weights == weights[0]):
+        return float(np.median(values))
+    order = np.argsort(values, kind="stable")
+    v, c = values[order], np.cumsum(weights[order])
+    k = int(np.searchsorted(c, total / 2))
+    if np.isclose(c[k], total / 2) and k + 1 < len(v):  # halfway between two
+        return float((v[k] + v[k + 1]) / 2)
+    return float(v[k])
+
+
+def class_features(scan_flags, scan_top, scan, side, far, length, *, seen=None,
+                   metres=None):
     """The cross-section features of one object from its scans and intra-clusters.
 
     Every feature is per scan, whatever the intra-clusters a scan's cut holds (a
@@ -53,6 +81,12 @@ def class_features(scan_flags, scan_top, scan, side, far, length):
     length : float
         The object's length (m along the street, as seen; NaN for a passing
         vehicle, whose seen length follows the two speeds).
+    seen : ndarray of shape (n_scans,) of int, default=None
+        Scan positions of ``scan_flags`` and ``scan_top`` (those of ``scan``).
+    metres : ndarray, default=None
+        Metres travelled at every scan position: the features are shares and
+        medians over the object's length, not its scans (a car standing still
+        sees one cross-section in many scans).  None: every scan counts alike.
 
     Returns
     -------
@@ -86,12 +120,20 @@ def class_features(scan_flags, scan_top, scan, side, far, length):
         s, lo, hi = scan[body][order], side[body][order], far[body][order]
         starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
         extent = np.maximum.reduceat(hi, starts) - np.minimum.reduceat(lo, starts)
-    n = max(len(scan_flags), 1)
+    if metres is None or seen is None:
+        w_scan = np.ones(len(scan_flags))
+        w_body = np.ones(len(extent))
+    else:
+        w_scan = np.asarray(metres, dtype=np.float64)[np.asarray(seen, dtype=np.int64)]
+        w_body = (np.asarray(metres, dtype=np.float64)[s[starts]] if len(extent)
+                  else np.empty(0))
     return {
-        "roof": float(np.count_nonzero(scan_flags & ROOF_FLAG) / n),
-        "wall": float(np.count_nonzero(scan_flags & WALL_FLAG) / n),
-        "top": float(np.median(scan_top)) if len(scan_top) else np.nan,
-        "extent": float(np.median(extent)) if len(extent) else np.nan,
+        "roof": length_share((scan_flags & ROOF_FLAG) > 0, w_scan) if len(w_scan)
+        else 0.0,
+        "wall": length_share((scan_flags & WALL_FLAG) > 0, w_scan) if len(w_scan)
+        else 0.0,
+        "top": weighted_median(scan_top, w_scan) if len(scan_top) else np.nan,
+        "extent": weighted_median(extent, w_body) if len(extent) else np.nan,
         "length": float(length),
     }
 

@@ -103,9 +103,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     merge_gap : float, default=0.5
         Largest gap (m along the track) across which fragments are merged.
     speed : float, "paper" or None, default=None
-        Ego speed (m/s) turning scan counts into lengths.  None: the running median
-        of the scans' payload ``"speed"`` (as :func:`~tunnelsense.io.read_run` and a
-        ROS bag's odometry give it); a run whose scans carry none is refused
+        Ego speed (m/s) turning scan counts into lengths.  None: every scan's own
+        payload ``"speed"`` (as :func:`~tunnelsense.io.read_run` and a ROS bag's
+        odometry give it; 0 while the car stands), a median over the scan and the
+        4 before it against noise; a run whose scans carry none is refused
         (``ValueError`` naming ``speed``) rather than measured at a guessed speed.
         ``"paper"``: the paper's 40 km/h for every scan, whatever the scans carry.
     roof_width : float, default=0.8

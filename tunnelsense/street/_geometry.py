@@ -30,6 +30,7 @@ __all__ = [
     "horizon",
     "kerb_steps",
     "RoiPoints",
+    "SPEED_WINDOW",
     "roi_points",
     "running_median",
 ]
@@ -41,8 +42,11 @@ DEFAULT_SPEED = 40 / 3.6
 DEFAULT_SCAN_PERIOD = 1 / 75
 #: Depth step (m) of the grid on which :func:`horizon` is kept.
 HORIZON_STEP = 0.25
-#: Scans over which the scan period, the ego speed and the fallback tilt are medians.
+#: Scans over which the scan period and the fallback tilt are medians.
 HISTORY = 151
+#: Scans over which the ego speed of the scans' payload is a median (a scan and the
+#: ones just before it: against odometry's noise, without lagging across a stop).
+SPEED_WINDOW = 5
 
 
 def running_median(history, values, window=HISTORY):
@@ -75,22 +79,40 @@ class History:
         self.speeds = np.empty(0)
         self.tilts = np.empty(0)  # known tilts only
         self.kerbs = np.empty(0)  # known kerb depths only
+        self.last_speed = np.nan  # the last scan's speed that was known
 
     def steps(self, periods, speeds):
-        """Metres travelled per scan: recent median speed x recent median period.
+        """Metres travelled per scan: the scan's own speed x recent median period.
 
         ``periods`` (s) and ``speeds`` (m/s) are per new scan, NaN where unknown;
         a scalar ``speeds`` keeps no speed history (a fixed speed is given instead).
-        NaN where no speed is known yet (none given, none in the recent scans).
+        A scan's speed is the median of its own and the ``SPEED_WINDOW - 1`` before
+        it that are known (odometry's noise, no lag: a car that stops advances 0 m
+        while it stands, and its full speed again as soon as it drives); a scan
+        whose speed and recent ones are unknown (NaN, or negative) keeps the last
+        known one.  NaN where no speed is known yet (none given, none before).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from tunnelsense.street._geometry import History
+        >>> h = History()
+        >>> h.steps(np.full(4, 0.1), np.array([10.0, 0.0, 0.0, 0.0])).tolist()
+        [1.0, 0.5, 0.0, 0.0]
         """
         periods = np.where(np.isfinite(periods) & (periods > 0), periods, np.nan)
         period = running_median(self.periods, periods)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds
         if not np.isscalar(speeds):
-            speeds = np.where(np.isfinite(speeds) & (speeds > 0), speeds, np.nan)
-            speed = running_median(self.speeds, speeds)
-            self.speeds = np.concatenate([self.speeds, speeds])[-HISTORY:]
+            speeds = np.where(np.isfinite(speeds) & (speeds >= 0), speeds, np.nan)
+            speed = running_median(self.speeds, speeds, window=SPEED_WINDOW)
+            self.speeds = np.concatenate([self.speeds, speeds])[-SPEED_WINDOW:]
+            for i in range(len(speed)):  # unknown: the last known speed
+                if np.isfinite(speed[i]):
+                    self.last_speed = speed[i]
+                else:
+                    speed[i] = self.last_speed
         return (speed * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
 
     def fill_tilts(self, tilts):

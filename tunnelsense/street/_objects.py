@@ -22,6 +22,7 @@ __all__ = [
     "extend_occluded",
     "hidden_ends",
     "is_vehicle",
+    "length_share",
     "merge_fragments",
     "near_side",
     "see_through",
@@ -410,6 +411,24 @@ def hidden_ends(near, follows, first, last, depth, cum, cap):
     return before, after
 
 
+def length_share(mask, lengths):
+    """The share of the length (m) of some scans that those where ``mask`` holds
+    cover (the share of the scans where they cover none: the car stood still).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import length_share
+    >>> mask = np.array([True, True, True, False])
+    >>> length_share(mask, np.array([0.0, 0.0, 0.1, 0.3])), length_share(mask, np.zeros(4))
+    (0.25, 0.75)
+    """
+    total = float(np.sum(lengths))
+    if total > 0:
+        return float(np.sum(lengths[mask]) / total)
+    return float(np.mean(mask))
+
+
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
                min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
@@ -452,10 +471,13 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
                            and longest + hidden_length >= min_length)
         else:
             vehicle = bool(min(longest, seen_length) >= min_length)
-    body = float(np.mean((flags & BODY_FLAGS) > 0))
+    # shares of the object's length, not of its scans: a car standing still sees
+    # one cross-section in many scans
+    lengths = cum[seen + 1] - cum[seen]
+    body = length_share((flags & BODY_FLAGS) > 0, lengths)
     if vehicle and length + hidden_length < min_car_length:
         # a body raised between the wheels, or seen hanging in the air
-        hanging = float(np.mean((flags & (RAISED_FLAG | SUSPENDED_FLAG)) > 0))
+        hanging = length_share((flags & (RAISED_FLAG | SUSPENDED_FLAG)) > 0, lengths)
         vehicle = hanging >= min_raised_fraction
         body = max(body, hanging)
     elif (not vehicle and min_across_length is not None and hidden_length == 0
@@ -463,7 +485,7 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
           and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
         evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
-        under = float(np.mean((flags & evidence) > 0))
+        under = length_share((flags & evidence) > 0, lengths)
         vehicle = under >= min_across_raised  # a motorbike across the kerb
         body = max(body, under)  # its body: raised, or a beam passing under it
     return bool(vehicle and body >= min_body_fraction)

@@ -55,6 +55,7 @@ from tunnelsense.street._objects import (
     extend_occluded,
     hidden_ends,
     is_vehicle,
+    length_share,
     merge_fragments,
     near_side,
 )
@@ -353,7 +354,8 @@ class _RunState(ScanWindow):
             # (a passing vehicle's seen length follows the two speeds, not its body)
             features = class_features(
                 prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
-                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan)
+                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan,
+                seen=prof.profile(o)[0], metres=np.diff(cum))
             self.queue.append({
                 "key": (self.base + first, mean_depth), "first": self.base + first,
                 "last": self.base + last, "before": before, "after": after,
@@ -390,13 +392,13 @@ class _RunState(ScanWindow):
             wide.append((a, b))
         for a, b in wide:
             lo, hi = first + a, first + b
-            parts, raised = [], 0
+            parts, raised = [], np.zeros(hi - lo + 1, dtype=bool)
             for p in range(lo, hi + 1):
                 points, beams, local = self.payload[p]
                 want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
                 section = np.isin(local, want) & (points[:, 0] < cut_at)
                 parts.append(points[section])
-                raised += raised_section(points, beams,
+                raised[p - lo] = raised_section(points, beams,
                                          section & (points[:, 1] >= est.min_clearance),
                                          est.min_clearance,
                                          float(self.resolution(face)))
@@ -418,14 +420,15 @@ class _RunState(ScanWindow):
             region = int(depth_region(region_depth, self.edges([lo])[0]))
             if not (est.labels_[region] == "parked" and bound >= est.min_across_length
                     and face - side.min() >= est.motorbike_width
-                    and raised >= est.min_across_raised * (hi - lo + 1)):
+                    and length_share(raised, np.diff(cum[lo:hi + 2]))
+                    >= est.min_across_raised):
                 continue
             if self._taken(self.base + lo, self.base + hi, region):
                 continue  # already a vehicle there (carved from another object)
             features = class_features(
                 np.zeros(hi - lo + 1, np.int64),
                 np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
-                side, far, length)
+                side, far, length, seen=np.arange(lo, hi + 1), metres=np.diff(cum))
             out.append({
                 "key": (self.base + lo, depth), "first": self.base + lo,
                 "last": self.base + hi, "before": 0, "after": 0, "extend": False,
