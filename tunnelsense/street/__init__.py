@@ -5,13 +5,13 @@ Laser-Range Image*, as array functions and scikit-learn estimators on scan recor
 user guide: :doc:`/street`.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
 clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``, ``_classes``),
-the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``);
-a parking census of the objects (``_census``).
+the online state (``_stream``, ``_labelling``), the estimator (``_detector``) and whole
+runs (``_run``); a parking census of the objects (``_census``).
 """
 
 # The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
-# (_clustering), objects (_sections, _objects), the online state (_stream), the
-# estimator (_detector) and whole runs (_run).
+# (_clustering), objects (_sections, _objects), the online state (_stream, _labelling),
+# the estimator (_detector) and whole runs (_run).
 
 from tunnelsense._lazy import attach
 
