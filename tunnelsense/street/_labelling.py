@@ -4,7 +4,7 @@ Section III-F of the paper regards an object-cluster by its region: Region I hol
 street-parking vehicles, Region II vehicles passing between them and the LRF, Region III
 bushes and the like at the road's edge.  :class:`_Labelling` (mixed into the run state of
 ``_stream``) takes the object-clusters that became final, splits those that hold more
-than one vehicle (``_splitting``), tests each with the rules of ``_objects`` (its ends
+than one vehicle (``_splitting``), tests each with the rules of ``_vehicles`` (its ends
 hidden by an occluder, its body, its ends joined to something behind), gathers its class
 features (``_classes``), carves motorbikes out of the structure they stand against
 (``_carving``) and queues every object for its id.
@@ -23,15 +23,14 @@ from tunnelsense.street._carving import (
 )
 from tunnelsense.street._classes import class_features
 from tunnelsense.street._geometry import HORIZON_STEP
-from tunnelsense.street._objects import (
-    ObjectProfiles,
-    depth_region,
+from tunnelsense.street._objects import ObjectProfiles, depth_region
+from tunnelsense.street._splitting import split_objects
+from tunnelsense.street._vehicles import (
     end_match,
     hidden_ends,
     is_vehicle,
     length_share,
 )
-from tunnelsense.street._splitting import split_objects
 from tunnelsense.street._window import SIDE_HEIGHT
 
 __all__ = []
@@ -204,7 +203,7 @@ class _Labelling:
     def _merged_ends(self, mine, pos, first, last):
         """Scans before ``first`` and after ``last`` (at most ``merge_gap`` each
         way, consecutive) whose points reach the object's top where the scan next
-        to them saw it (:func:`~tunnelsense.street._objects.end_match`)."""
+        to them saw it (:func:`~tunnelsense.street._vehicles.end_match`)."""
         cum, gap = self.cum, self.est.merge_gap
         out = []
         for start, step in ((first, -1), (last, 1)):

@@ -8,7 +8,7 @@ taken (after every scan, or once at the end of a run), only on the scans seen.
 
 This module decides finality and releases records; the scans are restored, clustered
 and linked as they arrive by the window (``_window``), and the final object-clusters are
-split, tested and queued by ``_labelling`` with the object rules of ``_objects``.
+split, tested and queued by ``_labelling`` with the rules of ``_vehicles``.
 The state keeps a *window* of scans: those not yet released plus a short history.  An
 object-cluster (a component of the fragments the three-region merge joins) is **final**
 once no fragment of it can link or merge with anything still to come: none of its
@@ -47,10 +47,10 @@ from tunnelsense.street._objects import (
     ObjectProfiles,
     bridged,
     depth_region,
-    extend_occluded,
     merge_fragments,
     near_side,
 )
+from tunnelsense.street._vehicles import extend_occluded
 from tunnelsense.street._window import SIDE_HEIGHT, ScanWindow
 
 __all__ = ["ScanStream"]
