@@ -8,9 +8,9 @@ from tunnelsense.street._objects import (
     PASSED_FLAG,
     RAISED_FLAG,
     bridged,
-    is_vehicle,
     see_through,
 )
+from tunnelsense.street._vehicles import is_vehicle
 
 
 def test_a_beam_passing_under_a_body():
@@ -164,7 +164,7 @@ def test_an_end_links_only_when_it_hangs_in_the_air():
 
 
 def test_end_match_follows_the_top():
-    from tunnelsense.street._objects import end_match
+    from tunnelsense.street._vehicles import end_match
 
     upper = np.array([[6.6, 1.25], [6.65, 1.3]])
     hedge = np.array([[6.5, 0.12], [7.2, 1.3], [7.2, 1.0], [7.3, 1.6]])

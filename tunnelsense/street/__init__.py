@@ -4,14 +4,15 @@ Section III of Hirahara and Ikeuchi, *Detection of Street-Parking Vehicles on Pa
 Laser-Range Image*, as array functions and scikit-learn estimators on scan records;
 user guide: :doc:`/street`.
 The modules follow the method: geometry (``_restoration``, ``_roi``, ``_geometry``),
-clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_splitting``, ``_classes``),
-the online state (``_stream``), the estimator (``_detector``) and whole runs (``_run``);
-a parking census of the objects (``_census``).
+clustering (``_clustering``), objects (``_sections``, ``_objects``, ``_vehicles``,
+``_splitting``, ``_classes``), the online state (``_stream``, ``_labelling``), the
+estimator (``_detector``) and whole runs (``_run``); a parking census of the objects
+(``_census``).
 """
 
 # The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
-# (_clustering), objects (_sections, _objects), the online state (_stream), the
-# estimator (_detector) and whole runs (_run).
+# (_clustering), objects (_sections, _objects, _vehicles), the online state (_stream,
+# _labelling), the estimator (_detector) and whole runs (_run).
 
 from tunnelsense._lazy import attach
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._census import VEHICLE_CLASSES
-from tunnelsense.street._objects import length_share
+from tunnelsense.street._vehicles import length_share
 
 __all__ = ["VEHICLE_CLASSES", "class_features", "vehicle_class", "weighted_median"]
 

@@ -1,8 +1,9 @@
-"""Objects from object-clusters: three-region merging, splitting and labelling.
+"""Objects from object-clusters: their profiles and the three-region merge.
 
-Paper section III-F and, beyond the paper, the splitting of vehicles parked nose to
-tail and the rejection of objects that show no vehicle body (see ``docs/street.md``).
-Every function here is array in, array out, on positions within a window of
+Paper section III-E (the three regions) and, beyond the paper, the join rule of the
+merge written once in :func:`bridged` (see ``docs/street.md``); whether an object is a
+vehicle is decided in ``_vehicles``, the splitting of vehicles parked nose to tail in
+``_splitting``.  Every function here is array in, array out, on positions within a window of
 consecutive scans: ``cum[p]`` is the distance (m) travelled up to scan ``p``,
 ``near[p]`` the mean depth of the nearest intra-cluster of scan ``p`` and
 ``follows[p]`` whether scan ``p`` directly follows scan ``p - 1``.
@@ -18,11 +19,6 @@ __all__ = [
     "ObjectProfiles",
     "bridged",
     "depth_region",
-    "end_match",
-    "extend_occluded",
-    "hidden_ends",
-    "is_vehicle",
-    "length_share",
     "merge_fragments",
     "near_side",
     "see_through",
@@ -43,8 +39,6 @@ PASSED_FLAG = 0b10000
 #: (a motorbike's screen and handlebars; walls, hedges and people stand on the
 #: ground).
 SUSPENDED_FLAG = 0b100000
-#: Shortest visible part (m) of a vehicle cut short by an occluder.
-MIN_VISIBLE = 0.5
 #: Lowest height (m) of the points that give a cluster's near side: above kerbs,
 #: sidewalks and the road edge of a cambered road, on a vehicle's flank.
 SIDE_HEIGHT = 0.3
@@ -380,190 +374,3 @@ def merge_fragments(prof, region, cum, near, follows, *, reach, gap_regions=None
                 if ra != rb:
                     parent[max(ra, rb)] = min(ra, rb)
     return np.array([find(i) for i in range(prof.n)], dtype=np.int64)
-
-
-def hidden_ends(near, follows, first, last, depth, cum, cap):
-    """Scans right before ``first`` and after ``last`` (within one stretch of
-    consecutive scans) whose nearest cluster is nearer than ``depth``; each walk stops
-    once it covers ``cap`` metres (no decision looks farther).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street._objects import hidden_ends
-    >>> near = np.array([5.0, 2.0, 2.0, 5.0, 5.0])  # something nearer in scans 1, 2
-    >>> hidden_ends(near, np.array([False, True, True, True, True]), 3, 4, 4.0,
-    ...             np.arange(6) * 0.5, 4.0)
-    (2, 0)
-    """
-    before = 0
-    p = first - 1
-    while (p >= 0 and follows[p + 1] and near[p] < depth
-           and cum[first] - cum[p + 1] < cap):
-        before += 1
-        p -= 1
-    after = 0
-    p = last + 1
-    while (p < len(near) and follows[p] and near[p] < depth
-           and cum[p] - cum[last + 1] < cap):
-        after += 1
-        p += 1
-    return before, after
-
-
-def length_share(mask, lengths):
-    """The share of the length (m) of some scans that those where ``mask`` holds
-    cover (the share of the scans where they cover none: the car stood still).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street._objects import length_share
-    >>> mask = np.array([True, True, True, False])
-    >>> length_share(mask, np.array([0.0, 0.0, 0.1, 0.3])), length_share(mask, np.zeros(4))
-    (0.25, 0.75)
-    """
-    total = float(np.sum(lengths))
-    if total > 0:
-        return float(np.sum(lengths[mask]) / total)
-    return float(np.mean(mask))
-
-
-def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
-               link_distance, min_body_fraction, min_car_length=0.0,
-               min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
-               top=np.inf, min_across_top=0.0, inside=True, end_length=0.0):
-    """Whether an object (its scans ``seen``, sorted) can be one vehicle.
-
-    Long enough in all and without a break (a scan of its span counts as seen when
-    something at least ``link_distance`` nearer hid it), or, cut short by an occluder
-    (``hidden_length`` metres hidden at its ends), long enough with the hidden part;
-    not longer than ``max_length``; a vehicle body (roof, wall or raised body) in at
-    least ``min_body_fraction`` of its scans.  Shorter than ``min_car_length`` (with
-    the hidden part) it can only be a motorbike: a body raised above the road between
-    its wheels, or hanging in the air (``SUSPENDED_FLAG``: its lowest point above the
-    clearance, the beam below it passing farther), in at least
-    ``min_raised_fraction`` of its scans (communal bins, wheelie bins and people
-    stand on the ground); those scans count as body.  Shorter than ``min_length`` but
-    at least ``min_across_length`` long, seen whole (nothing hides its ends), it is a
-    motorbike at right angles to the kerb when at least ``min_across_raised`` of its
-    scans show a body raised between wheels or a beam passing under it
-    (``PASSED_FLAG``) and its ``top`` reaches
-    ``min_across_top`` (handlebars and screen; ``None``: never); a beam passing
-    under it counts as that evidence only when it lies ``inside`` its stretch of
-    consecutive scans (a run's first or last scans cut what they show: a van's end
-    is not a motorbike).  ``end_length`` (m) is the length of the scans past its
-    ends that see its top joined to something behind (:func:`end_match`); it
-    counts to the length of a motorbike across the kerb.
-    """
-    length = cum[seen[-1] + 1] - cum[seen[0]]
-    cut_short = hidden_length > 0 and length >= MIN_VISIBLE
-    vehicle = length <= max_length and (
-        length >= min_length or (cut_short and length + hidden_length >= min_length))
-    if vehicle:
-        covered = near[seen[0]:seen[-1] + 1] < depth - link_distance
-        covered[seen - seen[0]] = True
-        edges = concat(-1, np.flatnonzero(~covered), len(covered)) + seen[0]
-        longest = (cum[edges[1:]] - cum[edges[:-1] + 1]).max()
-        seen_length = (cum[seen + 1] - cum[seen]).sum()
-        if cut_short:
-            vehicle = bool(seen_length >= MIN_VISIBLE
-                           and longest + hidden_length >= min_length)
-        else:
-            vehicle = bool(min(longest, seen_length) >= min_length)
-    # shares of the object's length, not of its scans: a car standing still sees
-    # one cross-section in many scans
-    lengths = cum[seen + 1] - cum[seen]
-    body = length_share((flags & BODY_FLAGS) > 0, lengths)
-    if vehicle and length + hidden_length < min_car_length:
-        # a body raised between the wheels, or seen hanging in the air
-        hanging = length_share((flags & (RAISED_FLAG | SUSPENDED_FLAG)) > 0, lengths)
-        vehicle = hanging >= min_raised_fraction
-        body = max(body, hanging)
-    elif (not vehicle and min_across_length is not None and hidden_length == 0
-          and min_across_length <= length + end_length < min_length
-          and top >= min_across_top
-          and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
-        evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
-        under = length_share((flags & evidence) > 0, lengths)
-        vehicle = under >= min_across_raised  # a motorbike across the kerb
-        body = max(body, under)  # its body: raised, or a beam passing under it
-    return bool(vehicle and body >= min_body_fraction)
-
-
-def end_match(upper, points, tolerance):
-    """The points of a scan that reach the same highest part of an object as
-    ``upper`` (its points near its top in the neighbouring scan).
-
-    Past the end of a narrow object (a motorbike across the kerb) a scan sees its
-    widest part alone: the screen and handlebars, at the height and depth where the
-    scan before saw them.  When that part touches something behind (a hedge, a
-    wall, the footway), single linkage joins it to that; its points still say that
-    the object reaches into the scan.
-
-    Parameters
-    ----------
-    upper : ndarray of shape (n, 2)
-        ``(depth, height)`` of the object's points near its top in one scan.
-    points : ndarray of shape (m, 2)
-        ``(depth, height)`` of every point of the neighbouring scan.
-    tolerance : float
-        Largest depth and height difference (m): the resolution of the beams there.
-
-    Returns
-    -------
-    matched : ndarray of shape (k, 2)
-        The points of ``points`` within ``tolerance`` (both ways) of a point of
-        ``upper`` and no lower than ``upper``'s lowest by more than ``tolerance``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street._objects import end_match
-    >>> upper = np.array([[6.6, 1.25], [6.65, 1.3]])
-    >>> scan = np.array([[6.5, 0.12], [6.62, 1.28], [7.2, 1.3], [7.2, 1.0]])
-    >>> end_match(upper, scan, 0.1).tolist()
-    [[6.62, 1.28]]
-    """
-    if not len(upper) or not len(points):
-        return points[:0]
-    cand = points[points[:, 1] >= upper[:, 1].min() - tolerance]
-    if not len(cand):
-        return cand
-    near = ((np.abs(cand[:, None, 0] - upper[None, :, 0]) <= tolerance)
-            & (np.abs(cand[:, None, 1] - upper[None, :, 1]) <= tolerance)).any(axis=1)
-    return cand[near]
-
-
-def extend_occluded(cum, first, last, lowest, highest, occluded_length):
-    """Extend an object cut short by an occluder into the hidden scans.
-
-    Half of the missing length goes before the object, half after (more on one side
-    when the other has no room); never beyond the scans ``lowest .. highest``.
-
-    Returns
-    -------
-    first, last : int
-        The extended scan positions.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from tunnelsense.street._objects import extend_occluded
-    >>> extend_occluded(np.arange(21) * 0.2, 8, 12, 4, 12, 2.0)
-    (4, 12)
-    """
-    want = occluded_length - (cum[last + 1] - cum[first])
-    if want <= 0:
-        return first, last
-    room_before = cum[first] - cum[lowest]
-    room_after = cum[highest + 1] - cum[last + 1]
-    take_before = min(room_before, max(want / 2, want - room_after))
-    take_after = min(room_after, want - take_before)
-    if take_before > 0:
-        first = max(int(np.searchsorted(cum, cum[first] - take_before, side="left")),
-                    lowest)
-    if take_after > 0:
-        last = min(int(np.searchsorted(cum, cum[last + 1] + take_after,
-                                       side="left")) - 1, highest)
-    return first, last

@@ -1,0 +1,226 @@
+"""Labelling the final object-clusters: the street-parking vehicles and the rest.
+
+Section III-F of the paper regards an object-cluster by its region: Region I holds
+street-parking vehicles, Region II vehicles passing between them and the LRF, Region III
+bushes and the like at the road's edge.  :class:`_Labelling` (mixed into the run state of
+``_stream``) takes the object-clusters that became final, splits those that hold more
+than one vehicle (``_splitting``), tests each with the rules of ``_vehicles`` (its ends
+hidden by an occluder, its body, its ends joined to something behind), gathers its class
+features (``_classes``), carves motorbikes out of the structure they stand against
+(``_carving``) and queues every object for its id.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tunnelsense._records import RUN_LABELS
+from tunnelsense.street._carving import (
+    protrusions,
+    raised_section,
+    scan_near_side,
+    widen,
+)
+from tunnelsense.street._classes import class_features
+from tunnelsense.street._geometry import HORIZON_STEP
+from tunnelsense.street._objects import ObjectProfiles, depth_region
+from tunnelsense.street._splitting import split_objects
+from tunnelsense.street._vehicles import (
+    end_match,
+    hidden_ends,
+    is_vehicle,
+    length_share,
+)
+from tunnelsense.street._window import SIDE_HEIGHT
+
+__all__ = []
+
+
+class _Labelling:
+    """Split, test and queue the final object-clusters of a run's window (mixed into
+    the run state of :class:`~tunnelsense.street._stream.ScanStream`)."""
+
+    def _finalize(self, clusters, objects, position, ended):
+        """Split and label the final object-clusters; queue them for numbering."""
+        est = self.est
+        depth, top = self.depth[clusters], self.top[clusters]
+        n_points, flags = self.n_points[clusters], self.flags[clusters]
+        if est.split_merged:
+            objects = split_objects(
+                ObjectProfiles(objects, position, depth, top, n_points), objects,
+                self.cum, self.near, min_length=est.min_length, ratio=est.split_ratio,
+                link_distance=est.link_distance,
+                **(dict(horizon=self.horizon, step=HORIZON_STEP) if est.beam_occlusion
+                   else {}))
+        prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
+        region_depth = self._region_depth(objects, clusters, prof)
+        self.object_id[clusters] = -1  # final, waiting for its id
+        cum, follows = self.cum, self.follows
+        for o in range(prof.n):
+            first, last = int(prof.first[o]), int(prof.last[o])
+            mean_depth = float(prof.depth[o])
+            before = after = 0
+            if (est.occluded_length is not None
+                    and cum[last + 1] - cum[first] <= est.max_length):
+                before, after = hidden_ends(self.near, follows, first, last,
+                                            mean_depth - est.occlusion_margin, cum,
+                                            self.cap)
+            hidden_length = (cum[first] - cum[first - before]) + (
+                cum[last + 1 + after] - cum[last + 1])
+            region = int(depth_region(region_depth[o], self.edges([first])[0]))
+            parked = est.labels_[region] == "parked"  # motorbikes across park
+            inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
+            # a run's first or last scans may cut a van short to a motorbike's
+            # length; a van's end reaches van_height, a motorbike's screen does not
+            passed_ok = bool(inside) or float(prof.top[o]) < est.van_height
+            vehicle_test = dict(
+                min_length=est.min_length, max_length=est.max_length,
+                link_distance=est.link_distance,
+                min_body_fraction=est.min_body_fraction,
+                min_car_length=est.min_car_length,
+                min_raised_fraction=est.min_raised_fraction,
+                min_across_length=est.min_across_length if parked else None,
+                min_across_raised=est.min_across_raised, top=float(prof.top[o]),
+                min_across_top=est.min_across_top, inside=passed_ok)
+            vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
+                                 hidden_length, cum, self.near, **vehicle_test)
+            of = objects == o if prof.n > 1 else slice(None)
+            mine = clusters[of]
+            if (not vehicle and est.object_ends and parked and hidden_length == 0
+                    and est.min_across_length is not None
+                    and cum[last + 1] - cum[first] < est.min_length):
+                # its ends joined to something behind still count (end_match)
+                lo, hi = self._merged_ends(mine, position[of], first, last)
+                if lo or hi:
+                    vehicle = is_vehicle(
+                        prof.profile(o)[0], prof.flags(o), mean_depth, 0.0, cum,
+                        self.near, end_length=(cum[first] - cum[first - lo])
+                        + (cum[last + 1 + hi] - cum[last + 1]), **vehicle_test)
+                    if vehicle:
+                        first, last = first - lo, last + hi
+            # (a passing vehicle's seen length follows the two speeds, not its body)
+            features = class_features(
+                prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
+                self.far[mine], cum[last + 1] - cum[first] if parked else np.nan,
+                seen=prof.profile(o)[0], metres=np.diff(cum))
+            self.queue.append({
+                "key": (self.base + first, mean_depth), "first": self.base + first,
+                "last": self.base + last, "before": before, "after": after,
+                "extend": bool(est.occluded_length is not None and vehicle
+                               and hidden_length > 0 and inside),
+                "vehicle": vehicle,
+                "region": region,
+                "depth": mean_depth, "top": float(prof.top[o]),
+                "n_points": int(prof.n_points[o]),
+                "clusters": mine + self.cluster_base,
+                "features": features,
+            })
+            if est.carve_protrusions and not (vehicle and parked):
+                self.queue.extend(self._carve(mine, position[of], first, last))
+        self.queue.sort(key=lambda q: q["key"])
+
+    def _carve(self, mine, pos, first, last):
+        """Queue entries of motorbikes standing against the structure of clusters
+        ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``."""
+        est = self.est
+        if est.min_across_length is None or last - first < 2:
+            return []
+        cum = self.cum
+        near = scan_near_side(pos, self.side[mine], first, last)
+        face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
+                                 est.min_car_length)
+        out = []
+        cut_at = face - float(self.resolution(face))
+        wide = []  # widened runs, those that overlap joined (one object's parts)
+        for a, b in runs:
+            a, b = widen(near, a, b, cut_at, cum[first:last + 2], est.merge_gap)
+            if wide and a <= wide[-1][1] + 1:
+                a = wide.pop()[0]
+            wide.append((a, b))
+        for a, b in wide:
+            lo, hi = first + a, first + b
+            parts, raised = [], np.zeros(hi - lo + 1, dtype=bool)
+            for p in range(lo, hi + 1):
+                points, beams, local = self.payload[p]
+                want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+                section = np.isin(local, want) & (points[:, 0] < cut_at)
+                parts.append(points[section])
+                raised[p - lo] = raised_section(points, beams,
+                                         section & (points[:, 1] >= est.min_clearance),
+                                         est.min_clearance,
+                                         float(self.resolution(face)))
+            pts = np.concatenate(parts)
+            body = [q[q[:, 1] >= SIDE_HEIGHT] for q in parts]
+            if not all(len(q) for q in body):
+                continue
+            length = float(cum[hi + 1] - cum[lo])
+            # its ends, at the face, may lie up to half a scan spacing beyond
+            bound = length + 0.5 * float(cum[lo] - cum[max(lo - 1, 0)]
+                                         + cum[min(hi + 2, len(cum) - 1)] - cum[hi + 1])
+            top = float(pts[:, 1].max())
+            depth = float(pts[:, 0].mean())
+            side = np.array([q[:, 0].min() for q in body])
+            far = np.array([q[:, 0].max() for q in body])
+            lo_edge, hi_edge = self.edges([lo])[0]
+            region_depth = (max(float(np.median(side)), lo_edge)
+                            if depth >= hi_edge > np.median(side) else depth)
+            region = int(depth_region(region_depth, self.edges([lo])[0]))
+            if not (est.labels_[region] == "parked" and bound >= est.min_across_length
+                    and face - side.min() >= est.motorbike_width
+                    and length_share(raised, np.diff(cum[lo:hi + 2]))
+                    >= est.min_across_raised):
+                continue
+            if self._taken(self.base + lo, self.base + hi, region):
+                continue  # already a vehicle there (carved from another object)
+            features = class_features(
+                np.zeros(hi - lo + 1, np.int64),
+                np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
+                side, far, length, seen=np.arange(lo, hi + 1), metres=np.diff(cum))
+            out.append({
+                "key": (self.base + lo, depth), "first": self.base + lo,
+                "last": self.base + hi, "before": 0, "after": 0, "extend": False,
+                "vehicle": True, "region": region, "depth": depth, "top": top,
+                "n_points": len(pts), "clusters": np.empty(0, np.int64),
+                "features": features,
+            })
+        return out
+
+    def _taken(self, first, last, region):
+        """Whether a vehicle of ``region`` already holds a scan of ``first .. last``
+        (absolute positions): queued, or numbered and not yet released."""
+        code = RUN_LABELS.get(self.est.labels_[region])
+        return any(q["vehicle"] and q["region"] == region and q["first"] <= last
+                   and first <= q["last"] for q in self.queue) or any(
+            c == code and f <= last and first <= e for f, e, _, c in self.spans)
+
+    def _object_points(self, mine, pos, p):
+        """``(depth, height)`` of the points of clusters ``mine`` (window indices,
+        at window positions ``pos``) in the scan at window position ``p``."""
+        points, _, local = self.payload[p]
+        want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+        return points[np.isin(local, want)]
+
+    def _merged_ends(self, mine, pos, first, last):
+        """Scans before ``first`` and after ``last`` (at most ``merge_gap`` each
+        way, consecutive) whose points reach the object's top where the scan next
+        to them saw it (:func:`~tunnelsense.street._vehicles.end_match`)."""
+        cum, gap = self.cum, self.est.merge_gap
+        out = []
+        for start, step in ((first, -1), (last, 1)):
+            ref = self._object_points(mine, pos, start)
+            n = 0
+            if len(ref):
+                tol = float(self.resolution(ref[:, 0].max()))
+                upper = ref[ref[:, 1] >= ref[:, 1].max() - tol]
+                p = start + step
+                while 0 <= p < len(self.records) and self.follows[max(p, p - step)]:
+                    reach = cum[first] - cum[p] if step < 0 else cum[p + 1] - cum[last + 1]
+                    if reach > gap + 1e-9:
+                        break
+                    upper = end_match(upper, self.payload[p][0], tol)
+                    if not len(upper):
+                        break
+                    n += 1
+                    p += step
+            out.append(n)
+        return out
