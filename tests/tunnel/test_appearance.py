@@ -238,6 +238,11 @@ def test_core_scores_the_sign_inside_a_halo():
     sign = rec.evolve(cluster_boxes=np.array([[30.0, 40.0, 8.0, 18.0]]))
     s_sign = plain.transform([sign])[0].payload["appearance_score"]
     np.testing.assert_allclose(s_core, np.maximum(s_box, s_sign))
+    # the better-scored rectangle is the cluster's box from here on
+    boxes = cored.transform([rec])[0].payload["cluster_boxes"]
+    expected = sign.payload["cluster_boxes"] if s_sign[0] > s_box[0] else rec.payload[
+        "cluster_boxes"]
+    np.testing.assert_array_equal(boxes, expected)
     # clusters of the training frames: a lamp stays negative, an indicator positive
     for r in cored.transform(X):
         assert r.payload["appearance"].tolist() == [True, False]
@@ -258,5 +263,5 @@ def test_core_fit_transform_equals_fit_then_transform():
     out_a = a.fit_transform(X, y)
     out_b = clone(a).fit(X, y).transform(X)
     for ra, rb in zip(out_a, out_b, strict=True):
-        assert np.array_equal(ra.payload["appearance_score"],
-                              rb.payload["appearance_score"])
+        for key in ("appearance_score", "cluster_boxes"):
+            assert np.array_equal(ra.payload[key], rb.payload[key])

@@ -214,7 +214,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         the best of its rectangle's and its cores'.  A sign in a lamp's halo is a
         compact bright rectangle on a smooth gradient: the cluster's rectangle
         spans part of the halo, its core at a higher fraction the sign alone.
-        ``None`` scores the rectangle only (training always does).
+        Where a core scores better, it replaces the cluster's rectangle in
+        ``payload["cluster_boxes"]`` (the box the trajectory and the detection
+        report).  ``None`` scores the rectangle only (training always does).
 
     Attributes
     ----------
@@ -352,27 +354,30 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             yield r, boxes, H, F
 
     def _core_scores(self, record, index, score):
-        """Each cluster's score, or the best of its bright cores' (:func:`core_boxes`
-        at the fractions ``core``) when larger."""
+        """Each cluster's score and box, or those of the best of its bright cores
+        (:func:`core_boxes` at the fractions ``core``) when its score is larger."""
         boxes = np.asarray(boxes_of(record, index, "WeightedAdaBoost"),
                            dtype=np.float64).reshape(-1, 4)
         image = frame_image(record, index)
         cores = core_boxes(image, boxes, margin=float(self.margin), fractions=self.core)
         owner = np.repeat(np.arange(len(boxes)), cores.shape[1])
         rects = cores.reshape(-1, 4)
-        small = (rects != boxes[owner]).any(axis=1)
-        if not small.any():
-            return score
-        owner, rects = owner[small], rects[small]
+        other = (rects != boxes[owner]).any(axis=1)
+        if not other.any():
+            return score, boxes
+        owner, rects = owner[other], rects[other]
         patches = box_patches(image, rects, float(self.margin))
         if self.features == "invariant":
             F = _features(patches, rects[:, [3, 2]].tolist(), _INVARIANT_BINS)
         else:
             F = _patch_histograms(patches, self.bins,
                                   bin_lut(image.dtype, self.bins, self.intensity_range))
-        score = score.copy()
-        np.maximum.at(score, owner, self._decision(F))
-        return score
+        score, boxes = score.copy(), boxes.copy()
+        for o, rect, s in zip(owner.tolist(), rects, self._decision(F).tolist(),
+                              strict=True):
+            if s > score[o]:
+                score[o], boxes[o] = s, rect
+        return score, boxes
 
     def _augmented(self, record, index, boxes, rng):
         """Features of the frame's clusters as ``augment`` other cameras see them."""
@@ -465,13 +470,15 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         out = []
         for i, (r, H, F) in enumerate(described):
             score = self._decision(F) if len(F) else np.empty(0)
+            cored = {}
             if self.core is not None and len(F):
-                score = self._core_scores(r, i, score)
+                score, cored[CLUSTER_BOXES] = self._core_scores(r, i, score)
             out.append(
                 r.evolve(**{
                     APPEARANCE: score > 0,
                     APPEARANCE_SCORE: score,
                     CLUSTER_HISTOGRAMS: H,
+                    **cored,
                 })
             )
         return out
