@@ -174,7 +174,8 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
         ``box="contrast"``: the keypoints of a cluster lying more than ``reach``
         outside its box form clusters of their own, numbered after the others
         (:func:`separate_left_out`): a far sign chained to a brighter object
-        keeps a cluster.
+        keeps a cluster.  Off by default: the extra, smaller clusters can also
+        make false-alarm trajectories.
 
     Attributes
     ----------
