@@ -89,6 +89,7 @@ SETTINGS = {
     "beams 1.0 deg": {"angle_increment_deg": 1.0},
     "kerb 5.2 m": {"kerb_depth": 5.2},
     "kerb 7.3 m": {"kerb_depth": 7.3},
+    "kerb 7.5 m": {"kerb_depth": 7.5},
     "cross-fall 5 %": {"cross_fall": 0.05},
     "camber 0.1 m": {"camber_drop": 0.1},
     "kerb step 0.25 m": {"kerb_height": 0.25},

@@ -108,3 +108,24 @@ def test_walls_stand_just_behind_the_kerb_above_the_footway():
     # its face 0.1-0.5 m behind the kerb, its top 0.25 m thick
     assert np.all((depth[on] > kerb + 0.1 - 0.12) & (depth[on] < kerb + 0.75 + 0.12))  # noise
     assert np.all(height[on] > kh - 0.05)
+
+
+def _parked_recall(run, **params):
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import make_parking_pipeline
+
+    fit = make_street_scans(1500, scenario="sparse", random_state=11)
+    model = make_parking_pipeline(**params).fit(fit.scans)
+    return street_scores(run.gt, model[-1].detect(run.scans))["parked"]
+
+
+def test_cars_in_bays_at_right_angles_are_parked_by_their_far_side():
+    # seen from the road a car in a bay at right angles has its near end in the
+    # traffic lane (its mean depth too); its far side lies in the parking lane
+    run = make_street_scans(2000, scenario="sparse", random_state=12,
+                            angled_row_fraction=1.0, bay_angle_deg=90.0, kerb_depth=7.5,
+                            parked_cluster_size=4.0, **QUIET)
+    assert (run.gt["label"] == "parked").sum() >= 15
+    span = _parked_recall(run, region_depth="span")
+    assert span["recall"] >= 0.85 and span["precision"] >= 0.95
+    assert _parked_recall(run)["recall"] < span["recall"] - 0.3  # region_depth="near"
