@@ -129,3 +129,50 @@ def test_cars_in_bays_at_right_angles_are_parked_by_their_far_side():
     span = _parked_recall(run, region_depth="span")
     assert span["recall"] >= 0.85 and span["precision"] >= 0.95
     assert _parked_recall(run)["recall"] < span["recall"] - 0.3  # region_depth="near"
+
+
+def test_a_near_vertical_face_is_no_kerb_step():
+    from tunnelsense.street._geometry import kerb_steps
+
+    # the road, then a vehicle's face 1.6 m away: its beams lie within 3 cm in
+    # height and creep outwards by millimetres - it rises, it does not lie flat
+    d = np.array([[1.40, 1.45, 1.50, 1.56, 1.58, 1.59, 1.60]])
+    h = np.array([[0.0, 0.0, 0.01, 0.07, 0.075, 0.09, 0.2]])
+    assert np.isnan(kerb_steps(d, h)[0])
+    # the same heights spread outwards over a footway are a kerb step
+    d2 = np.array([[1.40, 1.45, 1.50, 1.56, 1.80, 2.05, 2.30]])
+    assert kerb_steps(d2, h)[0] == pytest.approx(1.53)
+
+
+def test_a_car_in_a_bay_at_45_degrees_is_no_motorbike():
+    from tunnelsense.street._classes import near_travel, vehicle_class
+
+    # cut obliquely: short cross-sections, little roof, but its near side advances
+    # 2 m across the street over its 4 m along it
+    along = np.linspace(0.0, 4.0, 30)
+    travel = near_travel(3.0 + 0.5 * along, along)
+    assert travel == pytest.approx(2.0)
+    car = {"roof": 0.15, "wall": 0.0, "top": 1.45, "extent": 0.6, "length": 4.0,
+           "travel": travel}
+    assert vehicle_class(car) == "car"
+    # a row of motorbikes nose to tail keeps its near side (steps of their offsets)
+    steps = np.where(along < 2.0, 5.3, 4.8)
+    row = dict(car, roof=0.0, top=1.0, travel=near_travel(steps, along))
+    assert row["travel"] < 1.2 and vehicle_class(row) == "motorbike"
+
+
+def test_cars_in_bays_at_45_degrees_are_counted_as_cars():
+    # single cars and short rows in bays (long rows of overlapping cars at 45
+    # degrees are not yet split: a scan sees two of them)
+    run = make_street_scans(3000, scenario="sparse", random_state=13,
+                            angled_row_fraction=0.6, bay_angle_deg=45.0, kerb_depth=7.5,
+                            **QUIET)
+    from tunnelsense.metrics import street_class_scores
+    from tunnelsense.street import make_parking_pipeline
+
+    fit = make_street_scans(1500, scenario="sparse", random_state=11)
+    model = make_parking_pipeline().fit(fit.scans)
+    detected = model[-1].detect(run.scans)
+    cars = street_class_scores(run.gt, detected)["classes"]["car"]
+    assert cars["matched"] >= 10
+    assert cars["correct"] >= 0.9 * cars["matched"]
