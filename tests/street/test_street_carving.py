@@ -131,3 +131,12 @@ def test_cars_in_front_of_a_wall_are_carved_out_and_the_wall_is_no_van(seed):
     assert scores[0]["fp"] > 0  # the wall (with the cars in front) a "van"
     assert scores[1]["fp"] == 0 and scores[1]["fn"] == 0
     assert scores[1]["tp"] >= scores[0]["tp"]
+    # online, scan by scan, the same parked vehicles
+    est = ScanClusterer().fit(run.scans)
+    det = est.detect(run.scans)
+    stream = est.start_stream()
+    rows = [row for r in [*stream.push_many(run.scans), *stream.close()]
+            for row in r.payload["finished_objects"]]
+    assert [row[1:5] for row in rows if row[4] == "parked"] == [
+        tuple(t) for t in det[["id", "first_scan", "last_scan", "label"]]
+        .itertuples(index=False) if t[3] == "parked"]
