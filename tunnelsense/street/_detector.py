@@ -242,7 +242,17 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         its wheels (the beam below its lowest point passing farther) in at least
         ``min_across_raised`` of its scans.  It is reported in :meth:`detect` and
         :meth:`predict`; its points stay with the structure's intra-clusters in
-        :meth:`transform`'s ``"objects"``.  False: structures keep them.
+        :meth:`transform`'s ``"objects"``.  Walls, fences and facades just behind
+        the kerb: an object longer than ``van_length`` whose face (the upper
+        quartile of its near sides: a wall lies behind the vehicles in front of
+        it) shows a roof, a raised body or a body hanging in the air in less than
+        ``min_raised_fraction`` of its length, outside the runs of scans more than
+        ``link_distance`` nearer than it, is a flat vertical face, no vehicle;
+        every such run (up to ``max_length``, also at the object's ends) is carved
+        out and is a vehicle of the region labelled ``"parked"`` when at least
+        ``min_length`` long, with a body in ``min_body_fraction`` and a roof or a
+        raised body in ``min_raised_fraction`` of its length.  False: structures
+        keep them.
 
     Attributes
     ----------
