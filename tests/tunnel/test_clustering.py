@@ -283,3 +283,36 @@ def test_frame_mode_region_boxes_use_the_samplers_band():
         MSTClusterer(box="region", reach=(1,)).fit_transform(Xk)
     with pytest.raises(ValueError, match="band"):
         MSTClusterer(box="region", band=(190, 160)).fit_transform(Xk)
+
+
+def _light_and_far_sign(gain=1.0, offset=0.0):
+    img = np.full((80, 160), 100.0)
+    img[30:36, 20:26] = 220  # a bright light
+    img[30:40, 70:74] = 150  # a dimmer sign 45 px away, chained to it by the cut
+    img = np.clip(np.rint(gain * img + offset), 0, 255).astype(np.uint8)
+    kp = np.array([[32, 22, 0], [32, 46, 0], [34, 71, 0]], dtype=np.int32)
+    return FrameRecord("t", 1, img, {"keypoints": kp})
+
+
+@pytest.mark.parametrize("gain, offset", [(1.0, 0.0), (0.7, -20.0), (1.3, 10.0)])
+def test_separate_gives_a_far_sign_chained_to_a_light_its_own_cluster(gain, offset):
+    rec = _light_and_far_sign(gain, offset)
+    plain = MSTClusterer(box="contrast").fit_transform([rec])[0].payload
+    # one cluster, whose contrast box is the light: the sign is in no box
+    assert plain["cluster_labels"].tolist() == [0, 0, 0]
+    np.testing.assert_array_equal(plain["cluster_boxes"], [[20, 30, 6, 6]])
+    out = MSTClusterer(box="contrast", separate=True).fit_transform([rec])[0].payload
+    assert out["cluster_labels"].tolist() == [0, 1, 1]
+    # the light's box unchanged, the sign's own box around it (any gain and offset)
+    np.testing.assert_array_equal(out["cluster_boxes"], [[20, 30, 6, 6], [70, 30, 4, 10]])
+
+
+def test_separate_leaves_a_cluster_within_reach_of_its_box_alone():
+    img = np.full((80, 160), 100, np.uint8)
+    img[30:40, 20:26] = 200
+    kp = np.array([[32, 22, 0], [45, 22, 0], [34, 35, 0]], dtype=np.int32)  # within reach
+    rec = FrameRecord("t", 1, img, {"keypoints": kp})
+    a = MSTClusterer(box="contrast").fit_transform([rec])[0].payload
+    b = MSTClusterer(box="contrast", separate=True).fit_transform([rec])[0].payload
+    assert b["cluster_labels"].tolist() == a["cluster_labels"].tolist() == [0, 0, 0]
+    np.testing.assert_array_equal(a["cluster_boxes"], b["cluster_boxes"])

@@ -37,7 +37,79 @@ __all__ = [
     "cluster_boxes",
     "mst_partition",
     "region_boxes",
+    "separate_left_out",
 ]
+
+
+def separate_left_out(image, rows, cols, labels, boxes, *, cut=40.0, reach=(14, 12)):
+    """Keypoints far outside their cluster's contrast box become clusters of their own.
+
+    Single linkage chains a far sign's few keypoints to a brighter object within
+    ``cut`` of them (a vehicle's lights, a lamp); the cluster's contrast box
+    (:func:`~tunnelsense.tunnel._contrast.contrast_region_boxes`) then follows the
+    brighter object and the sign is in no box.  Here the keypoints of each cluster
+    lying more than ``reach`` outside its box are partitioned again (MST at the same
+    ``cut``) into new clusters, numbered after the others, and every cluster's
+    contrast box is made again from its keypoints.  Geometry only: the box is set by grey-level ratios,
+    ``reach`` is the region's own limit.
+
+    Parameters
+    ----------
+    image : ndarray of shape (height, width), uint8 or uint16
+    rows, cols : ndarray of shape (n,)
+        Keypoint positions.
+    labels : ndarray of shape (n,)
+        Cluster of every keypoint (``0 .. m - 1``).
+    boxes : ndarray of shape (m, 4)
+        The clusters' contrast boxes ``(left, top, width, height)``.
+    cut : float, default=40.0
+        The MST cut (px) of the new partition.
+    reach : (int, int), default=(14, 12)
+        How far (rows, columns; px) outside its box a keypoint still belongs to it.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,), intp
+    boxes : ndarray of shape (m', 4), float64
+        ``m' >= m``; the first ``m`` rows are the clusters of ``labels``, without
+        the keypoints they left out.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.full((60, 120), 100, np.uint8)
+    >>> img[20:26, 10:16] = 220                # a bright light
+    >>> img[20:30, 60:64] = 150                # a dimmer sign 45 px away
+    >>> rows, cols = np.array([22, 22, 24]), np.array([12, 36, 61])
+    >>> labels = np.array([0, 0, 0])           # chained by the 40 px cut
+    >>> from tunnelsense.tunnel._contrast import contrast_region_boxes
+    >>> box = contrast_region_boxes(img, rows, cols, labels, np.array([[12., 22, 50, 3]]))
+    >>> box
+    array([[10., 20.,  6.,  6.]])
+    >>> separate_left_out(img, rows, cols, labels, box)
+    (array([0, 1, 1]), array([[10., 20.,  6.,  6.],
+           [60., 20.,  4., 10.]]))
+    """
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    labels = np.asarray(labels, dtype=np.intp)
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not len(boxes):
+        return labels, boxes
+    rr, rc = (int(v) for v in reach)
+    left, top, w, h = (boxes[labels, k] for k in range(4))
+    away = ~((cols >= left - rc) & (cols < left + w + rc)
+             & (rows >= top - rr) & (rows < top + h + rr))
+    if not away.any():
+        return labels, boxes
+    idx = np.flatnonzero(away)
+    labels = labels.copy()
+    labels[idx] = len(boxes) + mst_partition(np.column_stack([rows[idx], cols[idx]]),
+                                             float(cut))
+    # every cluster's box again: a cluster that lost keypoints has a smaller
+    # keypoint rectangle, so another rim to measure its surround on
+    return labels, contrast_region_boxes(image, rows, cols, labels,
+                                         cluster_boxes(rows, cols, labels),
+                                         reach=(rr, rc))
 
 
 class MSTClusterer(FrameModeMixin, MSTClustererCore):
@@ -98,6 +170,12 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
     reach : (int, int), default=(14, 12)
         ``box="region"`` or ``"contrast"``: how far (rows, columns; px) the region may extend beyond the
         keypoints' rectangle (two grid steps).
+    separate : bool, default=False
+        ``box="contrast"``: the keypoints of a cluster lying more than ``reach``
+        outside its box form clusters of their own, numbered after the others
+        (:func:`separate_left_out`): a far sign chained to a brighter object
+        keeps a cluster.  Off by default: the extra, smaller clusters can also
+        make false-alarm trajectories.
 
     Attributes
     ----------
@@ -141,6 +219,7 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
         "box": [StrOptions({"keypoints", "region", "contrast"})],
         "band": [tuple, list, None],
         "reach": [tuple, list],
+        "separate": ["boolean"],
     }
     _tabular_methods = ("fit_predict",)
     _frames_instead = "fit_transform, which stores the labels in payload['cluster_labels']"
@@ -148,11 +227,13 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
     _payload_optional = (KEYPOINT_BAND,)
     _payload_adds = (CLUSTER_LABELS, CLUSTER_BOXES)
 
-    def __init__(self, cut=40.0, *, box="keypoints", band=None, reach=(14, 12)):
+    def __init__(self, cut=40.0, *, box="keypoints", band=None, reach=(14, 12),
+                 separate=False):
         self.cut = cut
         self.box = box
         self.band = band
         self.reach = reach
+        self.separate = separate
 
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_frames(self, X, y=None):
@@ -197,8 +278,12 @@ class MSTClusterer(FrameModeMixin, MSTClustererCore):
             labels = mst_partition(np.column_stack([rows, cols]), cut)
             boxes = cluster_boxes(rows, cols, labels)
             if self.box == "contrast" and len(boxes):
-                boxes = contrast_region_boxes(r.image, rows, cols, labels, boxes,
+                image = r.image
+                boxes = contrast_region_boxes(image, rows, cols, labels, boxes,
                                               reach=reach)
+                if self.separate:
+                    labels, boxes = separate_left_out(image, rows, cols, labels, boxes,
+                                                      cut=cut, reach=reach)
             elif region and len(boxes):
                 boxes = region_boxes(
                     r.image, rows, cols, labels, boxes, self._band_of(r, i), reach
