@@ -11,7 +11,8 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["background_levels", "beyond_tolerance", "indicator_band", "normalize_frame", "resample_frame",
+__all__ = ["background_levels", "beyond_tolerance", "indicator_band", "normalize_frame",
+           "normalize_lut", "resample_frame",
            "sample_keypoints"]
 
 
@@ -234,13 +235,23 @@ def normalize_frame(image, level, spread, ref_level, ref_spread):
     """
     import cv2  # noqa: PLC0415
 
+    if image.dtype == np.uint8:
+        return cv2.LUT(image, normalize_lut(image.dtype, level, spread, ref_level,
+                                            ref_spread))
     g = ref_spread / spread
     info = np.iinfo(image.dtype)
-    if image.dtype == np.uint8:
-        lut = np.clip(np.rint(ref_level + (np.arange(256) - level) * g), 0, 255)
-        return cv2.LUT(image, lut.astype(np.uint8))
     out = np.rint(ref_level + (image.astype(np.float64) - level) * g)
     return np.clip(out, info.min, info.max).astype(image.dtype)
+
+
+def normalize_lut(dtype, level, spread, ref_level, ref_spread):
+    """The table of :func:`normalize_frame`: every value of the integer ``dtype``
+    mapped as :func:`normalize_frame` maps it (the same IEEE operations on each)."""
+    info = np.iinfo(dtype)
+    g = ref_spread / spread
+    values = np.arange(int(info.max) + 1, dtype=np.float64)
+    out = np.clip(np.rint(ref_level + (values - level) * g), info.min, info.max)
+    return out.astype(dtype)
 
 
 def resample_frame(image, shape):

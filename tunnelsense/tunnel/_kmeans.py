@@ -390,8 +390,11 @@ class KMeansHistogramCore(TransformerMixin, BaseEstimator):
         rng = check_random_state(self.random_state)
 
         def max_abs(rows, idx):
+            # the largest of max and -min: |x|.max() without a copy of the rows
             rows = rows if idx is None else rows[idx]
-            return float(np.abs(rows).max(initial=0.0))
+            if not np.size(rows):
+                return 0.0
+            return float(np.max([np.max(rows), -np.min(rows), 0.0]))
 
         self.quantum_ = grid_quantum(
             max(max_abs(positive, positive_rows), max_abs(negative, negative_rows)),

@@ -28,11 +28,17 @@ from tunnelsense.tunnel._common import (
     require_boxes,
 )
 from tunnelsense.tunnel._descriptors import (
+    compose_lut,
+    descriptors_under_luts,
     keypoint_descriptors,
     patch_histograms,
     surround_histograms,
 )
-from tunnelsense.tunnel._intensity import background_levels, normalize_frame
+from tunnelsense.tunnel._intensity import (
+    background_levels,
+    normalize_frame,
+    normalize_lut,
+)
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
     blas_threads,
@@ -325,10 +331,25 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
             kp = keypoints_of(r, i, "KMeansHistogramVerifier")
             image = frame_image(r, i)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
-            images = [image]
-            if rng is not None:
-                images.extend(contrast_copy(image, f) for f in
-                              augment_factors(rng, self.augment_contrast, self.augment_draw))
+            factors = () if rng is None else augment_factors(
+                rng, self.augment_contrast, self.augment_draw)
+            if self.normalize == "none":
+                # a contrast copy is a pointwise map of grey levels: composed into
+                # the bin table, it describes the copy without building it
+                # (descriptors equal to those of contrast_copy's frames)
+                luts = [lut]
+                if len(factors):
+                    level, _ = background_levels(image)
+                    luts += [compose_lut(lut, normalize_lut(image.dtype, level, 1.0,
+                                                            level, float(f)))
+                             for f in factors]
+                H = descriptors_under_luts(
+                    image, kp[:, 0], kp[:, 1], luts, patch_size=self.patch_size,
+                    context_size=self.context_size, context_weight=self.context_weight,
+                    bins=self.bins)
+                yield r, kp, H
+                continue
+            images = [image, *(contrast_copy(image, f) for f in factors)]
             if self.normalize == "surround":
                 surround = (25, 13) if self.context_size is None else self.context_size
                 H = np.concatenate([
@@ -339,14 +360,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 ])
                 yield r, kp, H
                 continue
-            H = np.concatenate([
-                keypoint_descriptors(
-                    im, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
-                    context_size=self.context_size, context_weight=self.context_weight,
-                    bins=self.bins, lut=lut,
-                ) for im in images
-            ])
-            yield r, kp, H
+            raise ValueError(f"normalize must be 'none' or 'surround'; got {self.normalize!r}")
 
     @property
     def _n_descriptor(self):
