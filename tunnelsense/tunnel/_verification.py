@@ -383,20 +383,35 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         described = {}
         self._fit_frames(X, y, _described=described, **fit_params)
         P, N = described["positive"], described["negative"]
+        # each frame's rows of the fit: its positives, then its negatives, each
+        # followed by those of its augmented copies; the frame's own rows (not the
+        # copies') are verified, all frames at once (each row's decision is its own)
+        rows_p, rows_n, at_p, at_n = [], [], 0, 0
+        for _, kp, inside, copies in described["frames"]:
+            n_in = int(inside.sum())
+            rows_p.append(np.arange(at_p, at_p + n_in))
+            rows_n.append(np.arange(at_n, at_n + len(kp) - n_in))
+            at_p += copies * n_in
+            at_n += copies * (len(kp) - n_in)
+        keep_p = self._verified_rows(P, np.concatenate(rows_p or [np.empty(0, np.intp)]))
+        keep_n = self._verified_rows(N, np.concatenate(rows_n or [np.empty(0, np.intp)]))
         out, at_p, at_n = [], 0, 0
-        with blas_threads(self.n_jobs):
-            for r, kp, inside, copies in described["frames"]:
-                # the frame's rows of the fit: its positives, then its negatives,
-                # each followed by those of its augmented copy
-                n_in = int(inside.sum())
-                H = np.empty((len(kp), P.shape[1]), P.dtype)
-                H[inside] = P[at_p:at_p + n_in]
-                H[~inside] = N[at_n:at_n + len(kp) - n_in]
-                at_p += copies * n_in
-                at_n += copies * (len(kp) - n_in)
-                keep = self._verified(H)
-                out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
+        for r, kp, inside, _ in described["frames"]:
+            n_in = int(inside.sum())
+            keep = np.empty(len(kp), bool)
+            keep[inside] = keep_p[at_p:at_p + n_in]
+            keep[~inside] = keep_n[at_n:at_n + len(kp) - n_in]
+            at_p, at_n = at_p + n_in, at_n + len(kp) - n_in
+            out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
         return FrameSequence(out)
+
+    def _verified_rows(self, H, rows, chunk=8192):
+        """:meth:`_verified` of the rows ``rows`` of ``H``, in chunks."""
+        keep = np.empty(len(rows), bool)
+        with blas_threads(self.n_jobs):
+            for start in range(0, len(rows), chunk):
+                keep[start:start + chunk] = self._verified(H[rows[start:start + chunk]])
+        return keep
 
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_frames(self, X, y=None, _described=None):
