@@ -8,6 +8,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 from tunnelsense import FrameRecord, FrameSequence
 from tunnelsense.tunnel import WeightedAdaBoost, box_histograms, centres_in_boxes
 from tunnelsense.tunnel._appearance import stump_decision
+from tunnelsense.tunnel._contrast import core_boxes
 from tunnelsense.tunnel._stumps import WeightedAdaBoostCore
 from tunnelsense.utils import record_stage_checks
 
@@ -240,3 +241,59 @@ def test_frame_mode_fit_transform_equals_fit_then_transform(params):
         for key in ("appearance", "appearance_score", "cluster_histograms"):
             assert np.array_equal(ra.payload[key], rb.payload[key])
     assert any(r.payload["appearance"].any() for r in out_a)
+
+
+def _sign_in_halo(frame=99):
+    """An indicator (rows 40-57, columns 30-37) under a halo of two thirds of its
+    contrast reaching above and beside it; the cluster's box spans both."""
+    rng = np.random.default_rng(frame)
+    img = rng.normal(100, 3, (120, 160)).clip(0, 255).astype(np.uint8)
+    img[26:40, 24:44] = 150
+    img[40:58, 30:38] = 175
+    box = np.array([[24.0, 26.0, 20.0, 32.0]])
+    return FrameRecord("t", frame, img, {"cluster_boxes": box})
+
+
+def test_core_scores_the_sign_inside_a_halo():
+    X, y = _frames()
+    plain = WeightedAdaBoost(n_estimators=10).fit(X, y)
+    cored = clone(plain).set_params(core=(0.5, 0.85)).fit(X, y)
+    # training is the same: the cores are scored at transform only
+    assert np.array_equal(plain.stump_thresholds_, cored.stump_thresholds_)
+    rec = _sign_in_halo()
+    s_box = plain.transform([rec])[0].payload["appearance_score"]
+    s_core = cored.transform([rec])[0].payload["appearance_score"]
+    # the core at 0.85 of the contrast is the sign's own rectangle, at 0.5 the
+    # sign with the halo (the box)
+    cores = core_boxes(rec.image, rec.payload["cluster_boxes"], fractions=(0.5, 0.85))
+    np.testing.assert_array_equal(cores[0], [[24, 26, 20, 32], [30, 40, 8, 18]])
+    sign = rec.evolve(cluster_boxes=np.array([[30.0, 40.0, 8.0, 18.0]]))
+    s_sign = plain.transform([sign])[0].payload["appearance_score"]
+    np.testing.assert_allclose(s_core, np.maximum(s_box, s_sign))
+    # the better-scored rectangle is the cluster's box from here on
+    boxes = cored.transform([rec])[0].payload["cluster_boxes"]
+    expected = sign.payload["cluster_boxes"] if s_sign[0] > s_box[0] else rec.payload[
+        "cluster_boxes"]
+    np.testing.assert_array_equal(boxes, expected)
+    # clusters of the training frames: a lamp stays negative, an indicator positive
+    for r in cored.transform(X):
+        assert r.payload["appearance"].tolist() == [True, False]
+
+
+def test_core_must_be_fractions():
+    X, y = _frames(4)
+    for bad in [(), (0.5, 1.0), (0.0,), ("a",), ((0.5,),)]:
+        with pytest.raises(ValueError, match="core must be"):
+            WeightedAdaBoost(n_estimators=3, core=bad).fit(X, y)
+
+
+def test_core_fit_transform_equals_fit_then_transform():
+    X, y = _frames(seed=5)
+    X = FrameSequence([*X, _sign_in_halo()])
+    y = [*y, np.array([[30.0, 40.0, 8.0, 18.0]])]
+    a = WeightedAdaBoost(n_estimators=10, core=(0.5, 0.7, 0.85))
+    out_a = a.fit_transform(X, y)
+    out_b = clone(a).fit(X, y).transform(X)
+    for ra, rb in zip(out_a, out_b, strict=True):
+        for key in ("appearance_score", "cluster_boxes"):
+            assert np.array_equal(ra.payload[key], rb.payload[key])

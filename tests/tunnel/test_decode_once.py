@@ -75,6 +75,27 @@ def test_decoded_image_pickles_as_its_origin(fitted):
     assert np.array_equal(back.load(), decoded.load())
 
 
+def test_a_canonical_frame_pickles_and_copies_as_its_own_pixels_made_again(fitted):
+    # the keypoint stage hands the later stages the frame in the training frames'
+    # radiometry; a worker process (a search's fits on Dask or loky) or a copy must
+    # see that frame, not the file's pixels, and no pixels travel
+    model, folder, _ = fitted
+    sampler = copy.deepcopy(model.named_steps["keypoints"])
+    out = sampler.transform(open_tour(folder).frames[:20])
+    assert all(isinstance(r.source, DecodedImage) for r in out)
+    assert any(not np.array_equal(r.image, r.source.origin.load()) for r in out)
+    back = pickle.loads(pickle.dumps(out))
+    assert len(pickle.dumps(out[0])) < 5000  # the file and the mapping, no pixels
+    for a, b, c in zip(out, back, copy.deepcopy(out), strict=True):
+        assert b.image.dtype == a.image.dtype == c.image.dtype
+        np.testing.assert_array_equal(b.image, a.image)
+        np.testing.assert_array_equal(c.image, a.image)
+    # a later fit of the same sampler does not change the frames made before it
+    sampler.fit(*to_xy([make_tunnel_tour(40, scenario="heavy", random_state=7)])[:2])
+    again = pickle.loads(pickle.dumps(out))
+    np.testing.assert_array_equal(again[0].image, out[0].image)
+
+
 @pytest.mark.slow
 def test_fit_pipeline_equals_pipeline_fit(fitted):
     from tunnelsense._fitting import fit_pipeline

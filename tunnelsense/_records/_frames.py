@@ -109,6 +109,10 @@ def _origin(source):
     return source
 
 
+def _remade(origin, remake):
+    return DecodedImage(origin, None, remake)
+
+
 class DecodedImage:
     """A lazy image source decoded once, for the length of one pipeline pass.
 
@@ -117,28 +121,59 @@ class DecodedImage:
     one, with the decoded array; the later stages of the same pass read that array
     instead of decoding the file again.  A stage that holds frames for later (the
     online trajectory verifier) keeps :attr:`origin` instead, so memory does not grow
-    with the frames held.  It pickles as its origin: no pixels travel to other
-    processes.
+    with the frames held.  No pixels travel to other processes: it pickles (and
+    copies) as its origin, or, when its array was made from the origin's pixels
+    (``remake``, such as the detector's canonical frame), as the origin and
+    ``remake``, which makes the same array again on first access.
 
     Parameters
     ----------
     origin : lazy source
         The object with a ``load()`` method the array was decoded from.
-    array : ndarray
-        The decoded image.
+    array : ndarray or None
+        The decoded image; None: ``remake(origin.load())`` on first access.
+    remake : callable or None, default=None
+        ``remake(pixels) -> array`` when the array is not the origin's pixels
+        themselves (picklable, deterministic); None: the array is ``origin.load()``.
+
+    Examples
+    --------
+    >>> import copy
+    >>> from functools import partial
+    >>> import numpy as np
+    >>> from tunnelsense import DecodedImage
+    >>> class Pixels:  # a lazy source: anything with load()
+    ...     def load(self):
+    ...         return np.array([[10, 20]], np.uint8)
+    >>> double = partial(np.multiply, 2)
+    >>> src = DecodedImage(Pixels(), double(Pixels().load()), remake=double)
+    >>> copy.deepcopy(src).load()  # made again from the origin's pixels
+    array([[20, 40]], dtype=uint8)
     """
 
-    __slots__ = ("origin", "array")
+    __slots__ = ("origin", "_array", "remake")
 
-    def __init__(self, origin, array):
+    def __init__(self, origin, array, remake=None):
+        if array is None and remake is None:
+            raise ValueError("DecodedImage needs its array or a remake of it")
         self.origin = origin
-        self.array = array
+        self._array = array
+        self.remake = remake
+
+    @property
+    def array(self) -> np.ndarray:
+        """The decoded (or remade) image."""
+        if self._array is None:
+            self._array = self.remake(self.origin.load())
+        return self._array
 
     def load(self) -> np.ndarray:
         return self.array
 
     def __reduce__(self):
-        return (_origin, (self.origin,))
+        if self.remake is None:
+            return (_origin, (self.origin,))
+        return (_remade, (self.origin, self.remake))
 
     def __repr__(self):
         return f"DecodedImage({self.origin!r})"

@@ -19,7 +19,12 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from tunnelsense._records import RUN_GT_COLUMNS, LaserGeometry, Run, ScanSequence
-from tunnelsense.datasets._street_params import STREET_SCENARIOS, resolve_params
+from tunnelsense.datasets._street_params import (
+    _PARAMS,
+    OPTIONAL_PARAMS,
+    STREET_SCENARIOS,
+    resolve_params,
+)
 from tunnelsense.datasets._street_render import ray_cast
 from tunnelsense.datasets._street_scene import layout, passing
 from tunnelsense.datasets._street_sensor import (
@@ -28,6 +33,7 @@ from tunnelsense.datasets._street_sensor import (
     measure,
     rain,
     sensor_pitch,
+    wet_road,
 )
 
 __all__ = ["STREET_SCENARIOS", "make_street_scans"]
@@ -36,7 +42,7 @@ __all__ = ["STREET_SCENARIOS", "make_street_scans"]
 #: (:data:`~tunnelsense.street.VEHICLE_CLASSES`): a small car is a car, a long low
 #: lorry or trailer a van.
 KIND_CLASS = {"car": "car", "small": "car", "van": "van", "long": "van",
-              "motorbike": "motorbike"}
+              "caravan": "van", "motorbike": "motorbike"}
 
 
 # --------------------------------------------------------------------------------------
@@ -96,7 +102,8 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
         return float(np.interp(x, x_ego, stamps))
 
     v0 = p["speed_kmh"] / 3.6
-    objects = layout(p, x_ego[0] - 15.0, x_ego[-1] + 15.0, t_of_x, rng)
+    aux = np.random.default_rng([seed, 4])  # angled bays, walls: a stream of their own
+    objects = layout(p, x_ego[0] - 15.0, x_ego[-1] + 15.0, t_of_x, rng, aux)
     for o in passing(p, stamps, v0, rng):
         # place it so that its middle crosses the plane at its cross time
         tc = o.pop("cross_time")
@@ -112,6 +119,7 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
                                        pitch)
     theta = angles[None, :] + roll[:, None]
     ranges = measure(p, rng_true, hit, material, np.cos(theta), np.sin(theta), rng)
+    ranges, hit = wet_road(p, ranges, hit, seed)
     ranges, hit = rain(p, ranges, hit, seed)
 
     # ground truth: vehicles the scanner sees (in at least 3 scans, between 0.1 m and
@@ -184,7 +192,8 @@ def _simulate(n_scans=4000, scenario="sparse", random_state=None, **overrides):
              "speed_kmh": round(float(objects[r[3]]["speed"] * 3.6), 2)}
             for r in rows
         ],
-        "params": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in p.items()},
+        "params": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in p.items()
+                   if k not in OPTIONAL_PARAMS or v != _PARAMS[k][0]},
     }
     if pitch.any():  # (the older scenarios' info stays as it was)
         info["pitch_deg_min"] = round(float(np.rad2deg(pitch.min())), 4)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import numbers
 
-__all__ = ["STREET_SCENARIOS", "resolve_params"]
+__all__ = ["OPTIONAL_PARAMS", "STREET_SCENARIOS", "resolve_params"]
 
 #: Names of the street scenarios of :func:`make_street_scans`.
 from tunnelsense.datasets._scenarios import STREET_SCENARIOS  # noqa: E402
@@ -68,7 +68,19 @@ _PARAMS = {
     "communal_bins_per_100m": (0.0, 0.0, 20.0),
     "hedge_fraction": (0.5, 0.0, 1.0),
     "trees_per_100m": (3.0, 0.0, 30.0),
+    # conditions no scenario uses (all off by default; their draws come from streams
+    # of their own, so that a run without them stays byte for byte as it was)
+    "angled_row_fraction": (0.0, 0.0, 1.0),
+    "bay_angle_deg": (90.0, 30.0, 90.0),
+    "caravan_fraction": (0.0, 0.0, 1.0),
+    "wet_road_fraction": (0.0, 0.0, 1.0),
+    "wall_fraction": (0.0, 0.0, 1.0),
 }
+
+#: Parameters recorded in a run's ``info["params"]`` only when away from their
+#: default (the older runs' info stays as it was).
+OPTIONAL_PARAMS = ("angled_row_fraction", "bay_angle_deg", "caravan_fraction",
+                   "wet_road_fraction", "wall_fraction")
 
 _SCENARIO_PARAMS = {
     "sparse": {},

@@ -22,6 +22,18 @@ def _new_vehicle(rng, kind, *, rider=False, van_height=(2.05, 2.6)):
                 "top_f": top_f, "top_h": top_h, "belt": H - 0.15, "glass_f": (0.0, 0.0),
                 "tumble": 0.03, "wheel_radius": 0.45, "axles": (1.5, L - 1.5),
                 "clearance": 0.35, "overhang_bottom": 0.45, "corner": 0.1}
+    if kind == "caravan":  # a caravan or horse box: a tall box on one axle, a drawbar
+        body, bar = rng.uniform(4.0, 6.5), rng.uniform(1.0, 1.4)
+        L, H = body + bar, rng.uniform(2.3, 2.7)
+        d = bar / L
+        top_f = [0.0, d, d + 0.01, d + 0.04, 0.98, 1.0]
+        top_h = [0.6, 0.6, H - 0.4, H, H, H - 0.1]
+        axle = bar + body * rng.uniform(0.45, 0.6)
+        return {"kind": kind, "length": L, "width": rng.uniform(2.1, 2.3),
+                "top_f": top_f, "top_h": top_h, "belt": rng.uniform(1.0, 1.2),
+                "glass_f": (d + 0.1, d + 0.25), "tumble": 0.02, "wheel_radius": 0.3,
+                "axles": (axle, axle), "clearance": rng.uniform(0.3, 0.4),
+                "overhang_bottom": 0.4, "corner": 0.1}
     if kind == "motorbike":
         return {"kind": kind, "length": rng.uniform(1.9, 2.2), "width": rng.uniform(0.7, 0.85),
                 "rider": rider}
@@ -71,8 +83,10 @@ def _across(o, p, rng):
     return "across-kerb", kerb - rng.uniform(0.05, 0.3) - deep
 
 
-def _vehicle_kind(rng, van, motorbike, small=0.0, long=0.0):
+def _vehicle_kind(rng, van, motorbike, small=0.0, long=0.0, caravan=0.0):
     u = rng.random()
+    if u >= 1.0 - caravan:
+        return "caravan"
     if u < van:
         return "van"
     if u < van + motorbike:
@@ -82,8 +96,23 @@ def _vehicle_kind(rng, van, motorbike, small=0.0, long=0.0):
     return "long" if u >= 1.0 - long else "car"
 
 
-def layout(p, x_lo, x_hi, t_of_x, rng):
-    """All objects of the street.  Static objects have ``speed`` 0."""
+def _angle_into_bay(o, p, aux):
+    """Turn a parked car or van into an angled bay: ``bay_angle_deg`` (+-3) from the
+    street, nose toward the kerb (4 in 5) or toward the road, its deepest corner
+    0.1-0.3 m from the kerb.  ``length`` and ``width`` become the footprint's extent
+    along and across the street; returns the along-street pitch of the bays."""
+    phi = np.deg2rad(min(p["bay_angle_deg"] + aux.uniform(-3.0, 3.0), 90.0))
+    L, W = o["length"], o["width"]
+    c, sn = abs(np.cos(phi)), np.sin(phi)
+    o.update(car_length=L, car_width=W, bay_angle=phi, nose_in=aux.random() < 0.8,
+             length=L * c + W * sn, width=L * sn + W * c)
+    # bays 2.4-2.7 m wide at right angles to their axis; one car per bay
+    return aux.uniform(2.4, 2.7) / sn
+
+
+def layout(p, x_lo, x_hi, t_of_x, rng, aux=None):
+    """All objects of the street.  Static objects have ``speed`` 0.  ``aux``: the
+    random stream of the conditions no scenario uses (angled bays, walls)."""
     kerb, kh = p["kerb_depth"], p["kerb_height"]
     objects, free = [], []
     x = x_lo
@@ -96,9 +125,11 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
         row = None  # the whole row at a region boundary: "near" or "far"
         if p["boundary_row_fraction"] > 0 and rng.random() < p["boundary_row_fraction"]:
             row = "near" if rng.random() < 0.5 else "far"
+        angled = p["angled_row_fraction"] > 0 and aux.random() < p["angled_row_fraction"]
+        end = x
         for k in range(n):
             kind = _vehicle_kind(rng, p["van_fraction"], p["motorbike_fraction"],
-                                 p["small_car_fraction"])
+                                 p["small_car_fraction"], caravan=p["caravan_fraction"])
             o = _new_vehicle(rng, kind,
                              van_height=(p["van_height_min"], p["van_height_max"]))
             W = o["width"]
@@ -122,6 +153,18 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
                 where, y_near = _across(o, p, rng)
             o.update(label="parked", x0=x, speed=0.0, facing=1.0 if rng.random() < 0.9 else -1.0,
                      depth_near=y_near, base=base, where=where)
+            if angled and kind not in ("motorbike", "caravan"):
+                pitch = _angle_into_bay(o, p, aux)
+                o.update(facing=1.0, where="angled-bay", base=0.0,
+                         depth_near=kerb - aux.uniform(0.1, 0.3) - o["width"])
+                objects.append(o)
+                end = x + o["length"]
+                x += pitch  # the next bay (cars at 45 degrees overlap along the street)
+                if k == n - 1:
+                    x = end
+                continue
+            if angled and k > 0:  # after an angled car, clear of its footprint
+                x = o["x0"] = max(x, end)
             objects.append(o)
             x += o["length"]
             if k < n - 1:
@@ -202,7 +245,26 @@ def layout(p, x_lo, x_hi, t_of_x, rng):
                            rng.uniform(0, 2 * np.pi), rng.uniform(1.5, 5.0)))
         x += L + rng.uniform(0.0, 4.0)
     _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng)
+    if p["wall_fraction"] > 0:
+        _walls(p, objects, x_lo, x_hi, clear, aux)
     return objects
+
+
+def _walls(p, objects, x_lo, x_hi, clear, aux):
+    """Garden walls, fences and facades at the back of a narrow footway, 0.1-0.5 m
+    behind the kerb and 0.8-2.5 m high, along ``wall_fraction`` of the street in
+    stretches of 5-30 m (kept clear of cars up on the footway)."""
+    kerb, kh = p["kerb_depth"], p["kerb_height"]
+    x = x_lo
+    while x < x_hi:
+        L = aux.uniform(5.0, 30.0)
+        wall = aux.random() < p["wall_fraction"]
+        y, h = kerb + aux.uniform(0.1, 0.5), aux.uniform(0.8, 2.5)
+        if wall and clear(x, x + L):
+            objects.append({"kind": "wall", "label": None, "x0": x, "length": L,
+                            "speed": 0.0, "facing": 1.0, "depth_near": y, "width": 0.25,
+                            "base": kh, "height": h})
+        x += L + aux.uniform(0.0, 3.0) * (not wall)
 
 
 def _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng):

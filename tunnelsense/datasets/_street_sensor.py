@@ -15,7 +15,7 @@ from tunnelsense.datasets._street_shapes import GLASS as _GLASS
 from tunnelsense.datasets._street_shapes import TYRE as _TYRE
 
 __all__ = ["HIT_KERB", "HIT_NONE", "HIT_RAIN", "HIT_ROAD", "MAX_RANGE", "MEASURE_LIMIT",
-           "ego", "measure", "rain", "sensor_pitch", "stop_profile"]
+           "ego", "measure", "rain", "sensor_pitch", "stop_profile", "wet_road"]
 
 #: Range the paper's sensor reports for no return or an object beyond 8.0 m (m).
 MAX_RANGE = 8.191
@@ -134,3 +134,21 @@ def rain(p, ranges, hit, seed):
     with np.errstate(invalid="ignore"):
         echo &= ~(ranges <= r)  # nearer than the target (or the target is missing)
     return np.where(echo, r, ranges), np.where(echo, HIT_RAIN, hit)
+
+
+def wet_road(p, ranges, hit, seed):
+    """A wet road: water on the asphalt reflects the beam away (specular), so a
+    fraction ``wet_road_fraction`` of the beams on the road return nothing (8.191 m,
+    as for no target), in patches (puddles, wheel tracks) a few beams and scans long.
+    Its own random stream (nothing is drawn on a dry road); ``hit`` of those beams
+    becomes ``HIT_NONE``."""
+    f = p["wet_road_fraction"]
+    if not f:
+        return ranges, hit
+    rng = np.random.default_rng([seed, 5])
+    # patches: a coarse random field (every 8 scans x 4 beams) thresholded at f
+    n_scans, n_beams = ranges.shape
+    coarse = rng.random((n_scans // 8 + 2, n_beams // 4 + 2))
+    field = coarse[np.arange(n_scans)[:, None] // 8, np.arange(n_beams)[None, :] // 4]
+    lost = (hit == HIT_ROAD) & (field < f)
+    return np.where(lost, MAX_RANGE, ranges), np.where(lost, HIT_NONE, hit)

@@ -37,6 +37,8 @@ def _set(boxes, j, mask, y0, y1, z0, z1, material=_BODY):
 
 def _car_boxes(o, s):
     """Cross-section of a car or van at ``s`` metres behind its nose."""
+    if "bay_angle" in o:
+        return _angled_car_boxes(o, s)
     n = len(s)
     boxes = _empty_boxes(n)
     L, W, yn, zb, R = o["length"], o["width"], o["depth_near"], o["base"], o["wheel_radius"]
@@ -71,6 +73,71 @@ def _car_boxes(o, s):
     _set(boxes, 1, glass, y0 + t, y1 - t, zb + belt, zb + top - 0.08, _GLASS)
     _set(boxes, 1, cabin & ~glass, y0 + t, y1 - t, zb + belt, zb + top - 0.08)
     _set(boxes, 2, cabin, y0 + t + 0.03, y1 - t - 0.03, zb + top - 0.08, zb + top)
+    return boxes
+
+
+def _cut(dx, c, sn, a_lo, a_hi, w_lo, w_hi):
+    """Depth interval ``(dy0, dy1)`` (from the footprint's centre) where the scan plane
+    ``dx`` metres along the street from the centre crosses the part of a footprint
+    turned ``atan2(sn, c)`` from the street lying between ``a_lo`` and ``a_hi`` along
+    its axis and ``w_lo`` and ``w_hi`` across it (``dy0 >= dy1``: it misses)."""
+    # along the axis: a = dx c + dy sn; across it: w = dy c - dx sn
+    dy0 = (a_lo - dx * c) / sn
+    dy1 = (a_hi - dx * c) / sn
+    if c > 1e-9:
+        dy0 = np.maximum(dy0, (w_lo + dx * sn) / c)
+        dy1 = np.minimum(dy1, (w_hi + dx * sn) / c)
+    else:  # at right angles: the plane is inside the width or misses it
+        inside = (-dx * sn >= w_lo) & (-dx * sn <= w_hi)
+        dy1 = np.where(inside, dy1, -np.inf)
+    return dy0, dy1
+
+
+_ANGLED_SEGMENTS = 10  # depth slices of a car in an angled bay
+
+
+def _angled_car_boxes(o, s):
+    """A car or van in an angled bay (``bay_angle`` rad from the street, nose toward
+    the kerb when ``nose_in``): the scan plane cuts its footprint obliquely, so the
+    depth it spans holds successive parts of its side profile (bumper, bonnet, cabin,
+    boot) as slices of their own height, with the wheels the plane passes through."""
+    n = len(s)
+    k = _ANGLED_SEGMENTS
+    boxes = np.full((n, 2 * k + 4, 5), np.inf)
+    boxes[..., 4] = _BODY
+    L, W, zb = o["car_length"], o["car_width"], o["base"]
+    c, sn = np.cos(o["bay_angle"]), np.sin(o["bay_angle"])
+    yc = o["depth_near"] + o["width"] / 2
+    dx = (o["length"] - s) - o["length"] / 2  # the cut, from the footprint's centre
+    sign = 1.0 if o["nose_in"] else -1.0
+
+    def along(a):  # metres behind the nose of the axis coordinate a
+        return L / 2 - sign * a
+
+    dy0, dy1 = _cut(dx, c, sn, -L / 2, L / 2, -W / 2, W / 2)
+    hit = dy1 > dy0
+    edges = dy0[:, None] + (dy1 - dy0)[:, None] * np.linspace(0, 1, k + 1)[None, :]
+    for j in range(k):
+        mid = 0.5 * (edges[:, j] + edges[:, j + 1])
+        sm = np.clip(along(dx * c + mid * sn), 0.0, L)
+        f = sm / L
+        top = np.interp(f, o["top_f"], o["top_h"])
+        ends = (sm < o["axles"][0] - o["wheel_radius"]) | (sm > o["axles"][1] + o["wheel_radius"])
+        bot = np.where(ends, o["overhang_bottom"], o["clearance"])
+        y0, y1 = yc + edges[:, j], yc + edges[:, j + 1]
+        _set(boxes, 2 * j, hit, y0, y1, zb + bot, zb + np.minimum(top, o["belt"]))
+        glass = (f >= o["glass_f"][0]) & (f <= o["glass_f"][1])
+        cabin = hit & (top > o["belt"] + 0.1)
+        _set(boxes, 2 * j + 1, cabin & glass, y0, y1, zb + o["belt"], zb + top, _GLASS)
+        _set(boxes, 2 * j + 1, cabin & ~glass, y0, y1, zb + o["belt"], zb + top)
+    R = o["wheel_radius"]
+    j = 2 * k
+    for axle in o["axles"]:
+        a_lo, a_hi = sorted((sign * (L / 2 - axle - R), sign * (L / 2 - axle + R)))
+        for w_lo, w_hi in ((-W / 2 + 0.04, -W / 2 + 0.26), (W / 2 - 0.26, W / 2 - 0.04)):
+            t0, t1 = _cut(dx, c, sn, a_lo, a_hi, w_lo, w_hi)
+            _set(boxes, j, t1 > t0, yc + t0, yc + t1, zb, zb + 2 * R, _TYRE)
+            j += 1
     return boxes
 
 
@@ -173,6 +240,8 @@ _PROFILES = {
     "van": _car_boxes,
     "small": _car_boxes,
     "long": _car_boxes,
+    "caravan": _car_boxes,
+    "wall": _post_boxes,
     "motorbike": _motorbike_boxes,
     "pedestrian": _pedestrian_boxes,
     "bollard": _post_boxes,

@@ -22,11 +22,15 @@ false alarm among them does not prevent the lock.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another place by
-``margin`` -- each rival that counts a missed indicator spared the cost of one:
-a missed sign and a false pass near it can make a wrong stretch of the map (with a
-scale a few per cent off) explain every pass, so the lock must hold even if the
-right place's miss were free.  On a strictly periodic map every interior
-hypothesis explains the passes equally: there is no lock, and nothing is guessed.
+``margin``.  The score is the likelihood of the passes with the scale marginalized
+(each hypothesis's Kalman filter: the scale's prior, the odometry between passes,
+each pass's own variance), so the margin is a likelihood ratio.  The miss rate it
+is computed with should be pessimistic (:class:`TunnelPositioner` uses 0.4): a
+missed sign and a false pass near it can make a wrong stretch of the map (with a
+scale a few per cent off) explain every pass, and the right place then counts a
+miss and a false pass; a lock must not hinge on the detector never missing.  On a
+strictly periodic map every interior hypothesis explains the passes equally:
+there is no lock, and nothing is guessed.
 """
 
 from __future__ import annotations
@@ -53,12 +57,12 @@ class LockOn:
     gate : float
         Largest Mahalanobis distance of an explained pass.
     miss_rate : float
-        Probability that the detector misses an indicator.
+        Probability that the detector misses an indicator (a pessimistic one: see
+        the module's docstring).
     false_pass_rate : float
         False passes per metre (a trajectory of something else that passes).
     margin : float
-        Log-likelihood ratio of the lock over the best rival (a rival counting a
-        missed indicator spared the cost of one).
+        Log-likelihood ratio of the lock over the best rival.
     min_passes : int
         Fewest passes the locked hypothesis explains (the anchor included).
     max_anchors : int, default=3
@@ -96,8 +100,7 @@ class LockOn:
         self.n_passes = 0
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
-        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score",
-                                                "nf", "nm")}
+        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
         self._last = np.empty(0, np.int64)  # last indicator explained
         self._hits = np.empty(0, np.int64)  # passes explained
         self._assign = deque(maxlen=int(memory))  # per pass: (tag, indicator per hyp)
@@ -153,9 +156,6 @@ class LockOn:
             h["p00"] = np.concatenate([(p00 - k0 * p00)[e], p00])
             h["p01"] = np.concatenate([(p01 - k0 * p01)[e], p01])
             h["p11"] = np.concatenate([(p11 - k1 * p01)[e], p11])
-            h["nf"] = np.concatenate([h["nf"][e], h["nf"] + 1])
-            h["nm"] = np.concatenate([h["nm"][e] + skipped[e],
-                                      h["nm"] + np.maximum(j_false - self._last, 0)])
             self._last = np.concatenate([j[e], j_false])
             self._hits = np.concatenate([self._hits[e] + 1, self._hits])
             self._assign = deque(((t, np.concatenate([a[e], a])) for t, a in self._assign),
@@ -213,15 +213,14 @@ class LockOn:
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
         m = len(self.map)
         score = np.full(m, self.n_passes * self.log_false + self.log_hit)
-        unseen = np.zeros(m)
         if self.start is not None:
-            unseen = unseen_before(self.map, dist - self.start, self.scale,
-                                   self.scale_sigma, self.clearance).astype(np.float64)
-            score += self.log_miss * unseen
+            score += self.log_miss * unseen_before(self.map, dist - self.start,
+                                                   self.scale, self.scale_sigma,
+                                                   self.clearance)
         new = {"s": self.map.copy(), "c": np.full(m, self.scale),
                "p00": np.full(m, self.fix_var + self.scale**2 * var),
                "p01": np.zeros(m), "p11": np.full(m, self.scale_sigma**2),
-               "score": score, "nf": np.full(m, float(self.n_passes)), "nm": unseen}
+               "score": score}
         for key, value in new.items():
             self._h[key] = np.concatenate([self._h[key], value])
         self._last = np.concatenate([self._last, np.arange(m)])
@@ -261,19 +260,16 @@ class LockOn:
 
     def ranking(self, missed=None):
         """``(best, margin)``: the best hypothesis and its lead over any hypothesis
-        that puts the vehicle at another place (inf when there is none), a rival
-        that counts a missed indicator spared its cost (:class:`LockOn`);
+        that puts the vehicle at another place (inf when there is none);
         ``missed``: misses added to each hypothesis's (not kept).
         """
-        h = self._h
-        score, nm = h["score"], h["nm"]
+        score = self._h["score"]
         if missed is not None:
-            score, nm = score + missed * self.log_miss, nm + missed
+            score = score + missed * self.log_miss
         if not len(score):
             return None, 0.0
         best = int(np.argmax(score))
-        other = self._elsewhere(best)
-        rival = score[other] - self.log_miss * (nm[other] > 0)
+        rival = score[self._elsewhere(best)]
         return best, float(score[best] - rival.max()) if len(rival) else math.inf
 
     def n_explaining(self):

@@ -46,10 +46,9 @@ class TunnelPositioner(BaseEstimator):
     ``initial_chainage=None`` the start is unknown: the positioner keeps hypotheses
     over which indicator each pass was (the odometry distances between passes must
     match the map's gaps; each pass may also be false) and locks on when one
-    explains the passes clearly better than every other, even were another place's
-    one missed sign free; until then its rows have ``locked=False`` and no
-    chainage.  A
-    map whose indicators are evenly spaced gives no such cue: there it does not
+    explains the passes clearly better than every other (their likelihood, the
+    detector assumed to miss signs often); until then its rows have
+    ``locked=False`` and no chainage.  A map whose indicators are evenly spaced gives no such cue: there it does not
     lock.  When the gate rejects ``relock_after`` passes in a row (a wrong start),
     it drops its position and locks on again the same way.
 
@@ -126,13 +125,15 @@ class TunnelPositioner(BaseEstimator):
         ``window`` frames late.
     lock_margin : float, default=9.0
         Log-likelihood ratio by which the lock's hypothesis must beat every
-        hypothesis that puts the vehicle at another place (9: 8000 to 1), a rival
-        that counts a missed indicator spared the cost of one (a missed sign and a
-        false pass near it can make a wrong place explain every pass).
+        hypothesis that puts the vehicle at another place (9: 8000 to 1).
     lock_passes : int, default=3
         Fewest passes the lock's hypothesis explains (two gaps between them).
-    miss_rate : float, default=0.05
-        Probability that the detector misses an indicator (lock-on scoring).
+    miss_rate : float, default=0.4
+        Probability that the detector misses an indicator (lock-on scoring),
+        deliberately pessimistic: with a missed sign and a false pass near it a
+        wrong stretch of the map (its scale a few per cent off) can explain every
+        pass, while the right place counts a miss and a false pass; a lock must
+        not hinge on the detector never missing.
     false_pass_rate : float, default=0.05
         False passes per km (lock-on scoring): trajectories of something else
         that pass the positioner's own checks (boxes, approach, extrapolation).
@@ -213,7 +214,7 @@ class TunnelPositioner(BaseEstimator):
         window=3000,
         lock_margin=9.0,
         lock_passes=3,
-        miss_rate=0.05,
+        miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
     ):

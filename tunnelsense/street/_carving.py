@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["protrusions", "raised_section", "scan_near_side", "widen"]
+__all__ = ["flat_face", "protrusions", "raised_section", "scan_near_side", "widen"]
 
 
 def scan_near_side(scan, side, first, last):
@@ -51,13 +51,15 @@ def scan_near_side(scan, side, first, last):
     return near
 
 
-def protrusions(near, margin, length, max_length):
+def protrusions(near, margin, length, max_length, *, ends=False, quantile=50.0):
     """Short runs of scans where something stands in front of an object's face.
 
-    The face is the median near side over the object's scans.  A run of consecutive
+    The face is the median near side over the object's scans (``quantile``: that
+    percentile instead).  A run of consecutive
     scans whose near side is more than ``margin`` nearer than the face, with the
     face seen on both sides of the run (the scans just before and after it show a
-    body no nearer than ``face - margin``), and shorter than ``max_length`` along
+    body no nearer than ``face - margin``; ``ends``: on one side at least, the run
+    may reach the object's first or last scan), and shorter than ``max_length`` along
     the street, is a protrusion: a vehicle standing against the structure.
 
     Parameters
@@ -70,6 +72,10 @@ def protrusions(near, margin, length, max_length):
         Metres along the street at the start of every scan (and past the last).
     max_length : float
         Longest protrusion (m).
+    ends : bool, default=False
+        Whether a run may reach the object's ends (the face seen on one side).
+    quantile : float, default=50.0
+        Percentile of the near sides that gives the face.
 
     Returns
     -------
@@ -90,7 +96,7 @@ def protrusions(near, margin, length, max_length):
     near = np.asarray(near, dtype=float)
     if not np.isfinite(near).any():
         return np.nan, []
-    face = float(np.nanmedian(near))
+    face = float(np.nanpercentile(near, quantile))
     with np.errstate(invalid="ignore"):
         front = near < face - margin
         at_face = near >= face - margin
@@ -102,7 +108,9 @@ def protrusions(near, margin, length, max_length):
         elif not f and start is not None:
             a, b = start, i - 1
             start = None
-            inside = a > 0 and b + 1 < len(near) and at_face[a - 1] and at_face[b + 1]
+            before = at_face[a - 1] if a > 0 else ends
+            after = at_face[b + 1] if b + 1 < len(near) else ends
+            inside = before and after and (a > 0 or b + 1 < len(near))
             if inside and length[b + 1] - length[a] < max_length:
                 runs.append((a, b))
     return face, runs
@@ -186,3 +194,64 @@ def widen(near, a, b, depth, length, gap):
                and length[hi + 2] - length[b + 1] <= gap):
             hi += 1
     return lo, hi
+
+
+def flat_face(near, flags, face, runs, margin, lengths, evidence, max_share):
+    """Whether an object's face, outside the runs in front of it, is a flat
+    vertical surface: a wall, a fence or a facade rather than a vehicle.
+
+    A vehicle shows a roof or a body raised between its wheels along its length;
+    a wall behind a parked car is a vertical face down to the footway wherever it
+    is seen.  The face is flat when the share of its length (its scans no nearer
+    than ``face`` less ``margin``, outside ``runs``) whose
+    flags hold any bit of ``evidence`` is below ``max_share``.
+
+    Parameters
+    ----------
+    near : ndarray of shape (n_scans,)
+        Near side (m) per scan (:func:`scan_near_side`; NaN: no body).
+    flags : ndarray of shape (n_scans,) of int
+        Evidence bits of every scan (the OR of its clusters' flags).
+    face : float
+        The face's depth (m, :func:`protrusions`).
+    runs : list of (int, int)
+        Runs in front of the face (:func:`protrusions`), left out.
+    margin : float
+        How much nearer (m) than the face counts as in front of it.
+    lengths : ndarray of shape (n_scans,)
+        Metres along the street of every scan.
+    evidence : int
+        Bits of a vehicle body (roof, raised).
+    max_share : float
+        Largest share of the face's length showing them.
+
+    Returns
+    -------
+    flat : bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._carving import flat_face
+    >>> near = np.array([6.6, 6.6, 4.5, 4.5, 6.6, 6.6])
+    >>> flags = np.array([2, 2, 5, 5, 2, 2])
+    >>> flat_face(near, flags, 6.6, [(2, 3)], 0.5, np.full(6, 0.15), 5, 0.2)
+    True
+    >>> flat_face(near, np.full(6, 5), 6.6, [(2, 3)], 0.5, np.full(6, 0.15), 5, 0.2)
+    False
+    """
+    near = np.asarray(near, dtype=float)
+    if not np.isfinite(face):
+        return False
+    with np.errstate(invalid="ignore"):
+        at_face = near >= face - margin
+    for a, b in runs:
+        at_face[a:b + 1] = False
+    lengths = np.asarray(lengths, dtype=float)
+    if not at_face.any():
+        return False
+    total = float(lengths[at_face].sum())
+    shown = (np.asarray(flags)[at_face] & evidence) > 0
+    share = (float(lengths[at_face][shown].sum()) / total if total > 0
+             else float(np.mean(shown)))
+    return share < max_share

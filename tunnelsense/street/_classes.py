@@ -57,6 +57,35 @@ def weighted_median(values, weights):
     return float(v[k])
 
 
+def near_travel(near, position):
+    """How far (m) an object's near side moves across the street over its length: the
+    least-squares slope of the near side per scan against the distance along the
+    street, times the distance it spans (0 with fewer than 3 scans).
+
+    A vehicle parked parallel to the kerb keeps its near side (a row of motorbikes
+    nose to tail steps by their offsets from the kerb); one in an angled bay turns
+    its flank to the street, and the near side of the scans cutting it advances
+    steadily across the street.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._classes import near_travel
+    >>> round(near_travel(np.array([3.0, 3.5, 4.0, 4.5]), np.array([0.0, 0.5, 1.0, 1.5])), 2)
+    1.5
+    >>> near_travel(np.array([5.0, 5.0, 5.0]), np.array([0.0, 1.0, 2.0]))
+    0.0
+    """
+    near = np.asarray(near, dtype=np.float64)
+    position = np.asarray(position, dtype=np.float64)
+    span = float(np.ptp(position)) if len(position) else 0.0
+    if len(near) < 3 or span <= 0:
+        return 0.0
+    x = position - position.mean()
+    slope = float((x * (near - near.mean())).sum() / (x * x).sum())
+    return abs(slope) * span
+
+
 def class_features(scan_flags, scan_top, scan, side, far, length, *, seen=None,
                    metres=None):
     """The cross-section features of one object from its scans and intra-clusters.
@@ -96,7 +125,8 @@ def class_features(scan_flags, scan_top, scan, side, far, length, *, seen=None,
         height profile, m: the height of the body over most of its length, which a
         stray high point or a badly estimated roll in a scan or two does not move),
         ``extent`` (the median over the scans of the body's depth extent across the
-        street, m; NaN: no body) and ``length``.
+        street, m; NaN: no body), ``travel`` (how far its near side moves across the
+        street over its length, :func:`near_travel`, m) and ``length``.
 
     Examples
     --------
@@ -114,12 +144,17 @@ def class_features(scan_flags, scan_top, scan, side, far, length, *, seen=None,
     side = np.asarray(side, dtype=np.float64)
     far = np.asarray(far, dtype=np.float64)
     extent = np.empty(0)
+    travel = 0.0
     body = np.isfinite(side) & np.isfinite(far)
     if body.any():
         order = np.argsort(scan[body], kind="stable")
         s, lo, hi = scan[body][order], side[body][order], far[body][order]
         starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
-        extent = np.maximum.reduceat(hi, starts) - np.minimum.reduceat(lo, starts)
+        near = np.minimum.reduceat(lo, starts)
+        extent = np.maximum.reduceat(hi, starts) - near
+        along = (np.cumsum(np.asarray(metres, dtype=np.float64))[s[starts]]
+                 if metres is not None else s[starts].astype(np.float64))
+        travel = near_travel(near, along)
     if metres is None or seen is None:
         w_scan = np.ones(len(scan_flags))
         w_body = np.ones(len(extent))
@@ -134,6 +169,7 @@ def class_features(scan_flags, scan_top, scan, side, far, length, *, seen=None,
         else 0.0,
         "top": weighted_median(scan_top, w_scan) if len(scan_top) else np.nan,
         "extent": weighted_median(extent, w_body) if len(extent) else np.nan,
+        "travel": travel,
         "length": float(length),
     }
 
@@ -164,7 +200,10 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
     motorbike_width : float, default=1.2
         Narrowest car (m): the smallest city cars are 1.5 m wide and longer than
         2.4 m; a vehicle narrower than this one way (its length along the street, or
-        its depth extent across it) and without a roof is a motorbike.
+        its depth extent across it while its near side moves less than this across
+        the street: a car in an angled bay, cut obliquely, shows short cross-sections
+        along a near side that advances across the street) and without a roof is a
+        motorbike.
     min_car_length : float, default=2.4
         Shortest car (m); a vehicle without a roof shorter than this is a motorbike.
 
@@ -189,7 +228,8 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
     if f["wall"] >= van_wall or f["top"] >= van_height or f["length"] > van_length:
         return "van"
     narrow = bool(f["length"] < min_car_length or (
-        np.isfinite(f["extent"]) and f["extent"] < motorbike_width))
+        np.isfinite(f["extent"]) and f["extent"] < motorbike_width
+        and f.get("travel", 0.0) < motorbike_width))
     if f["roof"] <= motorbike_roof and narrow:
         return "motorbike"
     return "car"

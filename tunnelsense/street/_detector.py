@@ -138,11 +138,19 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         the memory of the online detector; batch runs the same checks, so both agree.
         None: wait for every object-cluster to end (memory then follows the longest
         one).  See ``docs/street.md`` for how the default was chosen.
-    region_depth : {"near", "mean"}, default="near"
+    region_depth : {"near", "span", "mean"}, default="near"
         Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
         ``"near"`` the same, but an object averaging beyond region II whose near side
         (median nearest depth of its intra-clusters above 0.3 m) is in it belongs to
         region II: a car half on the sidewalk, near side 6.2-6.6 m.
+        ``"span"`` (beyond the paper) also: an object averaging in region I whose far
+        side (median farthest depth of its intra-clusters above 0.3 m) lies in region
+        II belongs to region II - a body reaching across the edge of the parking lane
+        stands in it, as traffic in the lane cannot: a car in a bay at right angles
+        or at 45 degrees to the kerb (seen from the road, its near end in the lane)
+        or a wide vehicle at the kerb.  For streets with angled bays: where the
+        traffic lane's vehicles reach into region II (a street narrower than the
+        regions assume), they become parked too.
     min_car_length : float, default=2.4
         Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
     min_raised_fraction : float, default=0.2
@@ -234,7 +242,17 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         its wheels (the beam below its lowest point passing farther) in at least
         ``min_across_raised`` of its scans.  It is reported in :meth:`detect` and
         :meth:`predict`; its points stay with the structure's intra-clusters in
-        :meth:`transform`'s ``"objects"``.  False: structures keep them.
+        :meth:`transform`'s ``"objects"``.  Walls, fences and facades just behind
+        the kerb: an object longer than ``van_length`` whose face (the upper
+        quartile of its near sides: a wall lies behind the vehicles in front of
+        it) shows a roof, a raised body or a body hanging in the air in less than
+        ``min_raised_fraction`` of its length, outside the runs of scans more than
+        ``link_distance`` nearer than it, is a flat vertical face, no vehicle;
+        every such run (up to ``max_length``, also at the object's ends) is carved
+        out and is a vehicle of the region labelled ``"parked"`` when at least
+        ``min_length`` long, with a body in ``min_body_fraction`` and a roof or a
+        raised body in ``min_raised_fraction`` of its length.  False: structures
+        keep them.
 
     Attributes
     ----------
@@ -288,7 +306,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "bridge_occluded": ["boolean"],
         "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "max_pending_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
-        "region_depth": [StrOptions({"mean", "near"})],
+        "region_depth": [StrOptions({"mean", "near", "span"})],
         "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
         "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
         "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],

@@ -145,6 +145,10 @@ KERB_STEP = (0.05, 0.35)
 #: Footway beams after the step that must lie flat (within ``KERB_FLAT`` m).
 KERB_RUN = 3
 KERB_FLAT = 0.03
+#: Steepest footway run (height change over depth advance): a footway's cross-fall is a
+#: few per cent; the near face of a vehicle close to the sensor, whose beams lie
+#: within ``KERB_FLAT`` of each other in height, rises without going outwards.
+KERB_SLOPE = 0.2
 #: Returns of the kerb's face between road and footway: at most this many, within
 #: ``KERB_FACE_DEPTH`` (m) of the road's last return.
 KERB_FACE = 3
@@ -157,8 +161,9 @@ def kerb_steps(depth, height, road=0.04):
     Going out along the beams of one scan: a return of the road (within ``road``
     of height 0 after tilt compensation), then at most ``KERB_FACE`` returns of
     the kerb's face (within ``KERB_FACE_DEPTH`` of the road's last depth), then
-    ``KERB_RUN`` returns going outwards and lying flat (within ``KERB_FLAT``) at a
-    height in ``KERB_STEP``: the footway behind the kerb.  The step lies halfway
+    ``KERB_RUN`` returns going outwards and lying flat (within ``KERB_FLAT``, and
+    rising at most ``KERB_SLOPE`` of their depth advance) at a height in
+    ``KERB_STEP``: the footway behind the kerb.  The step lies halfway
     between the road's last return and the next one.  Scans where a parked vehicle hides the kerb show none.
 
     Parameters
@@ -194,6 +199,9 @@ def kerb_steps(depth, height, road=0.04):
             run &= (step[:, k:n + k] & (np.abs(height[:, k:n + k] - height[:, :n])
                                         <= KERB_FLAT)
                     & (depth[:, k:n + k] > depth[:, k - 1:n + k - 1]))
+        end = KERB_RUN - 1  # the run lies flat: it goes outwards, not up
+        run &= (np.abs(height[:, end:n + end] - height[:, :n])
+                <= KERB_SLOPE * (depth[:, end:n + end] - depth[:, :n]))
         found = np.zeros((n_scans, n), dtype=bool)
         kerb = np.full((n_scans, n), np.nan)
         for gap in range(KERB_FACE + 1, 0, -1):  # the road's last return gap beams back

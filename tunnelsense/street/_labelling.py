@@ -16,14 +16,21 @@ import numpy as np
 
 from tunnelsense._records import RUN_LABELS
 from tunnelsense.street._carving import (
+    flat_face,
     protrusions,
     raised_section,
     scan_near_side,
     widen,
 )
-from tunnelsense.street._classes import class_features
+from tunnelsense.street._classes import ROOF_FLAG, WALL_FLAG, class_features
 from tunnelsense.street._geometry import HORIZON_STEP
-from tunnelsense.street._objects import ObjectProfiles, depth_region
+from tunnelsense.street._objects import (
+    BODY_FLAGS,
+    RAISED_FLAG,
+    SUSPENDED_FLAG,
+    ObjectProfiles,
+    depth_region,
+)
 from tunnelsense.street._splitting import split_objects
 from tunnelsense.street._vehicles import (
     end_match,
@@ -34,6 +41,12 @@ from tunnelsense.street._vehicles import (
 from tunnelsense.street._window import SIDE_HEIGHT
 
 __all__ = []
+
+#: Percentile of an object's near sides that gives the face of a wall behind
+#: parked vehicles: the wall lies behind them, and they may cover half its length.
+WALL_QUANTILE = 75.0
+#: Evidence bits a flat face lacks: a roof, a body raised between wheels or hanging.
+NOT_FLAT = ROOF_FLAG | RAISED_FLAG | SUSPENDED_FLAG
 
 
 class _Labelling:
@@ -98,6 +111,11 @@ class _Labelling:
                         + (cum[last + 1 + hi] - cum[last + 1]), **vehicle_test)
                     if vehicle:
                         first, last = first - lo, last + hi
+            # a wall, fence or facade (no vehicle): vehicles in front are carved out
+            whole = bool(est.carve_protrusions
+                         and cum[last + 1] - cum[first] > est.van_length
+                         and self._flat(mine, position[of], first, last))
+            vehicle = vehicle and not whole
             # (a passing vehicle's seen length follows the two speeds, not its body)
             features = class_features(
                 prof.flags(o), prof.profile(o)[1], position[of], self.side[mine],
@@ -115,20 +133,48 @@ class _Labelling:
                 "clusters": mine + self.cluster_base,
                 "features": features,
             })
+            if whole:
+                self.queue.extend(self._carve(mine, position[of], first, last, True))
             if est.carve_protrusions and not (vehicle and parked):
                 self.queue.extend(self._carve(mine, position[of], first, last))
         self.queue.sort(key=lambda q: q["key"])
 
-    def _carve(self, mine, pos, first, last):
+    def _scan_flags(self, mine, pos, first, last):
+        """The OR of the evidence flags of clusters ``mine`` in every scan."""
+        out = np.zeros(last - first + 1, dtype=np.int64)
+        np.bitwise_or.at(out, pos - first, self.flags[mine].astype(np.int64))
+        return out
+
+    def _flat(self, mine, pos, first, last):
+        """Whether the object of clusters ``mine`` is a flat vertical face (a
+        wall, fence or facade) wherever nothing stands in front of it: a roof or a
+        raised body in less than ``min_raised_fraction`` of that face's length
+        (:func:`~tunnelsense.street._carving.flat_face`)."""
+        est, cum = self.est, self.cum
+        near = scan_near_side(pos, self.side[mine], first, last)
+        face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
+                                 est.max_length, ends=True, quantile=WALL_QUANTILE)
+        return flat_face(near, self._scan_flags(mine, pos, first, last), face, runs,
+                         est.link_distance, np.diff(cum[first:last + 2]),
+                         NOT_FLAT,
+                         est.min_raised_fraction)
+
+    def _carve(self, mine, pos, first, last, whole=False):
         """Queue entries of motorbikes standing against the structure of clusters
-        ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``."""
+        ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``.
+        ``whole``: of vehicles of any class standing in front of a flat face (a
+        wall), at least ``min_length`` long with a body in ``min_body_fraction`` of
+        their length."""
         est = self.est
-        if est.min_across_length is None or last - first < 2:
+        if (est.min_across_length is None and not whole) or last - first < 2:
             return []
         cum = self.cum
         near = scan_near_side(pos, self.side[mine], first, last)
-        face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
-                                 est.min_car_length)
+        face, runs = protrusions(
+            near, est.link_distance, cum[first:last + 2],
+            est.max_length if whole else est.min_car_length, ends=whole,
+            quantile=WALL_QUANTILE if whole else 50.0)
+        scan_flags = self._scan_flags(mine, pos, first, last)
         out = []
         cut_at = face - float(self.resolution(face))
         wide = []  # widened runs, those that overlap joined (one object's parts)
@@ -165,15 +211,25 @@ class _Labelling:
             region_depth = (max(float(np.median(side)), lo_edge)
                             if depth >= hi_edge > np.median(side) else depth)
             region = int(depth_region(region_depth, self.edges([lo])[0]))
-            if not (est.labels_[region] == "parked" and bound >= est.min_across_length
-                    and face - side.min() >= est.motorbike_width
-                    and length_share(raised, np.diff(cum[lo:hi + 2]))
-                    >= est.min_across_raised):
+            metres = np.diff(cum[lo:hi + 2])
+            if whole:
+                # the wall bit is the face's behind it (one cluster joins them)
+                fl = scan_flags[lo - first:hi - first + 1] & ~WALL_FLAG
+                if not (est.labels_[region] == "parked" and bound >= est.min_length
+                        and length_share((fl & BODY_FLAGS) > 0, metres)
+                        >= est.min_body_fraction
+                        and length_share((fl & NOT_FLAT) > 0, metres)
+                        >= est.min_raised_fraction):
+                    continue  # too short, or itself flat (a nearer stretch of wall)
+            elif not (est.labels_[region] == "parked"
+                      and bound >= est.min_across_length
+                      and face - side.min() >= est.motorbike_width
+                      and length_share(raised, metres) >= est.min_across_raised):
                 continue
             if self._taken(self.base + lo, self.base + hi, region):
                 continue  # already a vehicle there (carved from another object)
             features = class_features(
-                np.zeros(hi - lo + 1, np.int64),
+                fl if whole else np.zeros(hi - lo + 1, np.int64),
                 np.array([q[:, 1].max() for q in parts]), np.arange(lo, hi + 1),
                 side, far, length, seen=np.arange(lo, hi + 1), metres=np.diff(cum))
             out.append({

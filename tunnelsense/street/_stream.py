@@ -221,14 +221,24 @@ class _RunState(_Labelling, ScanWindow):
 
     def _region_depth(self, objects, clusters, prof):
         """The depth that decides every object's region: the mean depth, or (``"near"``)
-        the near side for the boundary of region III (a car half on the sidewalk)."""
+        the near side for the boundary of region III (a car half on the sidewalk), and
+        (``"span"``) the far side for the boundary of region I (a body reaching into
+        the parking lane from the traffic lane's side)."""
         if self.est.region_depth == "mean":
             return prof.depth
         side = near_side(objects, self.side[clusters], prof.n)
         lo, hi = self.edges(prof.first).T
         with np.errstate(invalid="ignore"):
             inside = (prof.depth >= hi) & (side < hi)
-        return np.where(inside, np.maximum(side, lo), prof.depth)
+        depth = np.where(inside, np.maximum(side, lo), prof.depth)
+        if self.est.region_depth == "span":
+            # the far side (median farthest body depth) reaching region II from
+            # region I: a body across the lane edge stands in the parking lane
+            far = -near_side(objects, -self.far[clusters], prof.n)
+            with np.errstate(invalid="ignore"):
+                across = (depth < lo) & (far >= lo) & (far < hi)
+            depth = np.where(across, far, depth)
+        return depth
 
     def _overdue(self, prof, root, region, final):
         """Object-clusters (roots) not final that reach back beyond the limit."""

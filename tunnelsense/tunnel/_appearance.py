@@ -34,6 +34,7 @@ from tunnelsense.tunnel._common import (
     is_record_input,
     require_boxes,
 )
+from tunnelsense.tunnel._contrast import core_boxes
 from tunnelsense.tunnel._invariant import (
     _crop_bounds,
     _features,
@@ -216,6 +217,16 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         ``0`` trains on the recorded clusters only (the paper).
     random_state : int, RandomState instance or None, default=None
         Frame records: seed of the augmentation draws.
+    core : sequence of float or None, default=None
+        Frame records: fractions of a cluster's contrast above the rim of its
+        grown rectangle at which its bright cores are also scored
+        (:func:`~tunnelsense.tunnel._contrast.core_boxes`); a cluster's score is
+        the best of its rectangle's and its cores'.  A sign in a lamp's halo is a
+        compact bright rectangle on a smooth gradient: the cluster's rectangle
+        spans part of the halo, its core at a higher fraction the sign alone.
+        Where a core scores better, it replaces the cluster's rectangle in
+        ``payload["cluster_boxes"]`` (the box the trajectory and the detection
+        report).  ``None`` scores the rectangle only (training always does).
 
     Attributes
     ----------
@@ -264,6 +275,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         "features": [StrOptions({"histogram", "invariant"})],
         "augment": [Interval(numbers.Integral, 0, None, closed="left")],
         "random_state": ["random_state"],
+        "core": [tuple, list, None],
     }
     _tabular_methods = ("predict", "decision_function")
     _frames_instead = "transform, which stores payload['appearance']"
@@ -283,6 +295,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         features="histogram",
         augment=0,
         random_state=None,
+        core=None,
     ):
         self.n_estimators = n_estimators
         self.learning_rate = learning_rate
@@ -294,6 +307,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         self.features = features
         self.augment = augment
         self.random_state = random_state
+        self.core = core
 
     def fit(self, X, y=None, sample_weight=None):
         """Train the machine on histograms, or on the clusters of labelled frames.
@@ -314,6 +328,14 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
 
     def _check_range(self):
         check_intensity_range(self.intensity_range)
+        if self.core is not None:
+            core = np.asarray(self.core, dtype=object)
+            if (core.ndim != 1 or len(core) == 0
+                    or not all(isinstance(f, numbers.Real) and 0 < f < 1 for f in core)):
+                raise ValueError(
+                    "core must be None or a non-empty sequence of fractions in "
+                    f"(0, 1), got {self.core!r}"
+                )
 
     def _n_features(self):
         if self.features == "invariant":
@@ -340,6 +362,32 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             else:
                 F = H
             yield r, boxes, H, F
+
+    def _core_scores(self, record, index, score):
+        """Each cluster's score and box, or those of the best of its bright cores
+        (:func:`core_boxes` at the fractions ``core``) when its score is larger."""
+        boxes = np.asarray(boxes_of(record, index, "WeightedAdaBoost"),
+                           dtype=np.float64).reshape(-1, 4)
+        image = frame_image(record, index)
+        cores = core_boxes(image, boxes, margin=float(self.margin), fractions=self.core)
+        owner = np.repeat(np.arange(len(boxes)), cores.shape[1])
+        rects = cores.reshape(-1, 4)
+        other = (rects != boxes[owner]).any(axis=1)
+        if not other.any():
+            return score, boxes
+        owner, rects = owner[other], rects[other]
+        patches = box_patches(image, rects, float(self.margin))
+        if self.features == "invariant":
+            F = _features(patches, rects[:, [3, 2]].tolist(), _INVARIANT_BINS)
+        else:
+            F = _patch_histograms(patches, self.bins,
+                                  bin_lut(image.dtype, self.bins, self.intensity_range))
+        score, boxes = score.copy(), boxes.copy()
+        for o, rect, s in zip(owner.tolist(), rects, self._decision(F).tolist(),
+                              strict=True):
+            if s > score[o]:
+                score[o], boxes[o] = s, rect
+        return score, boxes
 
     def _augmented(self, record, index, boxes, rng):
         """Features of the frame's clusters as ``augment`` other cameras see them."""
@@ -472,13 +520,17 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     def _scored(self, described):
         """The records evolved with the machine's labels of their clusters."""
         out = []
-        for r, H, F in described:
+        for i, (r, H, F) in enumerate(described):
             score = self._decision(F) if len(F) else np.empty(0)
+            cored = {}
+            if self.core is not None and len(F):
+                score, cored[CLUSTER_BOXES] = self._core_scores(r, i, score)
             out.append(
                 r.evolve(**{
                     APPEARANCE: score > 0,
                     APPEARANCE_SCORE: score,
                     CLUSTER_HISTOGRAMS: H,
+                    **cored,
                 })
             )
         return out

@@ -11,7 +11,9 @@ can also learn it that way from labelled frames (the math is in
 
 from __future__ import annotations
 
+import copy
 import numbers
+from functools import partial
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -114,6 +116,12 @@ def _pixel_dtype(records) -> str:
             "of one bit depth: the intensity band is in grey levels of that depth"
         )
     return kinds.pop() if kinds else "uint8"
+
+
+def _canonical_pixels(sampler, pixels):
+    """The frame ``pixels`` as the fitted ``sampler`` hands it to the later stages
+    (its canonical size and radiometry): what a pickled canonical frame remakes."""
+    return sampler._canonical(pixels, 0, None)[0]
 
 
 class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
@@ -484,6 +492,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         band = (self.low_, self.high_)
         fitted = getattr(self, "pixel_dtype_", None)  # None: fitted before it existed
         out = []
+        # the canonical frame from a frame's own pixels, by this fit (a snapshot:
+        # a later fit of this sampler does not change it)
+        remake = partial(_canonical_pixels, copy.copy(self))
         for i, r in enumerate(records):
             r = decode_once(r)  # the later stages of this pass read the same array
             image = check_image(r.image, where(r, i))
@@ -506,8 +517,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             }
             if image is not raw:  # the later stages read the canonical frame
                 # a frame from a file keeps its file as origin, so a stage that
-                # releases the image can decode the frame (its own pixels) again
-                source = (DecodedImage(r.source.origin, image)
+                # releases the image can decode the frame (its own pixels) again;
+                # pickled (to a worker process) or copied, it is made again from
+                # them, not read as the file's pixels
+                source = (DecodedImage(r.source.origin, image, remake)
                           if isinstance(r.source, DecodedImage) else image)
                 r = FrameRecord(r.tour, r.frame, source, r.payload)
             out.append(r.evolve(**extra))

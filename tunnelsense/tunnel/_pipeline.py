@@ -71,6 +71,11 @@ PIPELINE_DEFAULTS = {
     # scale within the range of plausible FIR cameras)
     "appearance__features": "invariant",
     "appearance__augment": 2,
+    # a sign beside a lamp's halo: the cluster's rectangle spans part of the halo
+    # (a smooth gradient) and looks like neither a sign nor a lamp; the bright core
+    # above 0.7 of the cluster's contrast over its rim, where it scores better,
+    # is the sign, and becomes the cluster's box
+    "appearance__core": (0.7,),
     # an indicator's image path bends in a curving tunnel: a quadratic path's
     # multiple correlation instead of the straight line's Pearson r; or, when
     # larger, that of its motion in time (both coordinates quadratic in time): a
@@ -103,6 +108,7 @@ PAPER_SETTINGS = {
     "appearance__margin": 0.0,
     "appearance__features": "histogram",
     "appearance__augment": 0,
+    "appearance__core": None,
     "tracks__max_gap": 3,
     "motion__criterion": "pearson",
     "motion__min_travel": 0.0,
@@ -127,7 +133,9 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     from the clusters the verifier lets through, and the context histogram leaves
     too few of them in a one-tour training set (``docs/tunnel-detector.md``);
     camera-invariant appearance features with training-time augmentation
-    (``appearance__features="invariant"``, ``appearance__augment=2``), the
+    (``appearance__features="invariant"``, ``appearance__augment=2``), a
+    cluster's bright core scored as well where a lamp's halo stretches its
+    rectangle (``appearance__core=(0.7,)``), the
     quadratic path criterion of the motion check, or the motion's fit in time where
     larger (``motion__criterion="quadratic-motion"``)
     and a trajectory that travels at least a quarter of its own height
