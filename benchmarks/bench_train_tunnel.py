@@ -1,24 +1,33 @@
 """Whole-process ``tunnelsense train tunnel`` on one tour from disk, beside a bare decode,
-on a quiet machine and beside two busy processes.
+on the machine as it is and beside two busy processes.
 
 For one ``--frames`` light-traffic tour (640x480 PNGs, simulated once into
 ``--workdir``) this script runs, interleaved, ``--repeats`` times each:
 
-* ``decode``: a fresh process that decodes every PNG of the tour and nothing else;
+* ``decode``: a fresh process that decodes every PNG of the tour and nothing else
+  (the floor of any command that reads the tour);
 * ``train``: ``tunnelsense train tunnel TOUR --model M --force --quiet``;
 * ``train --jobs 1``: the same with one reader thread;
+* with ``--baseline SRC`` (a source tree, e.g. a ``git worktree`` of an older
+  commit), ``baseline train`` and ``baseline train --jobs 1``: the same commands
+  run from that tree (``PYTHONPATH=SRC``), for a paired before/after;
 
 first on the machine as it is, then again with two busy-looping processes beside
-it (a loaded vehicle computer or CI runner).  It prints the medians, the ratio
-train / decode, and under load the ratio default / ``--jobs 1`` (goal: at most 1.0,
-the default never slower under load than one thread), and exits 1 when the quiet
-median exceeds ``--budget`` seconds (default 5 s, for 1,500 frames).
+it (a loaded vehicle computer or CI runner).  It prints the load average before
+and after each round, the medians (whole processes, wall time) and each train's
+CPU seconds (user + system), the ratio train / decode, and under load the ratio
+default / ``--jobs 1`` (goal: at most 1.0, the default never slower under load
+than one thread); it exits 1 when the first round's train median exceeds
+``--budget`` seconds (default 5 s, for 1,500 frames on a quiet machine).
 
     python benchmarks/bench_train_tunnel.py --frames 1500 --repeats 5
+    python benchmarks/bench_train_tunnel.py --repeats 3 --baseline /tmp/main-tree
 """
 
 import argparse
 import multiprocessing as mp
+import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -38,22 +47,46 @@ def _busy():
         pass
 
 
-def _timed(cmd):
+def _timed(cmd, env=None):
+    """Wall seconds and CPU seconds (user + system) of one process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, env=env)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
 
 
-def _round(tour, model, repeats):
+def _runs(tour, model, baseline):
     cli = [sys.executable, "-m", "tunnelsense._cli", "train", "tunnel", str(tour),
            "--model", str(model), "--force", "--quiet"]
-    runs = {"decode": [sys.executable, "-c", _DECODE, str(tour)],
-            "train": cli, "train --jobs 1": [*cli, "--jobs", "1"]}
-    times = {k: [] for k in runs}
-    for _ in range(repeats):
-        for name, cmd in runs.items():
-            times[name].append(_timed(cmd))
-    return {k: statistics.median(v) for k, v in times.items()}
+    runs = {"decode": ([sys.executable, "-c", _DECODE, str(tour)], None),
+            "train": (cli, None), "train --jobs 1": ([*cli, "--jobs", "1"], None)}
+    if baseline is not None:
+        env = {**os.environ, "PYTHONPATH": str(baseline)}
+        runs["baseline train"] = (cli, env)
+        runs["baseline train --jobs 1"] = ([*cli, "--jobs", "1"], env)
+    return runs
+
+
+def _round(runs, repeats):
+    """Medians of wall and CPU seconds, the commands interleaved and their order
+    rotated from one repeat to the next."""
+    names = list(runs)
+    wall = {k: [] for k in names}
+    cpu = {k: [] for k in names}
+    for r in range(repeats):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            w, c = _timed(*runs[name])
+            wall[name].append(w)
+            cpu[name].append(c)
+    return ({k: statistics.median(v) for k, v in wall.items()},
+            {k: statistics.median(v) for k, v in cpu.items()})
+
+
+def _load():
+    return "/".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def main(argv=None):
@@ -62,32 +95,53 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--budget", type=float, default=5.0)
     p.add_argument("--workdir", type=Path, default=None)
+    p.add_argument("--baseline", type=Path, default=None, metavar="SRC",
+                   help="also run train from this source tree (PYTHONPATH=SRC)")
+    p.add_argument("--no-busy", action="store_true", help="skip the round beside "
+                   "two busy processes")
     args = p.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="bench-train-"))
-    tour = work / "light"
+    tour = work / f"light-{args.frames}"
     if not (tour / "seqinfo.ini").is_file():
         from tunnelsense.datasets import make_tunnel_tour
         from tunnelsense.io import write_tour
 
         write_tour(make_tunnel_tour(args.frames, scenario="light", random_state=0), tour)
-    model = work / "m.skops"
-    quiet = _round(tour, model, args.repeats)
-    busy = [mp.Process(target=_busy, daemon=True) for _ in range(2)]
-    for b in busy:
-        b.start()
-    try:
-        loaded = _round(tour, model, args.repeats)
-    finally:
+    runs = _runs(tour, work / "m.skops", args.baseline)
+    rounds = []
+    label = "as it is"
+    load = _load()
+    rounds.append((label, load, *_round(runs, args.repeats), _load()))
+    if not args.no_busy:
+        busy = [mp.Process(target=_busy, daemon=True) for _ in range(2)]
         for b in busy:
-            b.terminate()
-    print(f"train tunnel, {args.frames} frames, medians of {args.repeats}:")
-    for label, m in (("quiet", quiet), ("2 busy processes", loaded)):
-        print(f"  {label:17s} decode {m['decode']:6.2f} s  train {m['train']:6.2f} s "
-              f"({m['train'] / m['decode']:.2f}x decode)  --jobs 1 {m['train --jobs 1']:6.2f} s")
-    ratio = loaded["train"] / loaded["train --jobs 1"]
-    print(f"  under load, default / --jobs 1: {ratio:.2f} (goal <= 1.0 within noise)")
-    if quiet["train"] > args.budget:
-        print(f"over budget: {quiet['train']:.2f} s > {args.budget} s")
+            b.start()
+        try:
+            load = _load()
+            rounds.append(("2 busy processes", load, *_round(runs, args.repeats),
+                           _load()))
+        finally:
+            for b in busy:
+                b.terminate()
+    print(f"train tunnel, one {args.frames}-frame light-traffic tour, whole processes, "
+          f"medians of {args.repeats} (interleaved):")
+    for label, before, wall, cpu, after in rounds:
+        print(f"  {label} (load average {before} before, {after} after):")
+        decode = wall["decode"]
+        for name in wall:
+            extra = "" if name == "decode" else f"  ({wall[name] / decode:.2f}x decode)"
+            print(f"    {name:24s} {wall[name]:6.2f} s  cpu {cpu[name]:6.2f} s{extra}")
+        ratio = wall["train"] / wall["train --jobs 1"]
+        print(f"    default / --jobs 1: {ratio:.2f}")
+        if "baseline train" in wall:
+            print(f"    train / baseline train: {wall['train'] / wall['baseline train']:.2f}")
+    if len(rounds) > 1:
+        print(f"  under load, default / --jobs 1: "
+              f"{rounds[1][2]['train'] / rounds[1][2]['train --jobs 1']:.2f} "
+              "(goal <= 1.0 within noise)")
+    first = rounds[0][2]["train"]
+    if first > args.budget:
+        print(f"over budget: {first:.2f} s > {args.budget} s")
         return 1
     return 0
 

@@ -41,3 +41,30 @@ def test_prefix_search_refuses_a_grid_over_unknown_steps():
                               cv=GroupKFold(2), scoring=make_tunnel_scorer())
     with pytest.raises(ValueError, match="nope"):
         search.fit([], [], [])
+
+
+def test_train_search_fits_each_kmeans_once_per_fold(monkeypatch):
+    # fit_indicator_detector(search=True) (train tunnel --search): the grid varies
+    # only later steps, so the verifier's two k-means (positives, negatives) run
+    # once per fold and once for the refit, never once per candidate
+    from sklearn.model_selection import ParameterGrid
+
+    import tunnelsense.tunnel._kmeans as kmeans
+    from tunnelsense.tunnel import fit_indicator_detector
+    from tunnelsense.tunnel._search_grid import SEARCH_GRID
+
+    fits = []
+    real = kmeans.fit_kmeans
+
+    def counting(X, n_clusters, **kw):
+        fits.append(n_clusters)
+        return real(X, n_clusters, **kw)
+
+    monkeypatch.setattr(kmeans, "fit_kmeans", counting)
+    tours = [make_tunnel_tour(60, scenario=s, random_state=i, first_indicator_m=20.0)
+             for i, s in enumerate(["light", "heavy"])]
+    model, summary = fit_indicator_detector(tours, search=True, random_state=0)
+    assert len(ParameterGrid(SEARCH_GRID)) > 1  # candidates that could refit it
+    n_folds = 2
+    assert fits == [40, 400] * (n_folds + 1)
+    assert set(summary["search"]["best_parameters"]) == set(SEARCH_GRID)

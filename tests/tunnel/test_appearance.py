@@ -55,6 +55,38 @@ def test_same_stumps_and_decisions_as_sklearn(global_random_seed, positive_weigh
     )
 
 
+@pytest.mark.parametrize("n_classes", [2, 3, 9])
+def test_stump_fitter_finds_fit_stumps_split(global_random_seed, n_classes):
+    # samme fits its stumps with _StumpFitter (sort order and candidate splits
+    # found once): the same split as fit_stump for every weighting, ties included
+    from tunnelsense.tunnel._stumps import FEATURE_THRESHOLD, _StumpFitter, fit_stump
+
+    rng = np.random.default_rng(global_random_seed)
+    n = 300
+    X = np.column_stack([
+        rng.normal(size=n),                      # continuous
+        rng.integers(0, 4, n) / 3.0,             # few distinct values (histogram bins)
+        np.full(n, 0.5),                         # constant: no split
+        rng.integers(0, 2, n).astype(float),     # two values
+    ]).astype(np.float32)
+    y = rng.integers(0, n_classes, n)
+    X[:, 0] += y  # an informative feature
+    order = np.argsort(X, axis=0, kind="stable")
+    values = np.take_along_axis(X, order, axis=0)
+    onehot = (y[:, None] == np.arange(n_classes)).astype(np.float64)
+    v = values.astype(np.float64)
+    distinct = v[1:] > v[:-1] + FEATURE_THRESHOLD
+    fitter = _StumpFitter(values, order, onehot, distinct)
+    for weights in (np.full(n, 1.0 / n), rng.dirichlet(np.ones(n)),
+                    np.where(np.arange(n) < 5, 1.0, 1e-12)):
+        assert fitter.fit(weights) == fit_stump(values, order, onehot, weights, distinct)
+    pure = np.zeros_like(onehot)  # one class only: no split
+    pure[:, -1] = 1.0
+    got = _StumpFitter(values, order, pure, distinct).fit(np.ones(n))
+    assert got == fit_stump(values, order, pure, np.ones(n), distinct)
+    assert got[1] == np.inf
+
+
 def test_array_decision_equals_stump_by_stump_reference(global_random_seed):
     rng = np.random.default_rng(global_random_seed)
     X, y = _histograms(rng, 600)

@@ -9,6 +9,7 @@ from tunnelsense.tunnel._kmeans_grid import (
     grid_sq_distances,
     kmeans_plusplus,
     lloyd,
+    shifted_sq_distances,
     to_grid,
 )
 from tunnelsense.tunnel._verification import fit_kmeans
@@ -70,3 +71,19 @@ def test_full_kmeans_inertia_close_to_scikit_learn(global_random_seed):
     ours = fit_kmeans(X, 20, random_state=global_random_seed)
     theirs = KMeans(20, n_init=1, random_state=global_random_seed).fit(X)
     assert (cdist(X, ours, "sqeuclidean").min(1)).sum() <= 1.05 * theirs.inertia_
+
+
+@pytest.mark.parametrize("max_abs, d", [(1.0, 64), (300.0, 8)])
+def test_shifted_distances_plus_row_norms_are_the_exact_distances(max_abs, d,
+                                                                   global_random_seed):
+    # the k-means' nearest centres read ||c||^2 - 2 u.c: adding ||u||^2 back gives
+    # the exact table, and the nearest centres (ties to the lowest index) are its
+    rng = np.random.default_rng(global_random_seed)
+    q = grid_quantum(max_abs, d)
+    C = to_grid(rng.uniform(-max_abs, max_abs, (9, d)), q)
+    X = np.vstack([to_grid(rng.uniform(-max_abs, max_abs, (40, d)), q),
+                   C[[3, 3, 7]], (C[1] + C[2]) / 2])  # on centres; between two
+    full = grid_sq_distances(X, C)
+    e = shifted_sq_distances(X, C)
+    assert np.array_equal(e + (X * X).sum(1)[:, None], full)
+    assert np.array_equal(e.argmin(1), full.argmin(1))

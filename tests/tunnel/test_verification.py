@@ -48,6 +48,37 @@ def test_patch_histograms_match_numpy(global_random_seed):
     np.testing.assert_allclose(H.sum(1), 1, rtol=1e-6)
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("binning", ["hard", "linear"])
+@pytest.mark.parametrize("context_size", [None, (9, 5)])
+def test_contrast_copy_described_by_a_composed_table(global_random_seed, dtype, binning,
+                                                     context_size):
+    # the verifier describes a frame's contrast copies through composed bin tables,
+    # without building them: the same descriptors as those of the copies
+    from tunnelsense.tunnel._common import bin_lut
+    from tunnelsense.tunnel._descriptors import compose_lut, descriptors_under_luts
+    from tunnelsense.tunnel._intensity import background_levels, normalize_lut
+    from tunnelsense.tunnel._verification import contrast_copy
+
+    rng = np.random.default_rng(global_random_seed)
+    top = 256 if dtype == np.uint8 else 9000
+    image = rng.integers(0, top, (48, 64)).astype(dtype)
+    rows, cols = rng.integers(0, 48, 30), rng.integers(0, 64, 30)
+    kw = dict(patch_size=(7, 3), context_size=context_size, context_weight=1.5, bins=16)
+    rng_ = None if dtype == np.uint8 else (0, 10000)
+    lut = bin_lut(image.dtype, 16, rng_, binning)
+    level, _ = background_levels(image)
+    factors = [0.45, 1.0, 1.7, 2.2]
+    luts = [lut] + [compose_lut(lut, normalize_lut(image.dtype, level, 1.0, level, f))
+                    for f in factors]
+    got = descriptors_under_luts(image, rows, cols, luts, **kw)
+    want = np.concatenate([
+        keypoint_descriptors(im, rows, cols, lut=lut, **kw)
+        for im in [image, *(contrast_copy(image, f) for f in factors)]
+    ])
+    assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
 def test_patch_histograms_16_bit_range():
     image = np.full((10, 10), 8000, np.uint16)
     image[:, 5:] = 9000

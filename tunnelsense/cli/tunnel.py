@@ -16,19 +16,23 @@ from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 def _cmd_train(args) -> int:
     from tunnelsense.io import read_tour
-    from tunnelsense.tunnel import fit_indicator_detector
-    from tunnelsense.tunnel._reports import format_tours, format_training
+    from tunnelsense.io._sources import decode_tours
 
     start = time.perf_counter()
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
     key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d, colour=common.colour(args)) for d in args.seqdirs]
+    # the reader threads decode while the fitting machinery (scikit-learn) imports
+    decoding = decode_tours(tours, n_threads=args.jobs)
+    from tunnelsense.tunnel import fit_indicator_detector
+    from tunnelsense.tunnel._reports import format_tours, format_training
+
     print(format_tours(tours))
     bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
-        dask_scheduler=args.dask_scheduler, progress=bars)
+        dask_scheduler=args.dask_scheduler, progress=bars, _decoding=decoding)
     if bars is not None:
         bars.close()
     print(format_training(model, summary))

@@ -36,7 +36,7 @@ from tunnelsense.io._images import (
 from tunnelsense.io._mot import _check_sizes, read_tour
 from tunnelsense.io._tables import _MAX_INT
 
-__all__ = ["decode_ahead", "open_tour", "read_image_folder", "read_video"]
+__all__ = ["decode_ahead", "decode_tours", "open_tour", "read_image_folder", "read_video"]
 
 
 def _natural_key(path):
@@ -274,3 +274,34 @@ def decode_ahead(records: Iterable, *, n_threads=1, ahead=8, then=None) -> Itera
                 yield pending.popleft().result()
         while pending:
             yield pending.popleft().result()
+
+
+def decode_tours(tours, *, n_threads=1):
+    """Start decoding every frame of labelled tours in reader threads, at once.
+
+    The training command calls it before it imports the fitting machinery
+    (scikit-learn, about a second), so that the import runs while the reader threads
+    decode.  Returns ``(frames, y, groups, n_frames)``: ``frames`` yields the decoded
+    records in order (see :func:`decode_ahead`); ``y`` and ``groups`` are those of
+    :func:`~tunnelsense.to_xy`.
+
+    Examples
+    --------
+    >>> from tunnelsense.datasets import make_tunnel_tour
+    >>> from tunnelsense.io._sources import decode_tours
+    >>> frames, y, groups, n = decode_tours([make_tunnel_tour(5, random_state=0)])
+    >>> n, len(list(frames))
+    (5, 5)
+    """
+    from tunnelsense._records import to_xy  # noqa: PLC0415
+
+    X, y, groups = to_xy(tours)
+    frames = decode_ahead(X, n_threads=max(int(n_threads), 1), ahead=max(len(X), 1))
+    first = next(frames, None)  # every frame is queued now: the reader threads start
+
+    def ordered():
+        if first is not None:
+            yield first
+            yield from frames
+
+    return ordered(), y, groups, len(X)

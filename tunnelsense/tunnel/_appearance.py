@@ -146,6 +146,16 @@ def _patch_histograms(patches, bins, lut):
 _INVARIANT_BINS = 16
 
 
+def _chunked_features(patches, hws, chunk=128):
+    """``_features(patches, hws, _INVARIANT_BINS)`` in calls of ``chunk`` patches
+    (its per-patch tables of 256 grey levels stay in cache)."""
+    out = np.empty((len(patches), n_invariant_features(_INVARIANT_BINS)))
+    for start in range(0, len(patches), chunk):
+        out[start:start + chunk] = _features(patches[start:start + chunk],
+                                             hws[start:start + chunk], _INVARIANT_BINS)
+    return out
+
+
 class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     """AdaBoost of histogram-bin stumps with positives weighted up (section 3.4).
 
@@ -402,6 +412,49 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         rows = np.array(rows).reshape(int(self.augment), len(boxes), -1)
         return list(rows)
 
+    def _described_frames(self, records, rng):
+        """Per frame ``(record, boxes, histograms, features, augmented)`` as
+        :meth:`_frame_histograms` and :meth:`_augmented` give them (``augmented``:
+        the features of the ``augment`` copies, an empty list without), with the
+        invariant features of all frames' patches computed at once (each row is its
+        patch's alone: the same values, without a call per frame)."""
+        if self.features != "invariant":
+            out = []
+            for i, (r, b, h, f) in enumerate(self._frame_histograms(records)):
+                augmented = (self._augmented(r, i, b, rng) if self.augment and len(b)
+                             else [])
+                out.append((r, b, h, f, augmented))
+            return out
+        margin = float(self.margin)
+        n_aug = int(self.augment)
+        frames, patches, hws, seen = [], [], [], []
+        for i, r in enumerate(records):
+            b = boxes_of(r, i, "WeightedAdaBoost")
+            if len(b) == 0:
+                frames.append((r, b, np.empty((0, self.bins)), 0))
+                continue
+            image = frame_image(r, i)
+            lut = bin_lut(image.dtype, self.bins, self.intensity_range)
+            rects = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+            crops = box_patches(image, rects, margin)
+            frames.append((r, b, _patch_histograms(crops, self.bins, lut), len(crops)))
+            patches.extend(crops)
+            hws.extend(rects[:, [3, 2]].tolist())
+            # the copies drawn frame by frame, in _augmented's order
+            if n_aug:
+                seen.extend(perturb_patch(patch, rng, (box[3], box[2]))
+                            for _ in range(n_aug)
+                            for patch, box in zip(crops, b.tolist(), strict=True))
+        F = _chunked_features(patches, hws)
+        G = _chunked_features([q for q, _ in seen], [hw for _, hw in seen])
+        out, at_f, at_g = [], 0, 0
+        for r, b, h, m in frames:
+            f = F[at_f:at_f + m]
+            g = G[at_g:at_g + n_aug * m].reshape(n_aug, m, -1) if m else []
+            at_f, at_g = at_f + m, at_g + n_aug * m
+            out.append((r, b, h, f, list(g)))
+        return out
+
     def fit_transform(self, X, y=None, **fit_params):
         """Fit, then transform the same ``X`` (frame records or a 2-D array).
 
@@ -431,17 +484,16 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             check_random_state(self.random_state).randint(0, 2**31 - 1)
         )
         H, labels = [], []
-        frames = zip(self._frame_histograms(records), boxes, strict=True)
-        for i, ((r, b, h, f), gt) in enumerate(frames):
+        frames = zip(self._described_frames(records, rng), boxes, strict=True)
+        for (r, b, h, f, augmented), gt in frames:
             if _described is not None:
                 _described.append((r, h, f))
             lab = centres_in_boxes(b, gt)
             H.append(f)
             labels.append(lab)
-            if self.augment and len(b):
-                for g in self._augmented(r, i, b, rng):
-                    H.append(g)
-                    labels.append(lab)
+            for g in augmented:
+                H.append(g)
+                labels.append(lab)
         H = np.concatenate(H) if H else np.empty((0, self._n_features()))
         labels = np.concatenate(labels) if labels else np.empty(0, bool)
         n_pos = int(labels.sum())

@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense.tunnel._intensity import cell_means
+
 __all__ = [
     "background_cells",
     "contrast_band",
@@ -39,7 +41,7 @@ __all__ = [
 CELLS = (60, 80)
 
 
-def background_cells(image, *, cells=CELLS, coarse=2, median_size=5):
+def background_cells(image, *, cells=CELLS, coarse=2, median_size=5, small=None):
     """The frame's background on a coarse grid of cells, and its level and spread.
 
     The frame is averaged over ``cells`` (which removes the sensor noise); the level
@@ -59,6 +61,9 @@ def background_cells(image, *, cells=CELLS, coarse=2, median_size=5):
         Cells per block of the background, down and across.
     median_size : int, default=5
         Side of the median over the blocks (3 or 5).
+    small : ndarray or None, default=None
+        The cell averages (:func:`~tunnelsense.tunnel._intensity.cell_means` of
+        ``image`` and ``cells``) when already computed.
 
     Returns
     -------
@@ -78,9 +83,9 @@ def background_cells(image, *, cells=CELLS, coarse=2, median_size=5):
     """
     import cv2  # noqa: PLC0415
 
-    h, w = image.shape
-    ch, cw = min(cells[0], h), min(cells[1], w)
-    small = cv2.resize(image.astype(np.float32), (cw, ch), interpolation=cv2.INTER_AREA)
+    if small is None:
+        small = cell_means(image, cells)
+    ch, cw = small.shape
     lo, mid, hi = _percentiles(small.ravel(), (10.0, 50.0, 90.0))
     bh, bw = max(ch // coarse, 1), max(cw // coarse, 1)
     blocks = cv2.resize(small, (bw, bh), interpolation=cv2.INTER_AREA)

@@ -156,9 +156,34 @@ def keypoint_descriptors(
     """
     if lut is None:
         lut = bin_lut(np.asarray(image).dtype, bins, intensity_range, binning)
+    return descriptors_under_luts(
+        image, rows, cols, [lut], patch_size=patch_size, context_size=context_size,
+        context_weight=context_weight, bins=bins)
+
+
+def compose_lut(lut, values):
+    """The bin table of pixel values mapped first by ``values`` (an integer table
+    over every pixel value, such as a contrast change): ``lut`` read at
+    ``values[v]`` for every ``v`` (a pair of tables for linear binning)."""
+    if isinstance(lut, tuple):
+        return tuple(t.take(values) for t in lut)
+    return lut.take(values)
+
+
+def descriptors_under_luts(image, rows, cols, luts, *, patch_size=(7, 3),
+                           context_size=(25, 13), context_weight=1.5, bins=32):
+    """:func:`keypoint_descriptors` of the same keypoints under several bin tables,
+    stacked in the order of ``luts`` (the patches are gathered once).
+
+    A pointwise change of grey levels (a contrast copy of the frame) composed into
+    the bin table (:func:`compose_lut`) gives the descriptors of the changed frame
+    without building it: ``descriptors_under_luts(img, r, c, [compose_lut(lut,
+    t)])`` equals ``keypoint_descriptors(t[img], r, c, lut=lut)``.
+    """
     ph, pw = _patch_shape(patch_size)
     if context_size is None:
-        return _histograms(_patches(image, rows, cols, ph, pw), bins, lut)
+        patch = _patches(image, rows, cols, ph, pw)
+        return np.concatenate([_histograms(patch, bins, lut) for lut in luts])
     ch, cw = _patch_shape(context_size, "context_size")
     if not (np.isfinite(context_weight) and context_weight > 0):
         raise ValueError(f"context_weight must be positive; got {context_weight!r}")
@@ -169,10 +194,13 @@ def keypoint_descriptors(
         patch = context[:, top : top + ph, left : left + pw]
     else:
         patch = _patches(image, rows, cols, ph, pw)
-    out = np.empty((len(context), 2 * bins), dtype=np.float32)
-    out[:, :bins] = _histograms(patch, bins, lut)
-    out[:, bins:] = _histograms(context, bins, lut)
-    out[:, bins:] *= np.float32(context_weight)
+    n = len(context)
+    out = np.empty((n * len(luts), 2 * bins), dtype=np.float32)
+    for i, lut in enumerate(luts):
+        part = out[i * n:(i + 1) * n]
+        part[:, :bins] = _histograms(patch, bins, lut)
+        part[:, bins:] = _histograms(context, bins, lut)
+        part[:, bins:] *= np.float32(context_weight)
     return out
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from tunnelsense._records import FrameRecord, FrameSequence, to_xy
+from tunnelsense._records import FrameRecord, FrameSequence
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
@@ -26,7 +26,7 @@ from tunnelsense.io._results import (
     clusters_path,
     mot_result_lines,
 )
-from tunnelsense.io._sources import decode_ahead, open_tour
+from tunnelsense.io._sources import decode_ahead, decode_tours, open_tour
 from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.plotting._detections import draw_detections
@@ -46,7 +46,8 @@ __all__ = [
 
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
-                           dask_scheduler=None, progress=None, search_progress=None):
+                           dask_scheduler=None, progress=None, search_progress=None,
+                           _decoding=None):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
@@ -97,9 +98,12 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
 
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
-    X, y, groups = to_xy(tours)
-    frames = counted(decode_ahead(X, n_threads=max(n_jobs, 1), ahead=max(len(X), 1)),
-                     "decoding frames", len(X), progress)
+    # _decoding (private): decode_tours(tours) started by the caller (the command,
+    # before its imports), else started here
+    if _decoding is None:
+        _decoding = decode_tours(tours, n_threads=max(n_jobs, 1))
+    frames, y, groups, n_frames = _decoding
+    frames = counted(frames, "decoding frames", n_frames, progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
     # every frame is queued now: the model writer's import (about 1 s, in this
     # thread) overlaps the reader threads, which run without the interpreter lock

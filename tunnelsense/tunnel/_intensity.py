@@ -11,7 +11,8 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["background_levels", "beyond_tolerance", "indicator_band", "normalize_frame", "resample_frame",
+__all__ = ["background_levels", "beyond_tolerance", "cell_means", "indicator_band", "normalize_frame",
+           "normalize_lut", "resample_frame",
            "sample_keypoints"]
 
 
@@ -179,7 +180,20 @@ def _grouped_median_mad(counts):
     return float(median), (lo + hi) / 2
 
 
-def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0)):
+def cell_means(image, cells=(60, 80)):
+    """The frame averaged over a ``cells`` grid (``cv2.INTER_AREA``), float32: what
+    :func:`background_levels` and
+    :func:`~tunnelsense.tunnel._contrast.background_cells` read (a caller that needs
+    both computes it once and passes it as ``small``)."""
+    import cv2  # noqa: PLC0415
+
+    h, w = image.shape
+    ch, cw = min(cells[0], h), min(cells[1], w)
+    return cv2.resize(image.astype(np.float32), (cw, ch), interpolation=cv2.INTER_AREA)
+
+
+def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0),
+                      small=None):
     """A frame's robust background level and spread: the grey levels of the scene, not
     of its noise.
 
@@ -197,6 +211,8 @@ def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0)):
         Rows and columns of the averaging grid (at most the image's).
     quantiles : (float, float, float), default=(10, 50, 90)
         Percentiles giving the low end, the level and the high end.
+    small : ndarray or None, default=None
+        ``cell_means(image, cells)`` when already computed.
 
     Returns
     -------
@@ -211,11 +227,8 @@ def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0)):
     >>> [round(v, 1) for v in a], [round(v, 1) for v in b]
     ([99.5, 33.0], [134.0, 42.0])
     """
-    import cv2  # noqa: PLC0415
-
-    h, w = image.shape
-    ch, cw = min(cells[0], h), min(cells[1], w)
-    small = cv2.resize(image.astype(np.float32), (cw, ch), interpolation=cv2.INTER_AREA)
+    if small is None:
+        small = cell_means(image, cells)
     lo, mid, hi = np.percentile(small, quantiles)
     return float(mid), float(max(hi - lo, 1e-3))
 
@@ -234,13 +247,23 @@ def normalize_frame(image, level, spread, ref_level, ref_spread):
     """
     import cv2  # noqa: PLC0415
 
+    if image.dtype == np.uint8:
+        return cv2.LUT(image, normalize_lut(image.dtype, level, spread, ref_level,
+                                            ref_spread))
     g = ref_spread / spread
     info = np.iinfo(image.dtype)
-    if image.dtype == np.uint8:
-        lut = np.clip(np.rint(ref_level + (np.arange(256) - level) * g), 0, 255)
-        return cv2.LUT(image, lut.astype(np.uint8))
     out = np.rint(ref_level + (image.astype(np.float64) - level) * g)
     return np.clip(out, info.min, info.max).astype(image.dtype)
+
+
+def normalize_lut(dtype, level, spread, ref_level, ref_spread):
+    """The table of :func:`normalize_frame`: every value of the integer ``dtype``
+    mapped as :func:`normalize_frame` maps it (the same IEEE operations on each)."""
+    info = np.iinfo(dtype)
+    g = ref_spread / spread
+    values = np.arange(int(info.max) + 1, dtype=np.float64)
+    out = np.clip(np.rint(ref_level + (values - level) * g), info.min, info.max)
+    return out.astype(dtype)
 
 
 def resample_frame(image, shape):

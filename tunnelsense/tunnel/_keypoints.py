@@ -43,6 +43,7 @@ from tunnelsense.tunnel._contrast import (
 from tunnelsense.tunnel._intensity import (
     background_levels,
     beyond_tolerance,
+    cell_means,
     indicator_band,
     normalize_frame,
     resample_frame,
@@ -341,7 +342,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         return tags
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y=None):
+    def fit(self, X, y=None, _cells=None):
         """Set the intensity band (fixed, or learned from labelled frames).
 
         Parameters
@@ -356,6 +357,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         -------
         self : IntensityKeypointSampler
         """
+        # _cells (private, from fit_transform): per frame, cell_means of its image
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
         for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_",
@@ -366,7 +368,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             self.frame_shape_ = one_frame_shape(records)
         if self.radiometry != "raw":
             levels = np.array([
-                background_levels(check_image(r.image, where(r, i)))
+                background_levels(check_image(r.image, where(r, i)),
+                                  small=None if _cells is None else _cells[i])
                 for i, r in enumerate(records)
             ]).reshape(-1, 2)
             self.ref_level_, self.ref_spread_ = (
@@ -387,9 +390,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 )
             require_boxes(boxes, "IntensityKeypointSampler(radiometry='contrast')",
                           "to learn the contrast band from")
+            # the frame's levels as computed above (the same call on the same image)
             images = [
                 self._canonical(_check_depth(
-                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r)[0]
+                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r,
+                    levels=tuple(float(v) for v in levels[i]))[0]
                 for i, r in enumerate(records) if len(boxes[i])
             ]
             low, high = contrast_band(images, [b for b in boxes if len(b)],
@@ -450,7 +455,13 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """
         records, _ = check_frames(X, y)
         records = FrameSequence([decode_once(r) for r in records])
-        return self.fit(records, y).transform(records)
+        cells = None
+        if self.radiometry != "raw":
+            # every frame's cell averages once, for the fit's levels and the
+            # transform's background (the same values as computing them twice)
+            cells = [cell_means(check_image(r.image, where(r, i)))
+                     for i, r in enumerate(records)]
+        return self.fit(records, y, _cells=cells)._transform(records, cells)
 
     def transform(self, X):
         """Detect the keypoints of every frame.
@@ -467,6 +478,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """
         check_is_fitted(self)
         records, _ = check_frames(X)
+        return self._transform(records)
+
+    def _transform(self, records, cells=None):
+        """:meth:`transform`; ``cells`` (or None), per frame, ``cell_means`` of its
+        decoded image."""
         kw = dict(
             row_stride=self.row_stride,
             col_stride=self.col_stride,
@@ -485,7 +501,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             if fitted is not None:
                 _check_depth(image, i, r, fitted, band)
             raw = image
-            image, scale, background = self._canonical(image, i, r)
+            image, scale, background = self._canonical(
+                image, i, r, small=None if cells is None else cells[i])
             if background is None:
                 keypoints = sample_keypoints(image, self.low_, self.high_, **kw)
             else:
@@ -509,10 +526,15 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             out.append(r.evolve(**extra))
         return FrameSequence(out)
 
-    def _canonical(self, image, index, record):
+    def _canonical(self, image, index, record, *, small=None, levels=None):
         """The frame in the training frames' size and radiometry, the scale
         ``(sx, sy)`` applied (None when the size is kept) and, for
-        ``radiometry="contrast"``, the mapped frame's background cells (else None)."""
+        ``radiometry="contrast"``, the mapped frame's background cells (else None).
+
+        ``small`` (``cell_means(image)``) and ``levels`` (``background_levels(image)``),
+        when given, are used for a frame of the training size instead of computing
+        them again.
+        """
         scale = None
         shape = getattr(self, "frame_shape_", None)
         if shape is not None and image.shape != tuple(shape):
@@ -527,12 +549,15 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 )
             image = resample_frame(image, shape)
             scale = (float(sx), float(sy))
+            small = levels = None  # they were those of the frame before resampling
         background = None
         if getattr(self, "ref_level_", None) is not None:
             if getattr(self, "contrast_low_", None) is not None:
-                background, level, spread = background_cells(image)
+                background, level, spread = background_cells(image, small=small)
+            elif levels is not None:
+                level, spread = levels
             else:
-                level, spread = background_levels(image)
+                level, spread = background_levels(image, small=small)
             raw_spread = getattr(self, "raw_spread_", None)
             tolerance = getattr(self, "gain_tolerance_", 0.0)
             if raw_spread is not None and image.dtype != np.uint8:

@@ -27,6 +27,7 @@ from tunnelsense.tunnel._kmeans_grid import (
     kmeans_plusplus,
     lloyd,
     minibatch_kmeans,
+    shifted_sq_distances,
     to_grid,
 )
 from tunnelsense.utils._sklearn_compat import Interval, _fit_context, validate_data
@@ -204,7 +205,10 @@ def _nearest_distance(H, centers, quantum=None):
         return np.full(len(H), np.inf)
     H = np.asarray(H, dtype=np.float64)
     if quantum is not None:
-        d2 = grid_sq_distances(to_grid(H, quantum), to_grid(centers, quantum)).min(axis=1)
+        # the least of ||c||^2 - 2 h.c, then ||h||^2 added: exact, as the full table
+        U = to_grid(H, quantum)
+        d2 = shifted_sq_distances(U, to_grid(centers, quantum)).min(axis=1)
+        d2 += (U * U).sum(1)
         return np.sqrt(np.maximum(d2, 0)) * float(quantum)
     d2 = ((H * H).sum(1)[:, None] - 2 * H @ centers.T
           + (centers * centers).sum(1)[None, :]).min(axis=1)
@@ -390,8 +394,11 @@ class KMeansHistogramCore(TransformerMixin, BaseEstimator):
         rng = check_random_state(self.random_state)
 
         def max_abs(rows, idx):
+            # the largest of max and -min: |x|.max() without a copy of the rows
             rows = rows if idx is None else rows[idx]
-            return float(np.abs(rows).max(initial=0.0))
+            if not np.size(rows):
+                return 0.0
+            return float(np.max([np.max(rows), -np.min(rows), 0.0]))
 
         self.quantum_ = grid_quantum(
             max(max_abs(positive, positive_rows), max_abs(negative, negative_rows)),

@@ -28,6 +28,7 @@ __all__ = [
     "kmeans_plusplus",
     "lloyd",
     "minibatch_kmeans",
+    "shifted_sq_distances",
     "to_grid",
 ]
 
@@ -74,16 +75,34 @@ def grid_sq_distances(U, C, U_sq=None, C_sq=None) -> np.ndarray:
     return d2
 
 
+def shifted_sq_distances(U, C, C_sq=None) -> np.ndarray:
+    """``grid_sq_distances(U, C)`` less each row's ``||u||^2``: ``||c||^2 - 2 u.c``.
+
+    Exact on the grid as the full distances are (``-2 C`` is exact, and every
+    partial sum stays within the grid's bound), so a row's nearest centre, its ties
+    and, with ``||u||^2`` added back, its distance are those of
+    :func:`grid_sq_distances`, for two passes over the (rows, centres) table
+    fewer.
+    """
+    if C_sq is None:
+        C_sq = (C * C).sum(1)
+    e = U @ (-2.0 * C).T
+    e += C_sq[None, :]
+    return e
+
+
 def _nearest(U, C, U_sq, chunk=4096):
     """Index of (first) nearest centre and the squared distance to it."""
     C_sq = (C * C).sum(1)
+    C2 = -2.0 * C
     labels = np.empty(len(U), dtype=np.intp)
     dist = np.empty(len(U))
     for start in range(0, len(U), chunk):
-        d2 = grid_sq_distances(U[start:start + chunk], C, U_sq[start:start + chunk], C_sq)
-        lab = d2.argmin(1)
+        e = U[start:start + chunk] @ C2.T
+        e += C_sq[None, :]
+        lab = e.argmin(1)
         labels[start:start + chunk] = lab
-        dist[start:start + chunk] = d2[np.arange(len(lab)), lab]
+        dist[start:start + chunk] = e[np.arange(len(lab)), lab] + U_sq[start:start + chunk]
     return labels, dist
 
 

@@ -118,6 +118,72 @@ def fit_stump(values, order, onehot, weights, distinct=None):
     )
 
 
+class _StumpFitter:
+    """:func:`fit_stump` for many weightings of the same samples: the sort order
+    (feature-major, contiguous) and the candidate split positions are found once,
+    and each fit computes the Gini proxy at the candidate positions only.
+
+    Every value is computed by the same operations as :func:`fit_stump`'s (running
+    sums in sample order, the same sums over classes), so both return the same
+    split; the test suite checks it.
+    """
+
+    def __init__(self, values, order, onehot, distinct):
+        n, n_features = values.shape
+        self.values = values
+        self.onehot = onehot
+        self.n = n
+        # feature by feature, the samples in ascending order of the feature
+        self.order_t = np.ascontiguousarray(order.T)
+        # candidate splits in (feature, position) order, as np.nonzero(tie.T) lists
+        # them; their offsets in the (n_features, n) running sums
+        feats, positions = np.nonzero(distinct.T)
+        self.feats, self.positions = feats, positions
+        self.at = feats * n + positions
+
+    def fit(self, weights):
+        onehot = self.onehot
+        Wk = onehot * weights[:, None]
+        total = Wk.sum(0)
+        W = total.sum()
+        root = int(np.argmax(total))
+        if 1.0 - ((total / W) ** 2).sum() <= np.finfo(np.float64).eps:
+            return 0, np.inf, root, root
+        if not len(self.at):
+            return 0, np.inf, root, root
+        CL = [np.cumsum(Wk[:, k].take(self.order_t), axis=1).take(self.at)
+              for k in range(Wk.shape[1])]
+        CR = [t - c for t, c in zip(total, CL, strict=True)]
+        WL, sq_left, sq_right = CL[0].copy(), CL[0] * CL[0], CR[0] * CR[0]
+        for cl, cr in zip(CL[1:], CR[1:], strict=True):
+            WL += cl
+            sq_left += cl * cl
+            sq_right += cr * cr
+        if len(CL) >= 8:  # numpy sums 8 or more terms pairwise: sum them as it does
+            CLa, CRa = np.stack(CL, axis=-1), np.stack(CR, axis=-1)
+            WL, sq_left, sq_right = CLa.sum(-1), (CLa * CLa).sum(-1), (CRa * CRa).sum(-1)
+        WR = W - WL
+        with np.errstate(divide="ignore", invalid="ignore"):
+            proxy = sq_left / WL + sq_right / WR
+        valid = (WL > 0) & (WR > 0)
+        if not valid.any():
+            return 0, np.inf, root, root
+        proxy = np.where(valid, proxy, -np.inf)
+        best = proxy.max()
+        first = int(np.argmax(proxy >= best - 1e-10 * abs(best)))
+        feat, pos = int(self.feats[first]), int(self.positions[first])
+        lo, hi = float(self.values[pos, feat]), float(self.values[pos + 1, feat])
+        threshold = lo / 2.0 + hi / 2.0
+        if threshold == hi or np.isinf(threshold):
+            threshold = lo
+        return (
+            feat,
+            threshold,
+            int(np.argmax([c[first] for c in CL])),
+            int(np.argmax([c[first] for c in CR])),
+        )
+
+
 def samme(X, y_index, n_classes, sample_weight, *, n_estimators=50, learning_rate=1.0):
     """Discrete AdaBoost (SAMME) of depth-1 Gini stumps.
 
@@ -155,8 +221,9 @@ def samme(X, y_index, n_classes, sample_weight, *, n_estimators=50, learning_rat
     v = values.astype(np.float64)
     distinct = v[1:] > v[:-1] + FEATURE_THRESHOLD
     del v
+    stump = _StumpFitter(values, order, onehot, distinct)
     for iboost in range(n_estimators):
-        f, t, left, right = fit_stump(values, order, onehot, sw, distinct)
+        f, t, left, right = stump.fit(sw)
         pred = np.where(X32[:, f] <= t, left, right)
         incorrect = pred != y_index
         error = float(np.average(incorrect, weights=sw))

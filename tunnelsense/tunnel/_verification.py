@@ -28,11 +28,17 @@ from tunnelsense.tunnel._common import (
     require_boxes,
 )
 from tunnelsense.tunnel._descriptors import (
+    compose_lut,
+    descriptors_under_luts,
     keypoint_descriptors,
     patch_histograms,
     surround_histograms,
 )
-from tunnelsense.tunnel._intensity import background_levels, normalize_frame
+from tunnelsense.tunnel._intensity import (
+    background_levels,
+    normalize_frame,
+    normalize_lut,
+)
 from tunnelsense.tunnel._kmeans import (
     KMeansHistogramCore,
     blas_threads,
@@ -325,10 +331,25 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
             kp = keypoints_of(r, i, "KMeansHistogramVerifier")
             image = frame_image(r, i)
             lut = bin_lut(image.dtype, self.bins, self.intensity_range, self.binning)
-            images = [image]
-            if rng is not None:
-                images.extend(contrast_copy(image, f) for f in
-                              augment_factors(rng, self.augment_contrast, self.augment_draw))
+            factors = () if rng is None else augment_factors(
+                rng, self.augment_contrast, self.augment_draw)
+            if self.normalize == "none":
+                # a contrast copy is a pointwise map of grey levels: composed into
+                # the bin table, it describes the copy without building it
+                # (descriptors equal to those of contrast_copy's frames)
+                luts = [lut]
+                if len(factors):
+                    level, _ = background_levels(image)
+                    luts += [compose_lut(lut, normalize_lut(image.dtype, level, 1.0,
+                                                            level, float(f)))
+                             for f in factors]
+                H = descriptors_under_luts(
+                    image, kp[:, 0], kp[:, 1], luts, patch_size=self.patch_size,
+                    context_size=self.context_size, context_weight=self.context_weight,
+                    bins=self.bins)
+                yield r, kp, H
+                continue
+            images = [image, *(contrast_copy(image, f) for f in factors)]
             if self.normalize == "surround":
                 surround = (25, 13) if self.context_size is None else self.context_size
                 H = np.concatenate([
@@ -339,14 +360,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 ])
                 yield r, kp, H
                 continue
-            H = np.concatenate([
-                keypoint_descriptors(
-                    im, kp[:, 0], kp[:, 1], patch_size=self.patch_size,
-                    context_size=self.context_size, context_weight=self.context_weight,
-                    bins=self.bins, lut=lut,
-                ) for im in images
-            ])
-            yield r, kp, H
+            raise ValueError(f"normalize must be 'none' or 'surround'; got {self.normalize!r}")
 
     @property
     def _n_descriptor(self):
@@ -369,20 +383,35 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
         described = {}
         self._fit_frames(X, y, _described=described, **fit_params)
         P, N = described["positive"], described["negative"]
+        # each frame's rows of the fit: its positives, then its negatives, each
+        # followed by those of its augmented copies; the frame's own rows (not the
+        # copies') are verified, all frames at once (each row's decision is its own)
+        rows_p, rows_n, at_p, at_n = [], [], 0, 0
+        for _, kp, inside, copies in described["frames"]:
+            n_in = int(inside.sum())
+            rows_p.append(np.arange(at_p, at_p + n_in))
+            rows_n.append(np.arange(at_n, at_n + len(kp) - n_in))
+            at_p += copies * n_in
+            at_n += copies * (len(kp) - n_in)
+        keep_p = self._verified_rows(P, np.concatenate(rows_p or [np.empty(0, np.intp)]))
+        keep_n = self._verified_rows(N, np.concatenate(rows_n or [np.empty(0, np.intp)]))
         out, at_p, at_n = [], 0, 0
-        with blas_threads(self.n_jobs):
-            for r, kp, inside, copies in described["frames"]:
-                # the frame's rows of the fit: its positives, then its negatives,
-                # each followed by those of its augmented copy
-                n_in = int(inside.sum())
-                H = np.empty((len(kp), P.shape[1]), P.dtype)
-                H[inside] = P[at_p:at_p + n_in]
-                H[~inside] = N[at_n:at_n + len(kp) - n_in]
-                at_p += copies * n_in
-                at_n += copies * (len(kp) - n_in)
-                keep = self._verified(H)
-                out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
+        for r, kp, inside, _ in described["frames"]:
+            n_in = int(inside.sum())
+            keep = np.empty(len(kp), bool)
+            keep[inside] = keep_p[at_p:at_p + n_in]
+            keep[~inside] = keep_n[at_n:at_n + len(kp) - n_in]
+            at_p, at_n = at_p + n_in, at_n + len(kp) - n_in
+            out.append(r.evolve(**{KEYPOINTS: kp[keep], SAMPLED_KEYPOINTS: kp}))
         return FrameSequence(out)
+
+    def _verified_rows(self, H, rows, chunk=8192):
+        """:meth:`_verified` of the rows ``rows`` of ``H``, in chunks."""
+        keep = np.empty(len(rows), bool)
+        with blas_threads(self.n_jobs):
+            for start in range(0, len(rows), chunk):
+                keep[start:start + chunk] = self._verified(H[rows[start:start + chunk]])
+        return keep
 
     @_fit_context(prefer_skip_nested_validation=True)
     def _fit_frames(self, X, y=None, _described=None):
