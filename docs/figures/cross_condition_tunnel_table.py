@@ -26,7 +26,8 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   grey levels colder, the lit signs not (more contrast).
 * ``signs-4.5m``: camera A, the signs mounted 4.5 m high, beside the lamps' row
   (their halo reaches the sign).
-* ``roll-3``: camera A mounted with a roll of 3 degrees (the horizon tilted);
+* ``roll-3`` / ``roll-5``: camera A mounted with a roll of 3 and 5 degrees (the
+  horizon tilted);
 * ``15fps`` / ``60fps``: camera A at 15 and 60 frames per second (twice and half
   the motion per frame);
 * ``signs-right``: camera A, the signs on the right wall (the other tube, or
@@ -92,6 +93,7 @@ CONDITIONS = {
     "lens-1000": dict(scenario="light", **dict(CAMERA_A, focal_length_px=1000.0)),
     "lens-450": dict(scenario="light", **dict(CAMERA_A, focal_length_px=450.0)),
     "stripes-3": dict(scenario="light", fpn_sigma=3.0, **CAMERA_A),
+    "roll-5": dict(scenario="light", roll_deg=5.0, **CAMERA_A),
 }
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
