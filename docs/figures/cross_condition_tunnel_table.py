@@ -29,7 +29,8 @@ conditions (:data:`CONDITIONS`) are physical parameters of
 * ``roll-3`` / ``roll-5``: camera A mounted with a roll of 3 and 5 degrees (the
   horizon tilted);
 * ``15fps`` / ``60fps``: camera A at 15 and 60 frames per second (twice and half
-  the motion per frame);
+  the motion per frame); ``9fps``: at 9 frames per second (the rate of many
+  uncooled cameras sold without an export licence);
 * ``signs-right``: camera A, the signs on the right wall (the other tube, or
   left-hand traffic);
 * ``vignetting-0.75``: camera A's lens passing 0.75 of the radiance at the image
@@ -94,6 +95,7 @@ CONDITIONS = {
     "lens-450": dict(scenario="light", **dict(CAMERA_A, focal_length_px=450.0)),
     "stripes-3": dict(scenario="light", fpn_sigma=3.0, **CAMERA_A),
     "roll-5": dict(scenario="light", roll_deg=5.0, **CAMERA_A),
+    "9fps": dict(scenario="light", frame_rate_hz=9.0, **CAMERA_A),
 }
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
