@@ -152,3 +152,20 @@ def test_gt_from_boxes_follows_a_sign_clipped_by_the_frame_edge():
     # a box far from the previous one (more than half its size away) is another sign
     y[2] = np.array([[200.0, 75.6, 35.2, 78.2]])
     assert gt_from_boxes(recs, y)["id"].tolist() == [1, 1, 2]
+
+
+def test_gt_from_boxes_follows_a_fast_sign_at_a_low_frame_rate():
+    # a sign's last three frames at 15 fps: it moves more than its width per frame,
+    # beyond the grown box, but as its motion continues (constant velocity)
+    recs = [FrameRecord("t", f, IMG) for f in (1, 2, 3)]
+    y = [
+        np.array([[79.1, 100.0, 28.2, 62.5]]),
+        np.array([[38.1, 76.5, 33.0, 73.2]]),
+        np.array([[-19.8, 44.4, 39.7, 88.2]]),
+    ]
+    assert gt_from_boxes(recs, y)["id"].tolist() == [1, 1, 1]
+    # without a predecessor there is no motion to continue: another sign
+    assert gt_from_boxes(recs[1:], y[1:])["id"].tolist() == [1, 2]
+    # nor against the motion
+    y[2] = np.array([[120.0, 110.0, 39.7, 88.2]])
+    assert gt_from_boxes(recs, y)["id"].tolist() == [1, 1, 2]

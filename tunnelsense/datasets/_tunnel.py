@@ -20,7 +20,15 @@ from sklearn.utils import check_random_state
 
 from tunnelsense._records import MOT_GT_COLUMNS, Tour
 from tunnelsense.datasets._odometry import TourKinematics, with_kinematics
-from tunnelsense.datasets._tunnel_camera import _Agc, _Background, _Camera
+from tunnelsense.datasets._tunnel_camera import (
+    _Agc,
+    _Background,
+    _Camera,
+    _roll_box,
+    _roll_image,
+    _roll_matrix,
+    _vignette,
+)
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
     _draw_lamp,
@@ -139,7 +147,13 @@ def make_tunnel_tour(
         control, mapping each frame's 1st and 99.5th percentiles to grey levels 92
         and 240 with time constant ``agc_time_s``, 0.5 s, so a near lamp or a hot
         truck lowers the gain of every pixel; ``info`` then holds
-        ``agc_gain_min`` and ``agc_gain_max``).
+        ``agc_gain_min`` and ``agc_gain_max``); ``roll_deg`` (0: the camera
+        rolled about its optical axis, the image turned this many degrees
+        counter-clockwise about its centre, boxes the hulls of the turned ones);
+        ``frame_rate_hz`` (30); ``vignetting`` (1: the lens's response at the
+        image corners, falling with the squared distance from the centre, applied
+        to the radiance before the gain); ``indicator_side`` ("left": the wall the
+        signs stand on, "right" for the other tube or left-hand traffic).
 
     Returns
     -------
@@ -178,7 +192,7 @@ def make_tunnel_tour(
     rng = np.random.default_rng(seed)
     if name is None:
         name = f"tunnel-{scenario}-{seed}"
-    fps = 30.0
+    fps = p["frame_rate_hz"]
     H, W = p["image_shape"]
     kappa = 0.0 if math.isinf(p["curve_radius_m"]) else 1.0 / p["curve_radius_m"]
     vertical = p["vertical_curve_radius_m"]
@@ -188,7 +202,8 @@ def make_tunnel_tour(
     t, speed, s_ego, lat, hgt, pitch = _ego_motion(rng, n_frames, fps, p)
     distance = float(s_ego[-1] + speed[-1] / fps)
     # an indicator's outer edge leaves the image at this depth
-    x_edge = abs(_lining_x(p["indicator_height_m"], -1)) - 0.05
+    side = -1 if p["indicator_side"] == "left" else 1
+    x_edge = abs(_lining_x(p["indicator_height_m"], side)) - 0.05
     exit_depth = cam.f * x_edge / cam.cx
     indicators = _indicator_positions(rng, s_ego[-1], p, exit_depth)
     lamp_spacing = p["lamp_spacing_m"] or rng.uniform(10.0, 15.0)
@@ -233,6 +248,8 @@ def make_tunnel_tour(
     noise_pick = rng.integers(0, [2, pad + 1, pad + 1], size=(n_frames, 3))
 
     warming = p["ambient_warming"]
+    roll = _roll_matrix(p["roll_deg"], (H, W)) if p["roll_deg"] else None
+    vignette = _vignette((H, W), p["vignetting"]) if p["vignetting"] < 1.0 else None
     agc = _Agc(fps, p["agc_time_s"]) if p["agc"] else None
     images = np.empty((n_frames, H, W), dtype=np.uint8)
     rows = []
@@ -281,6 +298,11 @@ def make_tunnel_tour(
                 oid = veh_ids[key]
             if box is not None:
                 drawn.append((box[4], cls, oid, box, cls == VEHICLE))
+        if roll is not None:  # the camera's roll turns the radiance image
+            img = _roll_image(img, roll)
+            drawn = [(z, c, o, _roll_box(b, roll), occ) for z, c, o, b, occ in drawn]
+        if vignette is not None:  # the lens passes less radiance off-axis
+            img *= vignette
         if p["gain"] != 1.0 or p["offset"] != 0.0:
             img *= np.float32(p["gain"])
             img += np.float32(p["offset"])
@@ -345,13 +367,18 @@ def make_tunnel_tour(
         info["sensor_scale"] = float(p["sensor_scale"])
     if warming:
         info["ambient_warming"] = float(warming)
+    for key, default in (("roll_deg", 0.0), ("vignetting", 1.0),
+                         ("indicator_side", "left")):
+        if p[key] != default:
+            info[key] = p[key]
     if agc is not None:
         info["agc"] = True
         info["agc_gain_min"] = round(float(min(agc.gains)), 6)
         info["agc_gain_max"] = round(float(max(agc.gains)), 6)
     tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
     # where the camera was (positions, odometry, indicator map): no random draws here
-    kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed)
+    kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed,
+                         side=p["indicator_side"])
     return with_kinematics(tour, kin)
 
 

@@ -234,3 +234,44 @@ class _Agc:
         self.gains.append(self.gain)
         img *= np.float32(self.gain)
         img += np.float32(self.offset)
+
+
+# --------------------------------------------------------------------------------------
+# lens and mounting: roll about the optical axis, vignetting
+# --------------------------------------------------------------------------------------
+def _roll_matrix(roll_deg, shape):
+    """2x3 affine map turning the image ``roll_deg`` counter-clockwise (as shown,
+    rows downward) about the principal point (the image centre)."""
+    import cv2  # noqa: PLC0415
+
+    H, W = shape
+    return cv2.getRotationMatrix2D((W / 2.0, H / 2.0), float(roll_deg), 1.0)
+
+
+def _roll_image(img, M):
+    """The radiance image seen by a camera rolled by ``M`` (scene beyond the rotated
+    frame's corners continued by reflection)."""
+    import cv2  # noqa: PLC0415
+
+    H, W = img.shape
+    return cv2.warpAffine(img, M, (W, H), flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REFLECT_101)
+
+
+def _roll_box(box, M):
+    """The axis-aligned box ``(u0, v0, u1, v1, depth)`` around the rolled corners."""
+    u0, v0, u1, v1, z = box
+    u = np.array([u0, u1, u0, u1])
+    v = np.array([v0, v0, v1, v1])
+    ru = M[0, 0] * u + M[0, 1] * v + M[0, 2]
+    rv = M[1, 0] * u + M[1, 1] * v + M[1, 2]
+    return (float(ru.min()), float(rv.min()), float(ru.max()), float(rv.max()), z)
+
+
+def _vignette(shape, corner):
+    """Relative lens response: 1 at the centre, falling with the squared distance to
+    ``corner`` at the image corners (radiance is multiplied by it)."""
+    H, W = shape
+    yy, xx = np.mgrid[0:H, 0:W]
+    r2 = ((xx + 0.5 - W / 2) ** 2 + (yy + 0.5 - H / 2) ** 2) / ((W / 2) ** 2 + (H / 2) ** 2)
+    return (1.0 - (1.0 - corner) * r2).astype(np.float32)

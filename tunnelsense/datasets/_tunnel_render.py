@@ -103,8 +103,12 @@ def _box_of(cam, pose, xs, zs, ys):
 def _draw_indicator(img, cam, pose, ds, p, look):
     w, hgt = p.get("indicator_size_m", _INDICATOR_SIZE)
     yc = p["indicator_height_m"]
-    x_out = _lining_x(yc, -1) + 0.05
-    d = np.array([x_out, x_out + w])
+    if p.get("indicator_side", "left") == "left":
+        x_out = _lining_x(yc, -1) + 0.05
+        d = np.array([x_out, x_out + w])
+    else:  # the right wall: the sign's outer edge 5 cm off the lining
+        x_out = _lining_x(yc, 1) - 0.05
+        d = np.array([x_out - w, x_out])
     y = np.array([yc - hgt / 2, yc + hgt / 2])
     dd, yy = np.meshgrid(d, y)
     x3, z3, y3 = cam.to_camera(np.full(4, ds), dd.ravel(), yy.ravel())

@@ -42,6 +42,10 @@ _DEFAULTS = {
     "ambient_warming": 0.0,  # grey levels the air-warmed surfaces (lining, road) gain
     "agc": False,  # automatic gain control on the scene's radiance percentiles
     "agc_time_s": 0.5,  # its time constant
+    "roll_deg": 0.0,  # camera roll about the optical axis (image turned CCW)
+    "frame_rate_hz": 30.0,  # frames per second
+    "vignetting": 1.0,  # lens response at the image corners (1: none)
+    "indicator_side": "left",  # the wall the signs stand on
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -267,6 +271,13 @@ def _resolve_params(scenario, overrides, seed=0):
     p["agc"] = bool(p["agc"])
     p["agc_time_s"] = _check_range("agc_time_s", p["agc_time_s"], 0.0, 60.0,
                                    closed_lo=False)
+    p["roll_deg"] = _check_range("roll_deg", p["roll_deg"], -30.0, 30.0)
+    p["frame_rate_hz"] = _check_range("frame_rate_hz", p["frame_rate_hz"], 1.0, 1000.0)
+    p["vignetting"] = _check_range("vignetting", p["vignetting"], 0.1, 1.0)
+    if p["indicator_side"] not in ("left", "right"):
+        raise ValueError(
+            f"indicator_side must be 'left' or 'right'; got {p['indicator_side']!r}"
+        )
     return p
 
 
@@ -309,7 +320,7 @@ def _make_vehicles(rng, t, s_ego, speed, p):
     overtake or are overtaken; some change lanes.
     """
     n = len(t)
-    duration = t[-1] + 1.0 / 30.0
+    duration = t[-1] + 1.0 / p["frame_rate_hz"]
     density = p["traffic_per_km"] / 1000.0
     vehicles = []
     # ego lane: followers ahead within 150 m

@@ -134,7 +134,12 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     every side.  An indicator moves less than that between consecutive frames, even
     in its last frame, when it leaves the image and its box jumps as the frame's edge
     clips it (plain overlap counted such a last frame as a second indicator); and
-    indicators stand 200 m apart, so the grown boxes of two of them never meet.
+    indicators stand 200 m apart, so the grown boxes of two of them never meet.  At a
+    lower frame rate a near sign moves farther than that between frames (at 15 fps,
+    more than its width in its last frame), so a box also links to a previous box
+    that has a predecessor when it overlaps that box moved on at its last change
+    (position and size: constant velocity), grown the same way; the rule holds
+    whatever the frame rate while the motion changes smoothly from frame to frame.
 
     Parameters
     ----------
@@ -156,23 +161,25 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     for group in tour_groups(records):
         next_id = 1
         prev_frame, prev_boxes, prev_ids = None, np.empty((0, 4)), []
+        before = {}  # id -> its box in the frame before the previous one
         for i in group.tolist():
             r, b = records[i], y[i]
             ids = []
             used = set()
+            consecutive = prev_frame is not None and r.frame - prev_frame == 1
             for box in b:
                 link = None
-                if prev_frame is not None and r.frame - prev_frame == 1:
+                if consecutive:
                     for pb, pid in zip(prev_boxes, prev_ids, strict=True):
                         if pid in used:
                             continue
                         # grow the previous box by half its size on every side: an
                         # indicator moves less than that between consecutive frames,
                         # also while it is clipped by the frame's edge
-                        gx, gy = grow * pb[2], grow * pb[3]
-                        ix = min(box[0] + box[2], pb[0] + pb[2] + gx) - max(box[0], pb[0] - gx)
-                        iy = min(box[1] + box[3], pb[1] + pb[3] + gy) - max(box[1], pb[1] - gy)
-                        if ix > 0 and iy > 0:
+                        if _meets_grown(box, pb, grow) or (
+                            pid in before
+                            and _meets_grown(box, 2 * pb - before[pid], grow)
+                        ):
                             link = pid
                             break
                 if link is None:
@@ -181,10 +188,23 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
                 used.add(link)
                 ids.append(link)
                 rows.append((r.tour, r.frame, link, *box.tolist()))
+            before = (
+                {pid: pb for pb, pid in zip(prev_boxes, prev_ids, strict=True)}
+                if consecutive else {}
+            )
             prev_frame, prev_boxes, prev_ids = r.frame, b, ids
     return pd.DataFrame(rows, columns=list(_GT_COLUMNS)).astype(
         {"frame": np.int64, "id": np.int64}
     )
+
+
+def _meets_grown(box, pb, grow):
+    """Whether ``box`` overlaps ``pb`` grown by ``grow`` times its size on every
+    side (boxes ``(left, top, width, height)``)."""
+    gx, gy = grow * abs(pb[2]), grow * abs(pb[3])
+    ix = min(box[0] + box[2], pb[0] + pb[2] + gx) - max(box[0], pb[0] - gx)
+    iy = min(box[1] + box[3], pb[1] + pb[3] + gy) - max(box[1], pb[1] - gy)
+    return ix > 0 and iy > 0
 
 
 def _match(hyp: pd.DataFrame, gt: pd.DataFrame, min_height: float):
