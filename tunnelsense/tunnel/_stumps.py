@@ -39,6 +39,27 @@ __all__ = [
 FEATURE_THRESHOLD = 1e-7
 
 
+def _split_proxy(CL, total, W):
+    """The per-class right sums, the left and right weights and the Gini proxy
+    ``sum_k L_k^2 / WL + R_k^2 / WR`` at every split, from the per-class left sums
+    ``CL`` (a list over classes) and the per-class totals: class by class the same
+    running sums, and the same sums over classes (left to right), as on one
+    ``(..., K)`` array."""
+    CR = [t - c for t, c in zip(total, CL, strict=True)]
+    WL, sq_left, sq_right = CL[0].copy(), CL[0] * CL[0], CR[0] * CR[0]
+    for cl, cr in zip(CL[1:], CR[1:], strict=True):
+        WL += cl
+        sq_left += cl * cl
+        sq_right += cr * cr
+    if len(CL) >= 8:  # numpy sums 8 or more terms pairwise: sum them as it does
+        CLa, CRa = np.stack(CL, axis=-1), np.stack(CR, axis=-1)
+        WL, sq_left, sq_right = CLa.sum(-1), (CLa * CLa).sum(-1), (CRa * CRa).sum(-1)
+    WR = W - WL
+    with np.errstate(divide="ignore", invalid="ignore"):
+        proxy = sq_left / WL + sq_right / WR
+    return CR, WL, WR, proxy
+
+
 def fit_stump(values, order, onehot, weights, distinct=None):
     """The best depth-1 Gini split of weighted samples, as scikit-learn finds it.
 
@@ -82,18 +103,7 @@ def fit_stump(values, order, onehot, weights, distinct=None):
     # running sums, and the same sums over classes (left to right), as on one
     # (n - 1, F, K) array
     CL = [np.cumsum(Wk[:, k].take(order), axis=0)[:-1] for k in range(Wk.shape[1])]
-    CR = [t - c for t, c in zip(total, CL, strict=True)]
-    WL, sq_left, sq_right = CL[0].copy(), CL[0] * CL[0], CR[0] * CR[0]
-    for cl, cr in zip(CL[1:], CR[1:], strict=True):
-        WL += cl
-        sq_left += cl * cl
-        sq_right += cr * cr
-    if len(CL) >= 8:  # numpy sums 8 or more terms pairwise: sum them as it does
-        CLa, CRa = np.stack(CL, axis=-1), np.stack(CR, axis=-1)
-        WL, sq_left, sq_right = CLa.sum(-1), (CLa * CLa).sum(-1), (CRa * CRa).sum(-1)
-    WR = W - WL
-    with np.errstate(divide="ignore", invalid="ignore"):
-        proxy = sq_left / WL + sq_right / WR
+    CR, WL, WR, proxy = _split_proxy(CL, total, W)
     if distinct is None:
         v = values.astype(np.float64)
         distinct = v[1:] > v[:-1] + FEATURE_THRESHOLD
@@ -153,18 +163,7 @@ class _StumpFitter:
             return 0, np.inf, root, root
         CL = [np.cumsum(Wk[:, k].take(self.order_t), axis=1).take(self.at)
               for k in range(Wk.shape[1])]
-        CR = [t - c for t, c in zip(total, CL, strict=True)]
-        WL, sq_left, sq_right = CL[0].copy(), CL[0] * CL[0], CR[0] * CR[0]
-        for cl, cr in zip(CL[1:], CR[1:], strict=True):
-            WL += cl
-            sq_left += cl * cl
-            sq_right += cr * cr
-        if len(CL) >= 8:  # numpy sums 8 or more terms pairwise: sum them as it does
-            CLa, CRa = np.stack(CL, axis=-1), np.stack(CR, axis=-1)
-            WL, sq_left, sq_right = CLa.sum(-1), (CLa * CLa).sum(-1), (CRa * CRa).sum(-1)
-        WR = W - WL
-        with np.errstate(divide="ignore", invalid="ignore"):
-            proxy = sq_left / WL + sq_right / WR
+        CR, WL, WR, proxy = _split_proxy(CL, total, W)
         valid = (WL > 0) & (WR > 0)
         if not valid.any():
             return 0, np.inf, root, root
