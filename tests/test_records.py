@@ -137,3 +137,19 @@ def test_run_targets_and_check_scans():
         ScanSequence.from_arrays(np.zeros((3, 4)), np.zeros(2), run.geometry)
     with pytest.raises(TypeError, match="ScanRecord"):
         check_scans(_tour("a").frames)
+
+
+def test_a_tour_s_frames_carry_its_frame_rate(tmp_path):
+    from tunnelsense.io import open_tour, write_tour
+
+    images = np.zeros((3, 8, 8), np.uint8)
+    tour = Tour.from_array("a", images, frame_rate=9)
+    assert [r.payload["frame_rate"] for r in tour.frames] == [9.0] * 3
+    X, _, _ = to_xy([tour, Tour.from_array("b", images)])
+    assert [r.payload["frame_rate"] for r in X] == [9.0] * 3 + [30.0] * 3
+    assert [r.payload["frame_rate"] for r in X[[1, 4]]] == [9.0, 30.0]  # a split
+    # read back from disk: the rate of seqinfo.ini
+    write_tour(tour, tmp_path / "a")
+    assert {r.payload["frame_rate"] for r in open_tour(tmp_path / "a").frames} == {9.0}
+    # a frame array of a user's carries none
+    assert "frame_rate" not in FrameSequence.from_array(images)[0].payload

@@ -17,10 +17,13 @@ point-in-box rule and :func:`check_image` the one image check of the FIR stages.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = [
     "FINISHED_OBJECTS",
+    "FRAME_RATE",
     "APPEARANCE",
     "APPEARANCE_SCORE",
     "BEAMS",
@@ -49,6 +52,8 @@ __all__ = [
     "check_image",
     "ended_tracks_of",
     "frame_image",
+    "frame_rate_of",
+    "scaled_count",
     "histograms_of",
     "inside_boxes",
     "keypoint_band_of",
@@ -59,6 +64,10 @@ __all__ = [
 ]
 
 # ------------------------------------------------------------------ FIR frame stages
+#: float: frames per second of the frame's tour (set by :class:`~tunnelsense.Tour`;
+#: a frame without it, such as one made from a user's array, is taken to be at the
+#: rate the stages' frame counts are given in).
+FRAME_RATE = "frame_rate"
 #: (n, 3) int32 ``(row, col, intensity)`` in raster order; the verifier keeps a subset.
 KEYPOINTS = "keypoints"
 #: ``(low, high)``: the sampler's intensity band.
@@ -278,3 +287,39 @@ def check_image(image, what) -> np.ndarray:
 def frame_image(record, index) -> np.ndarray:
     """The record's image, checked by :func:`check_image`."""
     return check_image(record.image, where(record, index))
+
+
+def frame_rate_of(record):
+    """The frame rate (frames per second) a record carries, or None.
+
+    ``payload["frame_rate"]`` when it is a positive finite number; anything else
+    (absent, 0, NaN) means the rate is unknown.
+    """
+    rate = record.payload.get(FRAME_RATE)
+    try:
+        rate = float(rate)
+    except (TypeError, ValueError):
+        return None
+    return rate if np.isfinite(rate) and rate > 0 else None
+
+
+def scaled_count(count, ratio, floor):
+    """A count of frames at one frame rate, in frames at another (``ratio`` = new / old).
+
+    ``count * ratio`` rounded half up, but never below ``min(count, floor)``: a count
+    scaled down keeps at least ``floor`` frames (or the count itself when smaller),
+    so a length whose meaning needs that many points keeps it.  At ``ratio == 1`` the
+    count is unchanged; ``ratio > 1`` only scales up.
+
+    Examples
+    --------
+    >>> from tunnelsense._payload import scaled_count
+    >>> scaled_count(10, 1.0, 7), scaled_count(10, 0.3, 7), scaled_count(10, 2.0, 7)
+    (10, 7, 20)
+    >>> scaled_count(6, 0.3, 1), scaled_count(5, 0.3, 7)
+    (2, 5)
+    """
+    count = int(count)
+    if ratio == 1.0:
+        return count
+    return max(int(math.floor(count * ratio + 0.5)), min(count, int(floor)))

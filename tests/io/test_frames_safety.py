@@ -113,3 +113,18 @@ def test_detect_refuses_frames_of_another_depth(tour_dir, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "a uint16 frame, but the sampler was fitted on uint8 frames" in err
     assert open_tour(wide).frames[0].image.dtype == np.uint16
+
+
+def test_video_frames_carry_the_header_s_frame_rate(tmp_path):
+    from tunnelsense.io import open_tour
+    from tunnelsense.tunnel._detect import open_frames
+
+    path = tmp_path / "v9.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 9, (64, 48),
+                             False)
+    for i in range(3):
+        writer.write(np.full((48, 64), 3 * i, np.uint8))
+    writer.release()
+    frames, total = open_frames(path)
+    assert [r.payload["frame_rate"] for r in frames] == [9.0] * total
+    assert {r.payload["frame_rate"] for r in open_tour(path).frames} == {9.0}

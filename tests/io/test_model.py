@@ -175,3 +175,17 @@ def test_model_from_an_older_version_is_refused_clearly(model, tmp_path):
             match=r"LogisticRegression lacks parameter\(s\) max_iter: the model was saved by another version",
         ):
             load_model(path, allow_pickle=True)
+
+
+@pytest.mark.parametrize("frame_rate", [None, 9.0, 30])
+def test_trajectory_stages_frame_rate_round_trips(frame_rate, tmp_path):
+    from tunnelsense import FrameRecord
+    from tunnelsense.tunnel import PCCVerifier, TrajectoryLinker
+
+    X = [FrameRecord("t", 1, np.zeros((4, 4), np.uint8), {
+        "cluster_boxes": np.empty((0, 4)), "appearance": np.empty(0, bool),
+        "track_ids": np.empty(0, np.int64)})]
+    pipe = Pipeline([("tracks", TrajectoryLinker(frame_rate=frame_rate)),
+                     ("motion", PCCVerifier(frame_rate=frame_rate))])
+    back = load_model(save_model(pipe.fit(X), tmp_path / "m.skops"))
+    assert [s.frame_rate for _, s in back.steps] == [frame_rate] * 2

@@ -171,3 +171,30 @@ def test_min_travel_rejects_a_box_that_jitters_along_a_line_in_place():
         out = PCCVerifier(criterion="quadratic", min_travel=min_travel).fit(X).predict(X)
         found = {int(d[4]) for r in out for d in r.payload["detections"]}
         assert found == expected
+
+
+@pytest.mark.parametrize("fps, shortest", [
+    (30.0, 10),  # the count as given
+    (9.0, 7),  # 10 frames at 30 fps are 3 at 9 fps, but never fewer than 7 points
+    (15.0, 7),
+    (60.0, 20),
+    (45.0, 15),
+])
+def test_min_length_follows_the_frame_rate(fps, shortest):
+    for n in (shortest - 1, shortest):
+        X = [r.evolve(frame_rate=fps) for r in track_frames({1: line(n)})]
+        found = PCCVerifier(min_length=10).fit(X).predict(X)[0].payload["indicator"]
+        assert bool(found.all()) == (n == shortest)
+
+
+def test_min_length_below_the_floor_is_kept_and_none_counts_frames():
+    X = [r.evolve(frame_rate=9.0) for r in track_frames({1: line(5)})]
+    # 5 frames at 30 fps: scaled to 2, kept at 5 (the floor never raises a count)
+    assert PCCVerifier(min_length=5).fit(X).predict(X)[0].payload["indicator"].all()
+    X = [r.evolve(frame_rate=9.0) for r in track_frames({1: line(8)})]
+    assert not PCCVerifier(frame_rate=None).fit(X).predict(X)[0].payload["indicator"].any()
+    assert PCCVerifier().fit(X).predict(X)[0].payload["indicator"].all()
+    # streaming decides the same
+    state = PCCVerifier().fit(X).start_stream()
+    out = [o for r in X for o in state.push(r)] + state.close()
+    assert out[0].payload["indicator"].all()

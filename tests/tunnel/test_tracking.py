@@ -155,3 +155,56 @@ def test_record_stage_checks(assignment):
 @pytest.mark.parametrize("name, check", list(sklearn_api_checks(TrajectoryLinker())))
 def test_sklearn_api_checks(name, check):
     check()
+
+
+def at_rate(records, fps):
+    return [r.evolve(frame_rate=fps) for r in records]
+
+
+@pytest.mark.parametrize("fps, missing, linked", [
+    (30.0, 6, True), (30.0, 7, False),  # the counts as given
+    (9.0, 2, True), (9.0, 3, False),  # 6 frames at 30 fps are 1.8 -> 2 at 9 fps
+    (60.0, 12, True), (60.0, 13, False),  # and 12 at 60 fps
+    (3.0, 1, True), (3.0, 2, False),  # scaled down, a trajectory still bridges one
+])
+def test_max_gap_follows_the_frame_rate(fps, missing, linked):
+    obj = moving(30, step=(0.5, 0))
+    kept = [o for o in obj if not (5 <= o[0] < 5 + missing)]
+    out = TrajectoryLinker(max_gap=6).fit_transform(at_rate(frames_of(kept), fps))
+    assert (len(set(sum(ids(out), []))) == 1) is linked
+
+
+@pytest.mark.parametrize("fps, length", [(30.0, 20), (9.0, 7), (15.0, 10), (60.0, 40),
+                                          (1.0, 7)])
+def test_max_track_length_follows_the_frame_rate(fps, length):
+    X = at_rate(frames_of(moving(80, step=(0.5, 0))), fps)
+    out = sum(ids(TrajectoryLinker(max_track_length=20).fit_transform(X)), [])
+    assert np.bincount(out).max() == length
+
+
+def test_frames_without_a_frame_rate_or_frame_rate_none_count_frames():
+    obj = moving(20, step=(0.5, 0))
+    kept = [o for o in obj if not (5 <= o[0] < 8)]  # 3 missed frames
+    X = frames_of(kept)
+    linked = [1] * len(kept)
+    assert sum(ids(TrajectoryLinker(max_gap=6).fit_transform(X)), []) == linked
+    slow = at_rate(X, 9.0)  # 6 frames at 30 fps: 2 at 9 fps
+    assert sum(ids(TrajectoryLinker(max_gap=6).fit_transform(slow)), []) != linked
+    assert sum(ids(TrajectoryLinker(max_gap=6, frame_rate=None).fit_transform(slow)),
+               []) == linked
+    # the counts are given at frame_rate: 6 frames at 9 fps are 6 frames at 9 fps
+    assert sum(ids(TrajectoryLinker(max_gap=6, frame_rate=9).fit_transform(slow)),
+               []) == linked
+
+
+def test_each_tour_follows_its_own_frame_rate():
+    obj = moving(20, step=(0.5, 0))
+    kept = [o for o in obj if not (5 <= o[0] < 8)]
+    X = at_rate(frames_of(kept, tour="a"), 9.0) + at_rate(frames_of(kept, tour="b"), 30.0)
+    out = TrajectoryLinker(max_gap=6).fit_transform(X)
+    n = len(kept)
+    assert len(set(sum(ids(out[:n]), []))) == 2 and len(set(sum(ids(out[n:]), []))) == 1
+    # streaming gives the same
+    state = TrajectoryLinker(max_gap=6).fit(X).start_stream()
+    streamed = [o for r in X for o in state.push(r)] + state.close()
+    assert ids(streamed) == ids(out)

@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from tunnelsense._records._frames import MOT_GT_COLUMNS
+from tunnelsense._payload import FRAME_RATE
+from tunnelsense._records._frames import MOT_GT_COLUMNS, FrameRecord
 from tunnelsense._records._scans import (
     RUN_GT_COLUMNS,
     RUN_LABELS,
@@ -50,10 +51,22 @@ class Tour:
     gt : DataFrame
         Ground truth with the columns :data:`MOT_GT_COLUMNS` (possibly empty).
     frame_rate : float, default=30.0
-        Frames per second.
+        Frames per second.  Every frame of the tour carries it
+        (``payload["frame_rate"]``), so the stages that count frames
+        (:class:`~tunnelsense.tunnel.TrajectoryLinker`,
+        :class:`~tunnelsense.tunnel.PCCVerifier`) follow the tour's frame rate
+        wherever its frames go (:func:`to_xy`, a split of a grid search, a stream).
     info : dict, default={}
         Further sequence information (camera parameters, scenario, ...); written to
         ``seqinfo.ini`` under ``[Sequence]`` and read back as strings.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense import Tour
+    >>> tour = Tour.from_array("a", np.zeros((2, 4, 4), np.uint8), frame_rate=9)
+    >>> tour.frames[1].payload["frame_rate"]
+    9.0
     """
 
     name: str
@@ -61,6 +74,11 @@ class Tour:
     gt: pd.DataFrame = field(default_factory=empty_mot_gt)
     frame_rate: float = 30.0
     info: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(
+            self, "frames", with_frame_rate(self.frames, self.frame_rate)
+        )
 
     def __len__(self):
         return len(self.frames)
@@ -105,6 +123,29 @@ class Tour:
     def xy(self):
         """``(X, y, groups)`` of this tour alone; see :func:`to_xy`."""
         return to_xy([self])
+
+
+def with_frame_rate(frames, frame_rate):
+    """The frames, each carrying ``payload["frame_rate"]`` (records already carrying
+    this rate, and anything that is not a frame record, are kept as they are).
+
+    A rate that is not a positive finite number leaves the frames unchanged.
+    """
+    try:
+        rate = float(frame_rate)
+    except (TypeError, ValueError):
+        return frames
+    if not (np.isfinite(rate) and rate > 0):
+        return frames
+    if not any(isinstance(r, FrameRecord) and r.payload.get(FRAME_RATE) != rate
+               for r in frames):
+        return frames
+    stamped = [
+        r.evolve(**{FRAME_RATE: rate})
+        if isinstance(r, FrameRecord) and r.payload.get(FRAME_RATE) != rate else r
+        for r in frames
+    ]
+    return FrameSequence(stamped) if isinstance(frames, FrameSequence) else stamped
 
 
 def _boxes_per_frame(gt, frame_numbers, classes, min_height=0.0):

@@ -16,6 +16,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from tunnelsense._payload import FRAME_RATE
 from tunnelsense._records import FrameRecord, FrameSequence
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
@@ -251,10 +252,13 @@ def open_frames(source, *, colour=None):
         return iter(tour.frames), len(tour)
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+    fps = float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
     capture.release()
     if total > 0:
         read_video_frame(source, 0, colour=colour)
-    frames = (FrameRecord(source.stem, i, image)
+    # the header's frame rate, like a tour's (none: the stages' reference rate)
+    payload = {FRAME_RATE: fps} if np.isfinite(fps) and fps > 0 else {}
+    frames = (FrameRecord(source.stem, i, image, dict(payload))
               for i, image in enumerate(iter_video(source, colour=colour), 1))
     return frames, total
 

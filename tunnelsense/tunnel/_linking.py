@@ -13,10 +13,35 @@ from collections import deque
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from tunnelsense._payload import ENDED_TRACKS, TRACK_IDS, boxes_of, histograms_of
+from tunnelsense._payload import (
+    ENDED_TRACKS,
+    TRACK_IDS,
+    boxes_of,
+    frame_rate_of,
+    histograms_of,
+    scaled_count,
+)
 from tunnelsense._streaming import StreamState
 
-__all__ = ["LinkerStream", "assign_pairs", "link_log_likelihood"]
+__all__ = [
+    "MIN_GAP",
+    "MIN_TRAJECTORY_POINTS",
+    "REFERENCE_FRAME_RATE",
+    "LinkerStream",
+    "assign_pairs",
+    "link_log_likelihood",
+    "rate_ratio",
+]
+
+#: The frame rate (fps) the trajectory stages' frame counts are given in by default:
+#: the paper's camera.
+REFERENCE_FRAME_RATE = 30.0
+#: Fewest points of a trajectory's straightness test when frame counts are scaled
+#: down to a lower frame rate: with fewer, a chance alignment of jittering positions
+#: (or a quadratic's three parameters per coordinate) fits too easily.
+MIN_TRAJECTORY_POINTS = 7
+#: Fewest missed frames a trajectory may bridge when ``max_gap`` is scaled down.
+MIN_GAP = 1
 
 
 def link_log_likelihood(
@@ -124,16 +149,25 @@ class LinkerStream(StreamState):
             appearance_sigma=float(linker.appearance_sigma),
             gap_penalty=float(linker.gap_penalty),
         )
-        self.reach = int(linker.max_gap) + 1
+        self.max_gap = int(linker.max_gap)
+        self.max_track_length = linker.max_track_length
+        # models saved before the parameter existed count frames at 30 fps
+        self.frame_rate = getattr(linker, "frame_rate", REFERENCE_FRAME_RATE)
+        self._scale(1.0)
         self.history = int(linker.history)
-        self.max_length = (
-            math.inf if linker.max_track_length is None else int(linker.max_track_length)
-        )
         self.hungarian = linker.assignment == "hungarian"
         self.tour = None
         self.alive: list[_Track] = []
         self.next_id = 1
         self._count = 0
+
+    def _scale(self, ratio):
+        """The frame counts of a tour at ``ratio`` times the counts' frame rate."""
+        self.reach = scaled_count(self.max_gap, ratio, MIN_GAP) + 1
+        self.max_length = (
+            math.inf if self.max_track_length is None
+            else scaled_count(self.max_track_length, ratio, MIN_TRAJECTORY_POINTS)
+        )
 
     def _can_link(self, t, frame):
         return frame - t.last <= self.reach and frame - t.first < self.max_length
@@ -155,6 +189,7 @@ class LinkerStream(StreamState):
         frame = record.frame
         if record.tour != self.tour:
             self.tour, self.alive, self.next_id = record.tour, [], 1
+            self._scale(rate_ratio(record, self.frame_rate))
         ended = [t.id for t in self.alive if not self._can_link(t, frame)]
         alive = [t for t in self.alive if self._can_link(t, frame)]
         m = len(boxes)
@@ -199,6 +234,14 @@ class LinkerStream(StreamState):
         ended += [t.id for t in alive if not self._can_link(t, nxt)]
         self.alive = [t for t in alive if self._can_link(t, nxt)]
         return out, np.array(sorted(ended), dtype=np.int64)
+
+
+def rate_ratio(record, frame_rate):
+    """The ratio of a record's frame rate to ``frame_rate`` (1 when either is None)."""
+    rate = frame_rate_of(record)
+    if rate is None or frame_rate is None:
+        return 1.0
+    return rate / float(frame_rate)
 
 
 def assign_pairs(pairs, n_tracks, m, hungarian):

@@ -86,10 +86,10 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         constant distance jitters by a few pixels in both directions and gets
         ``|r|`` far from 1.
     min_length : int, default=10
-        Fewest clusters of an indicator's trajectory: a third of a second at 30 fps.
-        An indicator stays in view for well over a second at motorway speed, while
-        a chance alignment of a few jittering positions gives a high ``|r|``
-        only on short trajectories.
+        Fewest clusters of an indicator's trajectory, in frames at ``frame_rate``:
+        a third of a second at 30 fps.  An indicator stays in view for well over a
+        second at motorway speed, while a chance alignment of a few jittering
+        positions gives a high ``|r|`` only on short trajectories.
     vote : float, default=0.8
         A trajectory is positive when more than this fraction of its clusters are
         indicators (the paper's 80 %).
@@ -124,6 +124,17 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         no function ``y(x)`` fits it, while its motion in time is smooth; a
         cluster jittering in place fits neither.  ``payload["motion_r"]`` holds the
         chosen measure (signed r for ``"pearson"``).
+    frame_rate : float or None, default=30.0
+        The frame rate (frames per second) ``min_length`` is counted in.  A tour's
+        frames carry its frame rate (``payload["frame_rate"]``, set by
+        :class:`~tunnelsense.Tour`), and on a tour at ``f`` fps ``min_length`` is
+        scaled by ``f / frame_rate`` (rounded half up), so it keeps its duration
+        (10 frames at 30 fps are 20 at 60 fps) -- but scaled down it stays at least
+        7 (or ``min_length`` itself when smaller): on fewer points a chance
+        alignment of jittering positions passes the straightness test too easily.
+        Frames without a frame rate (made from a user's arrays) count as being at
+        ``frame_rate``; ``None`` counts frames whatever the tour's rate.  A tour's
+        rate is that of its first frame.
 
     Attributes
     ----------
@@ -149,10 +160,12 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
         "criterion": [StrOptions({"pearson", "principal", "quadratic", "quadratic-motion"})],
         "min_travel": [Interval(numbers.Real, 0, None, closed="left")],
+        "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
-                 min_travel=0.0):
+                 min_travel=0.0, frame_rate=30.0):
+        self.frame_rate = frame_rate
         self.min_travel = min_travel
         self.min_r = min_r
         self.min_length = min_length

@@ -24,9 +24,15 @@ from tunnelsense._payload import (
     boxes_of,
     ended_tracks_of,
     per_cluster,
+    scaled_count,
 )
 from tunnelsense._records import FrameRecord, release_image
 from tunnelsense._streaming import StreamState
+from tunnelsense.tunnel._linking import (
+    MIN_TRAJECTORY_POINTS,
+    REFERENCE_FRAME_RATE,
+    rate_ratio,
+)
 
 __all__ = [
     "PCCStream",
@@ -314,7 +320,10 @@ class PCCStream(StreamState):
     def __init__(self, verifier, *, release=True):
         self.measure = _MEASURES[verifier.criterion]
         self.min_r = float(verifier.min_r)
-        self.min_length = int(verifier.min_length)
+        self.length = int(verifier.min_length)
+        self.min_length = self.length
+        # models saved before the parameter existed count frames at 30 fps
+        self.frame_rate = getattr(verifier, "frame_rate", REFERENCE_FRAME_RATE)
         self.min_travel = float(getattr(verifier, "min_travel", 0.0))
         self.vote = float(verifier.vote)
         self.release = release
@@ -374,6 +383,9 @@ class PCCStream(StreamState):
         if record.tour != self.tour:
             out = self._close()
             self.tour = record.tour
+            self.min_length = scaled_count(
+                self.length, rate_ratio(record, self.frame_rate), MIN_TRAJECTORY_POINTS
+            )
         entry = _Frame(tag, boxes, tracks)
         if len(boxes):
             cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()

@@ -101,6 +101,18 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
     assignment : {"greedy", "hungarian"}, default="greedy"
         ``"greedy"``: the paper's best pair first; ``"hungarian"``: the assignment
         maximizing the sum of log-likelihoods (:func:`scipy.optimize.linear_sum_assignment`).
+    frame_rate : float or None, default=30.0
+        The frame rate (frames per second) ``max_gap`` and ``max_track_length`` are
+        counted in.  A tour's frames carry its frame rate
+        (``payload["frame_rate"]``, set by :class:`~tunnelsense.Tour`), and on a tour
+        at ``f`` fps both counts are scaled by ``f / frame_rate`` (rounded half up),
+        so they keep their duration: ``max_gap=6`` is 6 frames at 30 fps, 2 at
+        9 fps, 12 at 60 fps.  Scaled down, ``max_gap`` stays at least 1 and
+        ``max_track_length`` at least 7 (or the count itself when smaller), the
+        fewest points :class:`PCCVerifier` tests for straightness.  Frames without a
+        frame rate (made from a user's arrays) count as being at ``frame_rate``;
+        ``None`` counts frames whatever the tour's rate.  A tour's rate is that of
+        its first frame.
 
     Attributes
     ----------
@@ -131,6 +143,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         "gap_penalty": [Interval(numbers.Real, 0, None, closed="left")],
         "history": [Interval(numbers.Integral, 2, None, closed="left")],
         "assignment": [StrOptions({"greedy", "hungarian"})],
+        "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
     }
 
     def __init__(
@@ -147,6 +160,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         gap_penalty=1.0,
         history=5,
         assignment="greedy",
+        frame_rate=30.0,
     ):
         self.max_gap = max_gap
         self.max_track_length = max_track_length
@@ -159,6 +173,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         self.gap_penalty = gap_penalty
         self.history = history
         self.assignment = assignment
+        self.frame_rate = frame_rate
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
