@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from tunnelsense.exceptions import InputFormatError
+
 __all__ = [
     "FINISHED_OBJECTS",
     "FRAME_RATE",
@@ -292,15 +294,28 @@ def frame_image(record, index) -> np.ndarray:
 def frame_rate_of(record):
     """The frame rate (frames per second) a record carries, or None.
 
-    ``payload["frame_rate"]`` when it is a positive finite number; anything else
-    (absent, 0, NaN) means the rate is unknown.
+    ``payload["frame_rate"]`` when present; absent (or None) means the rate is
+    unknown.  A rate that is present but not a positive finite number is refused:
+    read as "unknown" it would silently count frames at 30 fps.
+
+    Raises
+    ------
+    InputFormatError
+        If ``payload["frame_rate"]`` is present but not a positive finite number.
     """
     rate = record.payload.get(FRAME_RATE)
-    try:
-        rate = float(rate)
-    except (TypeError, ValueError):
+    if rate is None:
         return None
-    return rate if np.isfinite(rate) and rate > 0 else None
+    try:
+        value = float(rate)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputFormatError(
+            f'payload["{FRAME_RATE}"] of frame {getattr(record, "frame", "?")}: expected '
+            f"a positive finite number of frames per second, got {rate!r}"
+        )
+    return value
 
 
 def scaled_count(count, ratio, floor):

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from tunnelsense import FrameRecord
+from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel import TrajectoryLinker
 from tunnelsense.tunnel._linking import assign_pairs, link_log_likelihood
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
@@ -208,3 +209,11 @@ def test_each_tour_follows_its_own_frame_rate():
     state = TrajectoryLinker(max_gap=6).fit(X).start_stream()
     streamed = [o for r in X for o in state.push(r)] + state.close()
     assert ids(streamed) == ids(out)
+
+
+@pytest.mark.parametrize("bad", [0, -9.0, float("nan"), float("inf"), "fast"])
+def test_an_invalid_frame_rate_is_refused_naming_it(bad):
+    # read as "unknown" it would silently count frames at 30 fps
+    X = at_rate(frames_of(moving(10, step=(0.5, 0))), bad)
+    with pytest.raises(InputFormatError, match=r'payload\["frame_rate"\].*positive finite'):
+        TrajectoryLinker().fit_transform(X)
