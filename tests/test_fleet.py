@@ -16,7 +16,7 @@ from tunnelsense import make_indicator_pipeline, make_parking_pipeline, to_xy
 from tunnelsense._cli import main
 from tunnelsense.datasets import make_street_scans, make_tunnel_tour
 from tunnelsense.fleet import detect_one, detect_tours, read_tour_list, tour_outputs
-from tunnelsense.fleet._tours import _KILL_WORKER
+from tunnelsense.fleet._runners import _KILL_WORKER
 from tunnelsense.io import save_model, write_run, write_tour
 from tunnelsense.street import write_objects
 from tunnelsense.tunnel import detect_to_files

@@ -72,7 +72,7 @@ def test_a_killed_dask_worker_does_not_stop_the_fleet(fleet, cluster, tmp_path):
     """A tour whose worker dies (SIGKILL) every time the cluster tries it ends as
     KilledWorker: its error record names it, the other tours finish, and a new run
     detects it."""
-    from tunnelsense.fleet._tours import _KILL_WORKER
+    from tunnelsense.fleet._runners import _KILL_WORKER
 
     model, tours, single = fleet
     out = tmp_path / "out"

@@ -8,11 +8,11 @@ an earlier run, so a run that was stopped resumes where it was.
 from tunnelsense._lazy import attach
 
 _NAMES = {
-    "KINDS": "_tours",
-    "detect_one": "_tours",
+    "KINDS": "_one",
+    "detect_one": "_one",
     "detect_tours": "_tours",
     "read_tour_list": "_tours",
-    "tour_outputs": "_tours",
+    "tour_outputs": "_one",
 }
 
 __all__ = ["KINDS", "detect_one", "detect_tours", "read_tour_list", "tour_outputs"]
