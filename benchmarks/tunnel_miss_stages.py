@@ -23,10 +23,15 @@ negative -> appearance; long trajectories with r >= min_r but most clusters not
 indicators -> the vote (appearance, or other objects' clusters linked into the
 trajectory); short trajectories -> the linker or min_length.
 
+``--false-alarms`` also prints every false-alarm trajectory (positive, fewer than
+half of its clusters on a sign): its length and, for a dozen of its clusters, the
+frame, the box centre and height (in the frame's pixels), the ground-truth objects
+(class, id) the centre lies in and the cluster's appearance decision.
+
 Usage::
 
     python benchmarks/tunnel_miss_stages.py [--conditions randomized ...]
-        [--seeds 101 102 103 104] [--set appearance__core=None]
+        [--seeds 101 102 103 104] [--set appearance__core=None] [--false-alarms]
 """
 
 from __future__ import annotations
@@ -102,12 +107,40 @@ def sign_stages(out, gt):
     return stages, tracks, about
 
 
+def false_alarm_tracks(out, gt_all):
+    """Per false-alarm trajectory: ``(frame, x, y, height, [(class, id)], appearance)``
+    of each of its clusters (the scorer's rule: fewer than half on an indicator)."""
+    by_frame = {f: g for f, g in gt_all.groupby("frame")}
+    tracks = defaultdict(list)
+    for r in out:
+        p = r.payload
+        sx, sy = p.get("frame_scale", (1.0, 1.0))
+        boxes = np.asarray(p["cluster_boxes"], np.float64).reshape(-1, 4)
+        for j in np.flatnonzero(np.asarray(p["trajectory_positive"])).tolist():
+            left, top, w, h = boxes[j] / (sx, sy, sx, sy)
+            cx, cy = left + w / 2, top + h / 2
+            g = by_frame.get(r.frame)
+            hit = []
+            if g is not None:
+                m = ((g.bb_left <= cx) & (cx < g.bb_left + g.bb_width)
+                     & (g.bb_top <= cy) & (cy < g.bb_top + g.bb_height))
+                hit = list(zip(g["class"][m].tolist(), g["id"][m].tolist(),
+                               strict=True))
+            tracks[int(p["track_ids"][j])].append(
+                (r.frame, round(cx), round(cy), round(h), hit,
+                 bool(p["appearance"][j])))
+    return {t: rows for t, rows in tracks.items()
+            if 2 * sum(any(c == 1 for c, _ in row[4]) for row in rows) < len(rows)}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--conditions", nargs="*", default=list(UNNAMED))
     ap.add_argument("--seeds", nargs="*", type=int, default=[101, 102, 103, 104])
     ap.add_argument("--frames", type=int, default=600)
     ap.add_argument("--set", nargs="*", default=[], metavar="STEP__PARAM=VALUE")
+    ap.add_argument("--false-alarms", action="store_true",
+                    help="print what each false-alarm trajectory lies on")
     args = ap.parse_args(argv)
     if any(s >= table.EVAL_TRAIN_SEED for s in args.seeds):
         ap.error("tuning seeds only (below the evaluation seeds)")
@@ -137,6 +170,12 @@ def main(argv=None):
                       + "; trajectories " + "; ".join(
                           f"{n} on it of {about[t][0]}, r {about[t][1]:.3f}"
                           for t, n in mine))
+            if args.false_alarms:
+                for tid, rows in false_alarm_tracks(out, t.gt).items():
+                    print(f"  {c} seed {seed} false alarm {tid}: {len(rows)} "
+                          "clusters (frame, x, y, height, on (class, id), appearance)")
+                    for row in rows[:: max(1, len(rows) // 12)]:
+                        print("     ", row)
         print(f"{c}: {found}/{total}, {fa} false-alarm trajectories", flush=True)
 
 

@@ -38,6 +38,11 @@ conditions (:data:`CONDITIONS`) are physical parameters of
 * ``lens-1000`` / ``lens-450``: camera A with a narrower (focal length 1000 px) or
   wider (450 px) lens;
 * ``stripes-3``: camera A with column fixed-pattern noise of sigma 3 grey levels.
+* ``lag-10ms`` / ``lag-12ms-fast``: camera A as a microbolometer, whose pixels
+  follow the radiance with a thermal time constant of 10 ms (at 60-100 km/h) and
+  12 ms (at 100-130 km/h): near objects smeared along their paths.
+* ``signs-0.6x0.6``: camera A, square signs 0.6 m x 0.6 m (another design than
+  the training tour's 0.45 m x 1.0 m).
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -96,6 +101,10 @@ CONDITIONS = {
     "stripes-3": dict(scenario="light", fpn_sigma=3.0, **CAMERA_A),
     "roll-5": dict(scenario="light", roll_deg=5.0, **CAMERA_A),
     "9fps": dict(scenario="light", frame_rate_hz=9.0, **CAMERA_A),
+    "lag-10ms": dict(scenario="light", thermal_time_constant_s=0.010, **CAMERA_A),
+    "lag-12ms-fast": dict(scenario="light", thermal_time_constant_s=0.012,
+                          speed_kmh=(100.0, 130.0), **CAMERA_A),
+    "signs-0.6x0.6": dict(scenario="light", indicator_size_m=(0.6, 0.6), **CAMERA_A),
 }
 
 #: the grey-level band (keypoints in a band of grey levels learned from the

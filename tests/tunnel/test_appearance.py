@@ -228,7 +228,8 @@ def test_record_stage_checks(name, check):
     check()
 
 
-@pytest.mark.parametrize("params", [{}, {"features": "invariant", "augment": 2}])
+@pytest.mark.parametrize("params", [{}, {"features": "invariant", "augment": 2},
+                                    {"features": "invariant-any-shape", "augment": 2}])
 def test_frame_mode_fit_transform_equals_fit_then_transform(params):
     """fit_transform scores the features of the fit without computing them again."""
     X, y = _frames(seed=3)
@@ -297,3 +298,28 @@ def test_core_fit_transform_equals_fit_then_transform():
     for ra, rb in zip(out_a, out_b, strict=True):
         for key in ("appearance_score", "cluster_boxes"):
             assert np.array_equal(ra.payload[key], rb.payload[key])
+
+
+def test_any_shape_features_leave_out_the_proportions():
+    """``features="invariant-any-shape"``: the invariant features with the two log
+    aspect ratios at 0, so no stump splits on a sign's proportions, and a square
+    sign is judged on its intensities as an upright one is."""
+    from tunnelsense.tunnel._appearance import _SHAPE_COLUMNS, _invariant_rows
+    from tunnelsense.tunnel._invariant import box_patches
+
+    X, y = _frames(seed=3)
+    rec = X[0]
+    rects = rec.payload["cluster_boxes"]
+    patches = box_patches(rec.image, rects, 0.25)
+    full = _invariant_rows(patches, rects[:, [3, 2]].tolist(), "invariant")
+    free = _invariant_rows(patches, rects[:, [3, 2]].tolist(), "invariant-any-shape")
+    shape = list(_SHAPE_COLUMNS)
+    assert (full[:, shape] != 0).any() and (free[:, shape] == 0).all()
+    rest = np.setdiff1d(np.arange(full.shape[1]), shape)
+    assert np.array_equal(full[:, rest], free[:, rest])
+    ada = WeightedAdaBoost(n_estimators=10, random_state=0,
+                           features="invariant-any-shape", augment=2).fit(X, y)
+    assert not np.isin(ada.stump_features_, shape).any()
+    square, _ = _frame(50, [(20, 30, 14, 14), (100, 40, 10, 14)], ["indicator", "lamp"],
+                       rng=np.random.default_rng(7))
+    assert ada.transform([square])[0].payload["appearance"].tolist() == [True, False]

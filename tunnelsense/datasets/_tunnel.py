@@ -22,8 +22,10 @@ from tunnelsense._records import MOT_GT_COLUMNS, Tour
 from tunnelsense.datasets._odometry import TourKinematics, with_kinematics
 from tunnelsense.datasets._tunnel_camera import (
     _Agc,
+    _at,
     _Background,
     _Camera,
+    _lag_samples,
     _roll_box,
     _roll_image,
     _roll_matrix,
@@ -153,7 +155,13 @@ def make_tunnel_tour(
         ``frame_rate_hz`` (30); ``vignetting`` (1: the lens's response at the
         image corners, falling with the squared distance from the centre, applied
         to the radiance before the gain); ``indicator_side`` ("left": the wall the
-        signs stand on, "right" for the other tube or left-hand traffic).
+        signs stand on, "right" for the other tube or left-hand traffic);
+        ``thermal_time_constant_s`` (0: none; a microbolometer's pixel follows
+        the radiance with a time constant of about 8-12 ms, so a frame is the
+        radiance of the instants before it weighted by ``exp(-age / tau)``, which
+        smears a fast near object along its path; rendered as sub-frame samples,
+        see :func:`_lag_samples`; the ground truth is the object at the frame's
+        instant).
 
     Returns
     -------
@@ -251,11 +259,19 @@ def make_tunnel_tour(
     roll = _roll_matrix(p["roll_deg"], (H, W)) if p["roll_deg"] else None
     vignette = _vignette((H, W), p["vignetting"]) if p["vignetting"] < 1.0 else None
     agc = _Agc(fps, p["agc_time_s"]) if p["agc"] else None
-    images = np.empty((n_frames, H, W), dtype=np.uint8)
-    rows = []
-    for f in range(n_frames):
-        pose = (float(lat[f]), float(hgt[f]), float(pitch[f]))
-        sc = float(s_ego[f])
+    lag = (_lag_samples(p["thermal_time_constant_s"], fps)
+           if p["thermal_time_constant_s"] > 0 else None)
+
+    def scene(f, q=None):
+        """The radiance image and drawn objects at frame ``f``; ``q`` (a fractional
+        frame index) renders the scene at that earlier instant instead (the ego
+        motion and traffic interpolated linearly), for the bolometer's lag."""
+        if q is None:
+            pose = (float(lat[f]), float(hgt[f]), float(pitch[f]))
+            sc = float(s_ego[f])
+        else:
+            pose = (_at(lat, q), _at(hgt, q), _at(pitch, q))
+            sc = _at(s_ego, q)
         half = bg.render(sc, pose)
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
         if warming:  # lining and road follow the air; signs, lamps, engines do not
@@ -277,7 +293,7 @@ def make_tunnel_tour(
                     if min(gl[4], ho[4]) > _Z_NEAR:
                         todo.append((lamp_s[k] + offset - sc, LAMP, (row, k, gl, ho)))
         for k, veh in enumerate(vehicles):
-            ds = veh["gap"][f]
+            ds = veh["gap"][f] if q is None else _at(veh["gap"], q)
             if 2.0 < ds < _Z_FAR:
                 todo.append((ds, VEHICLE, k))
         todo.sort(key=lambda item: -item[0])  # painter's order: far to near
@@ -291,6 +307,8 @@ def make_tunnel_tour(
                 oid = lamp_ids[row, k]
             else:
                 veh = vehicles[key]
+                if q is not None:  # its lateral position at that instant
+                    veh = {**veh, "x": {f: _at(veh["x"], q)}}
                 sbox = _draw_shadow(img, cam, pose, veh, f, ds, warming)
                 if sbox is not None:
                     drawn.append((sbox[4], SHADOW, shadow_ids[key], sbox, False))
@@ -298,6 +316,17 @@ def make_tunnel_tour(
                 oid = veh_ids[key]
             if box is not None:
                 drawn.append((box[4], cls, oid, box, cls == VEHICLE))
+        return img, drawn
+
+    images = np.empty((n_frames, H, W), dtype=np.uint8)
+    rows = []
+    for f in range(n_frames):
+        img, drawn = scene(f)
+        if lag is not None:  # the bolometer's output: radiance averaged over its past
+            lags, weights = lag
+            img *= np.float32(weights[0])
+            for u, w in zip(lags[1:], weights[1:], strict=True):
+                img += np.float32(w) * scene(f, f - u * fps)[0]
         if roll is not None:  # the camera's roll turns the radiance image
             img = _roll_image(img, roll)
             drawn = [(z, c, o, _roll_box(b, roll), occ) for z, c, o, b, occ in drawn]
@@ -368,7 +397,7 @@ def make_tunnel_tour(
     if warming:
         info["ambient_warming"] = float(warming)
     for key, default in (("roll_deg", 0.0), ("vignetting", 1.0),
-                         ("indicator_side", "left")):
+                         ("indicator_side", "left"), ("thermal_time_constant_s", 0.0)):
         if p[key] != default:
             info[key] = p[key]
     if agc is not None:

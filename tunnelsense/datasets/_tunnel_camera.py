@@ -275,3 +275,69 @@ def _vignette(shape, corner):
     yy, xx = np.mgrid[0:H, 0:W]
     r2 = ((xx + 0.5 - W / 2) ** 2 + (yy + 0.5 - H / 2) ** 2) / ((W / 2) ** 2 + (H / 2) ** 2)
     return (1.0 - (1.0 - corner) * r2).astype(np.float32)
+
+
+# --------------------------------------------------------------------------------------
+# the bolometer's thermal lag
+# --------------------------------------------------------------------------------------
+def _lag_samples(tau, fps, *, span=3.0, per_tau=2):
+    """Ages and weights of the sub-frame samples that make a microbolometer's frame.
+
+    A bolometer pixel follows the radiance ``x`` as a first-order low-pass of time
+    constant ``tau``: its output at the readout is ``integral of x(t - a)
+    exp(-a / tau) / tau da`` over the ages ``a >= 0``.  The integral is cut at
+    ``span * tau`` and split into ``span * per_tau`` equal intervals; each sample
+    (at the start of its interval) carries that interval's weight, and the last
+    also the tail beyond ``span * tau`` (exp(-3) = 5 % for ``span=3``).
+
+    Parameters
+    ----------
+    tau : float
+        Time constant (s), > 0.
+    fps : float
+        Frame rate (Hz); only checked, the ages are in seconds.
+    span : float, default=3.0
+        How many time constants the samples cover.
+    per_tau : int, default=2
+        Samples per time constant.
+
+    Returns
+    -------
+    ages : ndarray of shape (n,)
+        Seconds before the readout, ``ages[0] = 0``.
+    weights : ndarray of shape (n,)
+        Summing to 1.
+
+    Examples
+    --------
+    >>> ages, w = _lag_samples(0.01, 30.0)
+    >>> ages.round(4).tolist()
+    [0.0, 0.005, 0.01, 0.015, 0.02, 0.025]
+    >>> w.round(3).tolist(), float(w.sum())
+    ([0.393, 0.239, 0.145, 0.088, 0.053, 0.082], 1.0)
+    """
+    if not (tau > 0 and fps > 0):
+        raise ValueError(f"tau and fps must be > 0; got {tau!r}, {fps!r}")
+    n = int(round(span * per_tau))
+    step = tau / per_tau
+    ages = step * np.arange(n)
+    edges = np.exp(-step * np.arange(n + 1) / tau)
+    weights = edges[:-1] - edges[1:]
+    weights[-1] += edges[-1]  # the tail
+    return ages, weights / weights.sum()
+
+
+def _at(values, q):
+    """``values`` (one per frame) at the fractional frame index ``q``: linear
+    interpolation, extrapolated from the first two frames before frame 0.
+
+    Examples
+    --------
+    >>> _at(np.array([0.0, 2.0, 6.0]), 1.25), _at(np.array([0.0, 2.0, 6.0]), -0.5)
+    (3.0, -1.0)
+    """
+    n = len(values)
+    if n == 1:
+        return float(values[0])
+    i = min(max(int(math.floor(q)), 0), n - 2)
+    return float(values[i] + (q - i) * (values[i + 1] - values[i]))

@@ -46,6 +46,7 @@ _DEFAULTS = {
     "frame_rate_hz": 30.0,  # frames per second
     "vignetting": 1.0,  # lens response at the image corners (1: none)
     "indicator_side": "left",  # the wall the signs stand on
+    "thermal_time_constant_s": 0.0,  # microbolometer lag (0: none); 8-12 ms typical
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -274,6 +275,9 @@ def _resolve_params(scenario, overrides, seed=0):
     p["roll_deg"] = _check_range("roll_deg", p["roll_deg"], -30.0, 30.0)
     p["frame_rate_hz"] = _check_range("frame_rate_hz", p["frame_rate_hz"], 1.0, 1000.0)
     p["vignetting"] = _check_range("vignetting", p["vignetting"], 0.1, 1.0)
+    p["thermal_time_constant_s"] = _check_range(
+        "thermal_time_constant_s", p["thermal_time_constant_s"], 0.0, 0.1
+    )
     if p["indicator_side"] not in ("left", "right"):
         raise ValueError(
             f"indicator_side must be 'left' or 'right'; got {p['indicator_side']!r}"

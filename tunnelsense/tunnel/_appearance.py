@@ -146,13 +146,28 @@ def _patch_histograms(patches, bins, lut):
 _INVARIANT_BINS = 16
 
 
-def _chunked_features(patches, hws, chunk=128):
-    """``_features(patches, hws, _INVARIANT_BINS)`` in calls of ``chunk`` patches
-    (its per-patch tables of 256 grey levels stay in cache)."""
+#: Columns of the invariant features that describe the proportions of the bright
+#: region and of the rectangle (log aspect ratios), which ``"invariant-any-shape"``
+#: sets to 0.
+_SHAPE_COLUMNS = (_INVARIANT_BINS + 3, _INVARIANT_BINS + 4)
+
+
+def _invariant_rows(patches, hws, features="invariant"):
+    """``_features(patches, hws, _INVARIANT_BINS)``; for ``"invariant-any-shape"``
+    with the two aspect-ratio columns set to 0 (a stump cannot split on them)."""
+    out = _features(patches, hws, _INVARIANT_BINS)
+    if features == "invariant-any-shape":
+        out[:, list(_SHAPE_COLUMNS)] = 0.0
+    return out
+
+
+def _chunked_features(patches, hws, chunk=128, features="invariant"):
+    """:func:`_invariant_rows` in calls of ``chunk`` patches (its per-patch tables of
+    256 grey levels stay in cache)."""
     out = np.empty((len(patches), n_invariant_features(_INVARIANT_BINS)))
     for start in range(0, len(patches), chunk):
-        out[start:start + chunk] = _features(patches[start:start + chunk],
-                                             hws[start:start + chunk], _INVARIANT_BINS)
+        out[start:start + chunk] = _invariant_rows(patches[start:start + chunk],
+                                                   hws[start:start + chunk], features)
     return out
 
 
@@ -198,7 +213,8 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         fraction of its height before its histogram is taken, so that it shows the
         indicator whole with a rim of the dark wall around it, in the same
         proportion at any distance.  ``0`` is the paper's bare rectangle.
-    features : {"histogram", "invariant"}, default="histogram"
+    features : {"histogram", "invariant", "invariant-any-shape"}, \
+            default="histogram"
         Frame records: what the stumps decide on.  ``"histogram"`` is the paper's
         normalized intensity histogram of ``bins`` bins.  ``"invariant"`` is
         the invariant features (16 bins of the
@@ -206,6 +222,11 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         six shape and contrast figures): a camera with another gain, offset or
         noise level moves a raw histogram's bins, and stumps learnt on one camera's
         bins then fail on another's, while these features stay put.
+        ``"invariant-any-shape"``: the same without the two proportions (the log
+        aspect ratios of the bright region and of the rectangle, set to 0), so a
+        sign of another design (square instead of upright) is judged on its
+        intensities, contrast and fill alone.  An option: a training tour shows one
+        design, and its proportions are otherwise a strong cue.
         ``payload["cluster_histograms"]`` holds the raw histogram either way.
     augment : int, default=0
         Frame records: every training cluster is also described ``augment`` times
@@ -272,7 +293,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         "bins": [Interval(numbers.Integral, 2, None, closed="left")],
         "intensity_range": [tuple, list, None],
         "margin": [Interval(numbers.Real, 0, None, closed="left")],
-        "features": [StrOptions({"histogram", "invariant"})],
+        "features": [StrOptions({"histogram", "invariant", "invariant-any-shape"})],
         "augment": [Interval(numbers.Integral, 0, None, closed="left")],
         "random_state": ["random_state"],
         "core": [tuple, list, None],
@@ -338,7 +359,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 )
 
     def _n_features(self):
-        if self.features == "invariant":
+        if self.features != "histogram":
             return n_invariant_features(_INVARIANT_BINS)
         return int(self.bins)
 
@@ -357,8 +378,8 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             rects = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
             patches = box_patches(image, rects, margin)
             H = _patch_histograms(patches, self.bins, lut)
-            if self.features == "invariant":
-                F = _features(patches, rects[:, [3, 2]].tolist(), _INVARIANT_BINS)
+            if self.features != "histogram":
+                F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features)
             else:
                 F = H
             yield r, boxes, H, F
@@ -377,8 +398,8 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             return score, boxes
         owner, rects = owner[other], rects[other]
         patches = box_patches(image, rects, float(self.margin))
-        if self.features == "invariant":
-            F = _features(patches, rects[:, [3, 2]].tolist(), _INVARIANT_BINS)
+        if self.features != "histogram":
+            F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features)
         else:
             F = _patch_histograms(patches, self.bins,
                                   bin_lut(image.dtype, self.bins, self.intensity_range))
@@ -401,9 +422,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         seen = [perturb_patch(patch, rng, (box[3], box[2]))
                 for _ in range(int(self.augment))
                 for patch, box in zip(patches, boxes.tolist(), strict=True)]
-        if self.features == "invariant":
-            rows = _features([q for q, _ in seen], [hw for _, hw in seen],
-                             _INVARIANT_BINS)
+        if self.features != "histogram":
+            rows = _invariant_rows([q for q, _ in seen], [hw for _, hw in seen],
+                                   self.features)
         else:
             rows = []
             for q, _ in seen:
@@ -418,7 +439,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         the features of the ``augment`` copies, an empty list without), with the
         invariant features of all frames' patches computed at once (each row is its
         patch's alone: the same values, without a call per frame)."""
-        if self.features != "invariant":
+        if self.features == "histogram":
             out = []
             for i, (r, b, h, f) in enumerate(self._frame_histograms(records)):
                 augmented = (self._augmented(r, i, b, rng) if self.augment and len(b)
@@ -445,8 +466,9 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 seen.extend(perturb_patch(patch, rng, (box[3], box[2]))
                             for _ in range(n_aug)
                             for patch, box in zip(crops, b.tolist(), strict=True))
-        F = _chunked_features(patches, hws)
-        G = _chunked_features([q for q, _ in seen], [hw for _, hw in seen])
+        F = _chunked_features(patches, hws, features=self.features)
+        G = _chunked_features([q for q, _ in seen], [hw for _, hw in seen],
+                              features=self.features)
         out, at_f, at_g = [], 0, 0
         for r, b, h, m in frames:
             f = F[at_f:at_f + m]
