@@ -6,14 +6,17 @@ time.  Each repeat runs, interleaved, in fresh processes:
 * ``python -c pass``: the interpreter alone;
 * ``import numpy, cv2`` and ``import sklearn.base``: the floors of a detector (its
   estimators are scikit-learn estimators, and ``sklearn.base`` imports SciPy's stats
-  and pandas itself); ``import sklearn.pipeline, deferred``: the same with SciPy's
-  stats and pandas deferred, as the command does;
+  and pandas itself); ``import sklearn.base, deferred`` and ``import sklearn.pipeline,
+  deferred``: the same with what the command defers deferred (``tunnelsense._deferred``:
+  SciPy's stats, pandas, ``sklearn.preprocessing``...), the floor of any command that
+  loads a model (a Pipeline of scikit-learn estimators);
 * ``tunnelsense --version``;
 * ``tunnelsense detect tunnel`` on a 10-frame tour (imports, model load, detection,
   writing);
 * ``tunnelsense detect street`` on a 200-scan run;
 
-and prints each median.  Exit: the same ``detect tunnel`` through a wrapper that prints
+and prints each median, of the wall time and of the CPU time (user + system) of the
+process, with the machine's load average before and after.  Exit: the same ``detect tunnel`` through a wrapper that prints
 the wall clock when the command returns, the parent noting when the process ended; once
 as the command runs (``main()``: no final garbage collection) and once with the
 interpreter's usual final collection (``main(argv)``, as a call from Python).
@@ -27,6 +30,8 @@ NumPy, OpenCV.  The goal for ``detect`` on 10 frames (0.6 s) is printed, met or 
 
 import argparse
 import json
+import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -60,10 +65,20 @@ def _cli(*argv):
     return [sys.executable, "-m", "tunnelsense._cli", *argv]
 
 
-def _timed(cmd):
+def _timed(cmd, cpu=None):
+    """Wall seconds of ``cmd``; its CPU seconds (user + system) appended to ``cpu``."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if cpu is not None:
+        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return wall
+
+
+def _load():
+    return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def _exit_time(how, argv):
@@ -107,6 +122,9 @@ def main():
             "python -c pass": [sys.executable, "-c", "pass"],
             "import numpy, cv2": [sys.executable, "-c", "import numpy, cv2"],
             "import sklearn.base": [sys.executable, "-c", "import sklearn.base"],
+            "import sklearn.base, deferred": [
+                sys.executable, "-c", "from tunnelsense._deferred import defer; defer(); "
+                "import sklearn.base"],
             "import sklearn.pipeline, deferred": [
                 sys.executable, "-c", "from tunnelsense._deferred import defer; defer(); "
                 "import sklearn.pipeline"],
@@ -117,16 +135,20 @@ def main():
                 "--out", str(d["out"] / "o.csv"), "--force", "--quiet"),
         }
         times = {k: [] for k in cases}
+        cpu = {k: [] for k in cases}
+        print(_load(), "before", flush=True)
         exits = {"command (no final collection)": [], "with final collection": []}
         for _ in range(args.repeats):
             for name, cmd in cases.items():
-                times[name].append(_timed(cmd))
+                times[name].append(_timed(cmd, cpu[name]))
             exits["command (no final collection)"].append(_exit_time("command", detect))
             exits["with final collection"].append(_exit_time("call", detect))
     med = {k: statistics.median(v) for k, v in times.items()}
-    print(f"fresh processes, wall time, median of {args.repeats} (interleaved):")
+    print(f"fresh processes, median of {args.repeats} (interleaved): wall s, CPU s "
+          "(user + system)")
     for name, value in med.items():
-        print(f"  {name:34s} {value:6.3f} s")
+        print(f"  {name:34s} {value:6.3f} {statistics.median(cpu[name]):6.3f}")
+    print(_load(), "after")
     print("process exit after detect tunnel returns (median):")
     for name, values in exits.items():
         print(f"  {name:32s} {statistics.median(values) * 1000:6.0f} ms")

@@ -185,3 +185,32 @@ def test_the_tunnel_command_imports_neither_the_street_detector_nor_the_simulato
         capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[-1] == ""
+
+
+_SERVED = """
+import sys
+from tunnelsense._deferred import defer
+assert "sklearn.preprocessing" in defer()
+import sklearn.pipeline  # imports FunctionTransformer from sklearn.preprocessing
+from scipy.optimize import linear_sum_assignment
+kinds = [type(sys.modules[m]).__name__ for m in ("sklearn.preprocessing", "scipy.optimize")]
+light = "scipy.interpolate" not in sys.modules
+served = sklearn.pipeline.FunctionTransformer
+from sklearn.preprocessing import StandardScaler  # any other name: the whole package
+import sklearn.preprocessing as pre
+import scipy.optimize
+same = (pre.FunctionTransformer is served
+        and pre._function_transformer.FunctionTransformer is served
+        and scipy.optimize.linear_sum_assignment is linear_sum_assignment
+        and StandardScaler is pre.StandardScaler)
+assert type(sys.modules["sklearn.preprocessing"]).__name__ == "module"
+assert scipy.optimize.minimize is sys.modules["scipy.optimize"].minimize
+print(*kinds, light, same)
+"""
+
+
+def test_a_deferred_package_serves_named_submodules_then_imports_whole():
+    done = subprocess.run([sys.executable, "-c", _SERVED], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["_Deferred", "_Deferred", "True", "True"]

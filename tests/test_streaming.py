@@ -390,3 +390,15 @@ def test_prepare_leaves_a_stateful_first_stage_and_the_last_stage_to_push():
     only = StreamingPipeline(Pipeline([("b", Brightness())]).fit(X))
     assert only.prepare(X[0]) is X[0]
     assert only.push_prepared(X[0])[0].payload == {"mean": 0.0}
+
+
+def test_a_stream_of_an_unfitted_sampler_is_refused_before_any_frame():
+    """The first stage's per-frame call skips the fitted check: the stream checks it
+    when it starts."""
+    from sklearn.exceptions import NotFittedError
+
+    from tunnelsense._streaming import start_stream
+    from tunnelsense.tunnel import IntensityKeypointSampler
+
+    with pytest.raises(NotFittedError):
+        start_stream(IntensityKeypointSampler())

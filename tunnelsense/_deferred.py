@@ -8,6 +8,16 @@ imports the real module, which replaces the stand-in in ``sys.modules`` and answ
 every later look-up through it.  A command that never uses the module never imports
 it; one that does pays the same import, later.
 
+A package whose names are imported at start (``from package import Name``, which looks
+the name up at once) can be deferred too when each such name lives in one light
+submodule (:data:`SERVED`): the stand-in answers those names from their submodules and
+imports the whole package at the first look-up of any other name.
+scikit-learn's pipeline module imports ``FunctionTransformer`` from
+``sklearn.preprocessing``, whose package imports SciPy's interpolation and optimization
+(a quarter of the pipeline's import), which no detection uses; the tunnel detector
+needs SciPy's assignment solver and its Delaunay triangulation and k-d tree, each a
+compiled module of a package that imports much more.
+
 Only the ``tunnelsense`` command calls :func:`defer` (a library import never does): it
 changes how modules load in the whole process.
 """
@@ -19,20 +29,54 @@ import importlib.machinery
 import importlib.util
 import sys
 import types
+from pathlib import Path
 
-__all__ = ["DEFERRED", "defer"]
+__all__ = ["DEFERRED", "SERVED", "defer"]
 
 #: The modules the command defers: imported by scikit-learn at start, seldom needed.
-DEFERRED = ("scipy.stats", "pandas")
+DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
+            "scipy.spatial")
+
+#: Names a deferred package serves from one of its submodules without importing the
+#: package (see the module's docstring).
+SERVED = {
+    "sklearn.preprocessing": {
+        "FunctionTransformer": "sklearn.preprocessing._function_transformer",
+    },
+    # the tunnel detector's trajectory linking and keypoint clustering
+    "scipy.optimize": {"linear_sum_assignment": "scipy.optimize._lsap"},
+    "scipy.spatial": {"Delaunay": "scipy.spatial._qhull",
+                      "QhullError": "scipy.spatial._qhull",
+                      "cKDTree": "scipy.spatial._ckdtree"},
+}
 
 class _Deferred(types.ModuleType):
     """The stand-in of a module not imported yet (see the module's docstring)."""
 
     def __getattr__(self, attr):
+        served = SERVED.get(self.__name__, {})
+        if served and sys.modules.get(self.__name__) is self:
+            if attr in served:
+                return getattr(importlib.import_module(served[attr]), attr)
+            if _is_submodule(self, attr):  # ``from . import x`` in a submodule
+                return importlib.import_module(f"{self.__name__}.{attr}")
         return getattr(_load(self), attr)
 
     def __dir__(self):
         return dir(_load(self))
+
+
+def _is_submodule(stand_in, attr):
+    """Whether ``attr`` names a module or package in the stand-in's folder."""
+    if attr.startswith("__"):
+        return False
+    for folder in getattr(stand_in, "__path__", ()):
+        base = Path(folder)
+        if (base / attr / "__init__.py").is_file() or any(
+                p.name.partition(".")[0] == attr for p in base.glob(f"{attr}.*")
+                if p.suffix in (".py", ".so", ".pyd")):
+            return True
+    return False
 
 
 def _load(stand_in):
@@ -45,6 +89,12 @@ def _load(stand_in):
     if sys.modules.get(name) is stand_in:
         sys.modules.pop(name, None)
     real = importlib.import_module(name)
+    # submodules imported through the stand-in (SERVED) are the package's too
+    for child, module in list(sys.modules.items()):
+        if child.rpartition(".")[0] == name and module is not None:
+            tail = child.rpartition(".")[2]
+            if tail not in vars(real):
+                setattr(real, tail, module)
     stand_in.__dict__.update(
         {k: v for k, v in vars(real).items() if k not in ("__spec__", "__loader__")})
     return real
@@ -68,12 +118,24 @@ def defer(names=DEFERRED) -> list[str]:
         if name in sys.modules:
             continue
         try:  # the top-level package only: a submodule's look-up imports its parent
-            if importlib.util.find_spec(name.partition(".")[0]) is None:
-                continue
+            top = importlib.util.find_spec(name.partition(".")[0])
         except (ImportError, ValueError):
             continue
+        if top is None:
+            continue
+        path = None
+        if name in SERVED:  # its submodules load from its folder, found without
+            # importing the parent (``tunnelsense --version`` imports none of it)
+            folder = Path(top.origin or "").parent.joinpath(*name.split(".")[1:])
+            if top.origin is None or not (folder / "__init__.py").is_file():
+                continue
+            path = [str(folder)]
         stand_in = _Deferred(name)
-        stand_in.__spec__ = importlib.machinery.ModuleSpec(name, None)
+        stand_in.__spec__ = importlib.machinery.ModuleSpec(name, None,
+                                                           is_package=path is not None)
+        if path is not None:
+            stand_in.__path__ = path
+            stand_in.__spec__.submodule_search_locations = path
         sys.modules[name] = stand_in
         deferred.append(name)
     return deferred

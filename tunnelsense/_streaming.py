@@ -15,7 +15,10 @@ A record stage may offer ``start_stream()``, returning a *stream state* with
 
 A stage without ``start_stream`` is stateless per record: :func:`start_stream` wraps
 it so that ``push(r)`` returns ``stage.transform([r])`` (``predict`` for a final step
-that has no ``transform``).  Inside a :class:`StreamingPipeline`, a stateless stage
+that has no ``transform``; a stage that offers ``_stream_frames(records) -> list``,
+its ``transform`` checking the records but not again that it is fitted, is called
+through that, the state being made only from a fitted stage).  Inside a
+:class:`StreamingPipeline`, a stateless stage
 after the first receives only records that earlier stages made and that were checked
 on entry, from stages checked fitted at the start; when it offers
 ``_transform_frames(records) -> list`` (the work of its ``transform`` without the
@@ -303,6 +306,8 @@ class _StatelessStream:
             self._map = stage.predict
         elif checked and hasattr(stage, "_transform_frames"):
             self._map = stage._transform_frames
+        elif hasattr(stage, "_stream_frames"):  # checks the records, not the fit
+            self._map = stage._stream_frames
         else:
             self._map = stage.transform
 
@@ -333,6 +338,8 @@ def start_stream(stage, *, final=False):
     """
     if hasattr(stage, "start_stream"):
         return stage.start_stream()
+    if hasattr(stage, "_stream_frames"):  # which does not check the fit a frame at a time
+        check_is_fitted(stage)
     return _StatelessStream(stage, final)
 
 

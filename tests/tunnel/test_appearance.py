@@ -323,3 +323,29 @@ def test_any_shape_features_leave_out_the_proportions():
     square, _ = _frame(50, [(20, 30, 14, 14), (100, 40, 10, 14)], ["indicator", "lamp"],
                        rng=np.random.default_rng(7))
     assert ada.transform([square])[0].payload["appearance"].tolist() == [True, False]
+
+
+def test_invariant_core_transform_frame_by_frame_or_at_once():
+    """The invariant features of all frames' clusters and cores are scored in one
+    call: the same payloads as fit_transform's frame-by-frame scoring, and as one
+    frame at a time, with a frame without clusters among them."""
+    X, y = _frames(seed=6)
+    empty = X[0].evolve(cluster_boxes=np.empty((0, 4)))
+    X = FrameSequence([*X, _sign_in_halo(), empty.evolve()])
+    y = [*y, np.array([[30.0, 40.0, 8.0, 18.0]]), np.empty((0, 4))]
+    X = FrameSequence(r if i != len(X) - 1 else FrameRecord("t", 100, r.image, r.payload)
+                      for i, r in enumerate(X))
+    a = WeightedAdaBoost(n_estimators=10, features="invariant", core=(0.5, 0.7, 0.85),
+                         random_state=0)
+    out_a = a.fit_transform(X, y)
+    b = clone(a).fit(X, y)
+    out_b = b.transform(X)
+    out_c = [b.transform([r])[0] for r in X]
+    assert any(len(r.payload["cluster_boxes"]) == 0 for r in out_b)
+    for ra, rb, rc in zip(out_a, out_b, out_c, strict=True):
+        assert ra.payload.keys() == rb.payload.keys() == rc.payload.keys()
+        for key in ("appearance", "appearance_score", "cluster_histograms",
+                    "cluster_boxes"):
+            for other in (rb, rc):
+                assert ra.payload[key].dtype == other.payload[key].dtype
+                assert np.array_equal(ra.payload[key], other.payload[key])

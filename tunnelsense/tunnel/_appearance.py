@@ -472,7 +472,7 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
         out, at_f, at_g = [], 0, 0
         for r, b, h, m in frames:
             f = F[at_f:at_f + m]
-            g = G[at_g:at_g + n_aug * m].reshape(n_aug, m, -1) if m else []
+            g = G[at_g:at_g + n_aug * m].reshape(n_aug, m, G.shape[1]) if m else []
             at_f, at_g = at_f + m, at_g + n_aug * m
             out.append((r, b, h, f, list(g)))
         return out
@@ -537,7 +537,62 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 f"{self.classes_.tolist()}; label frame records with a machine "
                 "fitted on frame records (classes [False, True])"
             )
+        if self.features != "histogram" and self.core is not None:
+            return self._scored_with_cores(records)
         return self._scored((r, H, F) for r, _, H, F in self._frame_histograms(records))
+
+    def _scored_with_cores(self, records):
+        """:meth:`_scored` of frames with ``core``: the invariant features of every
+        frame's clusters' patches and of their distinct bright cores' patches in one
+        call, scored in one call (each row is its patch's alone: the same values as
+        a call per frame and per kind of patch)."""
+        margin = float(self.margin)
+        frames, patches, hws = [], [], []
+        for i, r in enumerate(records):
+            boxes = boxes_of(r, i, "WeightedAdaBoost")
+            if len(boxes) == 0:
+                frames.append((r, None, None, None, None))
+                continue
+            image = frame_image(r, i)
+            rects = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+            crops = box_patches(image, rects, margin)
+            H = _patch_histograms(crops, self.bins,
+                                  bin_lut(image.dtype, self.bins, self.intensity_range))
+            cores = core_boxes(image, rects, margin=margin, fractions=self.core)
+            owner = np.repeat(np.arange(len(rects)), cores.shape[1])
+            core_rects = cores.reshape(-1, 4)
+            other = (core_rects != rects[owner]).any(axis=1)
+            owner, core_rects = owner[other], core_rects[other]
+            frames.append((r, rects, H, owner, core_rects))
+            patches += crops
+            patches += box_patches(image, core_rects, margin)
+            hws.append(rects[:, [3, 2]])
+            hws.append(core_rects[:, [3, 2]])
+        decision = (self._decision(_invariant_rows(
+            patches, np.concatenate(hws).tolist(), self.features))
+                    if patches else np.empty(0))
+        out, at = [], 0
+        for r, rects, H, owner, core_rects in frames:
+            if rects is None:
+                out.extend(self._scored([(r, np.empty((0, self.bins)),
+                                          np.empty((0, self._n_features())))]))
+                continue
+            m, k = len(rects), len(owner)
+            score, boxes = decision[at:at + m], rects
+            if k:
+                score, boxes = score.copy(), rects.copy()
+                for o, rect, s in zip(owner.tolist(), core_rects,
+                                      decision[at + m:at + m + k].tolist(), strict=True):
+                    if s > score[o]:
+                        score[o], boxes[o] = s, rect
+            at += m + k
+            out.append(r.evolve(**{
+                APPEARANCE: score > 0,
+                APPEARANCE_SCORE: score,
+                CLUSTER_HISTOGRAMS: H,
+                CLUSTER_BOXES: boxes,
+            }))
+        return out
 
     def _scored(self, described):
         """The records evolved with the machine's labels of their clusters."""

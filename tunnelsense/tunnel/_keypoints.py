@@ -480,6 +480,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         records, _ = check_frames(X)
         return self._transform(records)
 
+    def _stream_frames(self, records):
+        """:meth:`transform` for a stream state built after the fitted check: the
+        records are checked, the estimator is not checked again a frame at a time."""
+        return self._transform(check_frames(records)[0])
+
     def _transform(self, records, cells=None):
         """:meth:`transform`; ``cells`` (or None), per frame, ``cell_means`` of its
         decoded image."""
