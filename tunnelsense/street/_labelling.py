@@ -75,9 +75,15 @@ class _Labelling:
             before = after = 0
             if (est.occluded_length is not None
                     and cum[last + 1] - cum[first] <= est.max_length):
+                seen_below = None
+                if est.seen_evidence and est.beam_occlusion:
+                    # its beams passing its depth below half its top: not hidden
+                    j = min(max(int(np.ceil(float(region_depth[o]) / HORIZON_STEP)), 1),
+                            self.horizon.shape[1]) - 1
+                    seen_below = self.horizon[:, j] < 0.5 * float(prof.top[o])
                 before, after = hidden_ends(self.near, follows, first, last,
                                             mean_depth - est.occlusion_margin, cum,
-                                            self.cap)
+                                            self.cap, seen_below)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
             region = int(depth_region(region_depth[o], self.edges([first])[0]))
@@ -94,7 +100,8 @@ class _Labelling:
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top, inside=passed_ok)
+                min_across_top=est.min_across_top, inside=passed_ok,
+                where_seen=est.seen_evidence)
             vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
                                  hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)
