@@ -229,8 +229,8 @@ def test_seen_evidence_finds_motorbikes_behind_passing_vehicles():
                             motorbike_fraction=0.6, motorbike_across_fraction=0.6,
                             motorbike_footway_fraction=0.5, parked_cluster_size=4.0,
                             parked_gap_m=12.0)
-    on = make_parking_pipeline().fit(fit.scans)[-1]
-    off = make_parking_pipeline(seen_evidence=False).fit(fit.scans)[-1]
+    on = make_parking_pipeline(seen_evidence=True).fit(fit.scans)[-1]
+    off = make_parking_pipeline().fit(fit.scans)[-1]
     a = street_scores(run.gt, on.detect(run.scans))["parked"]
     b = street_scores(run.gt, off.detect(run.scans))["parked"]
     assert a["tp"] > b["tp"] and a["fp"] <= b["fp"]

@@ -236,13 +236,16 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
     return "car"
 
 
-def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=0.8):
+def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=0.8,
+                  longest=7.0):
     """Whether one object's body stands across the street or obliquely to it, as a
     car in a bay at right angles or at 45 degrees to the kerb does and traffic
     never does (traffic drives along the street).
 
     Oblique: its near side moves across the street over its length by at least
-    ``width`` (:func:`near_travel`; a vehicle driving along the street keeps it).
+    ``width`` (:func:`near_travel`; a vehicle driving along the street keeps it),
+    and it is no longer along the street than ``longest`` (one vehicle: cars in a
+    row of bays that single linkage joined are no one car).
     Across: shorter along the street than ``min_car_length`` while its
     cross-sections are at least ``depth`` deep (the median over its scans; a car
     seen end on shows its width along the street and its length across it).
@@ -262,6 +265,8 @@ def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=
         Shortest car (m) along the street.
     depth : float, default=0.8
         Smallest depth (m) of the cross-sections of a body across the street.
+    longest : float, default=7.0
+        Longest oblique body (m along the street; ``van_length``).
 
     Returns
     -------
@@ -295,7 +300,7 @@ def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=
     near = np.minimum.reduceat(lo, starts)
     along = np.asarray(cum, dtype=np.float64)[s[starts]]
     if near_travel(near, along) >= width:
-        return True
+        return length <= longest
     if length >= min_car_length:
         return False
     extent = np.maximum.reduceat(far[body][order], starts) - near

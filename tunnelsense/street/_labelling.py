@@ -75,15 +75,9 @@ class _Labelling:
             before = after = 0
             if (est.occluded_length is not None
                     and cum[last + 1] - cum[first] <= est.max_length):
-                seen_below = None
-                if est.seen_evidence and est.beam_occlusion:
-                    # its beams passing its depth below half its top: not hidden
-                    j = min(max(int(np.ceil(float(region_depth[o]) / HORIZON_STEP)), 1),
-                            self.horizon.shape[1]) - 1
-                    seen_below = self.horizon[:, j] < 0.5 * float(prof.top[o])
                 before, after = hidden_ends(self.near, follows, first, last,
                                             mean_depth - est.occlusion_margin, cum,
-                                            self.cap, seen_below)
+                                            self.cap)
             hidden_length = (cum[first] - cum[first - before]) + (
                 cum[last + 1 + after] - cum[last + 1])
             region = int(depth_region(region_depth[o], self.edges([first])[0]))

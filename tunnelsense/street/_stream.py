@@ -246,7 +246,7 @@ class _RunState(_Labelling, ScanWindow):
                     across[o] = stands_across(
                         prof.position[mine], self.side[c], self.far[c], self.cum,
                         width=est.motorbike_width, min_car_length=est.min_car_length,
-                        depth=est.roof_width)
+                        depth=est.roof_width, longest=est.van_length)
             depth = np.where(across, far, depth)
         return depth
 

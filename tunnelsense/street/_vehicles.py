@@ -36,12 +36,10 @@ __all__ = [
 MIN_VISIBLE = 0.5
 
 
-def hidden_ends(near, follows, first, last, depth, cum, cap, seen_below=None):
+def hidden_ends(near, follows, first, last, depth, cum, cap):
     """Scans right before ``first`` and after ``last`` (within one stretch of
     consecutive scans) whose nearest cluster is nearer than ``depth``; each walk stops
-    once it covers ``cap`` metres (no decision looks farther), or at a scan where
-    ``seen_below`` holds (its beams passed the object's depth below half its top:
-    nothing of it stood there).
+    once it covers ``cap`` metres (no decision looks farther).
 
     Examples
     --------
@@ -52,17 +50,15 @@ def hidden_ends(near, follows, first, last, depth, cum, cap, seen_below=None):
     ...             np.arange(6) * 0.5, 4.0)
     (2, 0)
     """
-    clear = (np.zeros(len(near), dtype=bool) if seen_below is None
-             else np.asarray(seen_below, dtype=bool))
     before = 0
     p = first - 1
-    while (p >= 0 and follows[p + 1] and near[p] < depth and not clear[p]
+    while (p >= 0 and follows[p + 1] and near[p] < depth
            and cum[first] - cum[p + 1] < cap):
         before += 1
         p -= 1
     after = 0
     p = last + 1
-    while (p < len(near) and follows[p] and near[p] < depth and not clear[p]
+    while (p < len(near) and follows[p] and near[p] < depth
            and cum[p] - cum[last + 1] < cap):
         after += 1
         p += 1
