@@ -69,7 +69,7 @@ PAPER = {"split_merged": False, "min_body_fraction": 0.0, "occluded_length": Non
          "bridge_occluded": False, "region_depth": "mean", "min_car_length": 0.0,
          "beam_occlusion": False, "spray_beams": 0, "min_across_length": None,
          "separate_ground": False, "object_ends": False, "follow_kerb": False,
-         "carve_protrusions": False, "speed": "paper"}
+         "carve_protrusions": False, "seen_evidence": False, "speed": "paper"}
 
 
 def fit(condition, n_scans):

@@ -22,7 +22,8 @@ def _coords(sim):
 
 
 @pytest.mark.parametrize("factor", ["angled_row_fraction", "caravan_fraction",
-                                    "wet_road_fraction", "wall_fraction"])
+                                    "wet_road_fraction", "wall_fraction",
+                                    "tight_hedge_fraction", "bicycles_per_100m"])
 def test_new_factors_at_zero_leave_a_run_unchanged(factor):
     a = make_street_scans(300, scenario="hard", random_state=3)
     b = make_street_scans(300, scenario="hard", random_state=3, **{factor: 0.0})
@@ -121,14 +122,90 @@ def _parked_recall(run, **params):
 
 def test_cars_in_bays_at_right_angles_are_parked_by_their_far_side():
     # seen from the road a car in a bay at right angles has its near end in the
-    # traffic lane (its mean depth too); its far side lies in the parking lane
+    # traffic lane (its mean depth too); its far side lies in the parking lane, and
+    # it is shorter along the street than any car driving along it
     run = make_street_scans(2000, scenario="sparse", random_state=12,
                             angled_row_fraction=1.0, bay_angle_deg=90.0, kerb_depth=7.5,
                             parked_cluster_size=4.0, **QUIET)
     assert (run.gt["label"] == "parked").sum() >= 15
-    span = _parked_recall(run, region_depth="span")
-    assert span["recall"] >= 0.85 and span["precision"] >= 0.95
-    assert _parked_recall(run)["recall"] < span["recall"] - 0.3  # region_depth="near"
+    across = _parked_recall(run, region_depth="across")
+    assert across["recall"] >= 0.85 and across["precision"] >= 0.95
+    assert _parked_recall(run)["recall"] < across["recall"] - 0.3  # "near"
+
+
+def test_a_body_across_the_street_is_no_traffic():
+    from tunnelsense.street._classes import stands_across
+
+    cum = np.arange(60) * 0.15
+    # a car at 45 degrees: the near side advances 1.5 m over its 4.4 m
+    s = np.arange(30)
+    assert stands_across(s, np.linspace(2.5, 4.0, 30), np.full(30, 4.6), cum)
+    # end on (a bay at right angles): 1.8 m along the street, 1.4 m deep
+    assert stands_across(s[:12], np.full(12, 3.0), np.full(12, 4.4), cum)
+    # traffic reaching into the parking lane keeps its near side, as long as a car
+    assert not stands_across(s, np.full(30, 2.6), np.full(30, 4.3), cum)
+    # ... and a short object showing only a face (a van's rear seen briefly) too
+    assert not stands_across(s[:12], np.full(12, 2.6), np.full(12, 2.7), cum)
+    # no body above the kerb
+    assert not stands_across(s[:5], np.full(5, np.inf), np.full(5, np.nan), cum)
+
+
+def test_traffic_reaching_into_the_parking_lane_stays_passing():
+    # a street 1.25 m narrower than the regions assume (kerb at 5.2 m): the
+    # passing vehicles' far sides lie in region II; "span" would park them
+    from tunnelsense.metrics import street_scores
+    from tunnelsense.street import make_parking_pipeline
+
+    fit = make_street_scans(1000, scenario="sparse", random_state=11)
+    run = make_street_scans(2000, scenario="sparse", random_state=101, kerb_depth=5.2,
+                            passing_per_min=12.0)
+    scores = {}
+    for mode in ("across", "span"):
+        model = make_parking_pipeline(region_depth=mode).fit(fit.scans)
+        scores[mode] = street_scores(run.gt, model[-1].detect(run.scans))["passing"]
+    assert scores["span"]["recall"] < scores["across"]["recall"]
+    assert scores["across"]["recall"] >= 0.9
+
+
+def test_tight_hedges_stand_right_behind_the_kerb():
+    sim = _simulate(2000, "sparse", 8, tight_hedge_fraction=1.0, **QUIET)
+    hedges = [i for i, o in enumerate(sim["objects"]) if o["kind"] == "hedge"]
+    assert hedges
+    depth, height = _coords(sim)
+    kerb, kh = 6.45, 0.13
+    on = np.isin(sim["hit"], hedges) & (sim["ranges"] < MAX_RANGE)
+    assert on.any(axis=1).mean() > 0.6
+    # the ragged face 0.0-0.3 m behind the kerb (+ its wiggle, 0.2 m), on the footway
+    assert np.all((depth[on] > kerb - 0.12) & (depth[on] < kerb + 0.3 + 0.2 + 1.5 + 0.12))
+    assert np.quantile(depth[on], 0.05) < kerb + 0.35
+    # on the footway (foliage lets some beams in, a little deeper and lower)
+    assert np.quantile(height[on], 0.01) > kh - 0.05
+
+
+def test_parked_bicycles_are_thin_and_where_they_were_put():
+    sim = _simulate(3000, "sparse", 9, bicycles_per_100m=6.0, **QUIET)
+    bikes = [i for i, o in enumerate(sim["objects"]) if o["kind"] == "bicycle"]
+    assert any(sim["objects"][i]["across"] for i in bikes)
+    assert any(not sim["objects"][i]["across"] for i in bikes)
+    assert all(o["label"] is None for o in sim["objects"] if o["kind"] == "bicycle")
+    assert not (sim["gt"]["first_scan"] < 0).any()
+    depth, height = _coords(sim)
+    kerb = 6.45
+    seen = 0
+    for i in bikes:
+        o = sim["objects"][i]
+        on = (sim["hit"] == i) & (sim["ranges"] < MAX_RANGE)
+        if not on.any():
+            continue
+        seen += 1
+        d, h = depth[on], height[on]
+        assert h.max() < o["base"] + 1.05 + 0.05  # the handlebar is its top
+        if o["across"]:  # on the footway, its front 0.2-0.5 m behind the kerb
+            assert d.min() > kerb + 0.2 - 0.1 and d.max() < kerb + 0.5 + 1.85 + 0.1
+        else:  # in the parking lane, as thin as its bar is wide
+            assert d.min() > o["depth_near"] - 0.1
+            assert d.max() < o["depth_near"] + o["bar"] + 0.1 and d.max() < kerb
+    assert seen >= 5
 
 
 def test_a_near_vertical_face_is_no_kerb_step():

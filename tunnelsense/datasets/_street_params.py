@@ -75,12 +75,15 @@ _PARAMS = {
     "caravan_fraction": (0.0, 0.0, 1.0),
     "wet_road_fraction": (0.0, 0.0, 1.0),
     "wall_fraction": (0.0, 0.0, 1.0),
+    "tight_hedge_fraction": (0.0, 0.0, 1.0),
+    "bicycles_per_100m": (0.0, 0.0, 50.0),
 }
 
 #: Parameters recorded in a run's ``info["params"]`` only when away from their
 #: default (the older runs' info stays as it was).
 OPTIONAL_PARAMS = ("angled_row_fraction", "bay_angle_deg", "caravan_fraction",
-                   "wet_road_fraction", "wall_fraction")
+                   "wet_road_fraction", "wall_fraction", "tight_hedge_fraction",
+                   "bicycles_per_100m")
 
 _SCENARIO_PARAMS = {
     "sparse": {},

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense.datasets._street_roadside import bicycles, tight_hedges, walls
+
 __all__ = ["layout", "passing"]
 
 
@@ -246,25 +248,12 @@ def layout(p, x_lo, x_hi, t_of_x, rng, aux=None):
         x += L + rng.uniform(0.0, 4.0)
     _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng)
     if p["wall_fraction"] > 0:
-        _walls(p, objects, x_lo, x_hi, clear, aux)
+        walls(p, objects, x_lo, x_hi, clear, aux)
+    if p["tight_hedge_fraction"] > 0:
+        tight_hedges(p, objects, x_lo, x_hi, clear, aux)
+    if p["bicycles_per_100m"] > 0:
+        bicycles(p, objects, x_lo, x_hi, free, clear, aux)
     return objects
-
-
-def _walls(p, objects, x_lo, x_hi, clear, aux):
-    """Garden walls, fences and facades at the back of a narrow footway, 0.1-0.5 m
-    behind the kerb and 0.8-2.5 m high, along ``wall_fraction`` of the street in
-    stretches of 5-30 m (kept clear of cars up on the footway)."""
-    kerb, kh = p["kerb_depth"], p["kerb_height"]
-    x = x_lo
-    while x < x_hi:
-        L = aux.uniform(5.0, 30.0)
-        wall = aux.random() < p["wall_fraction"]
-        y, h = kerb + aux.uniform(0.1, 0.5), aux.uniform(0.8, 2.5)
-        if wall and clear(x, x + L):
-            objects.append({"kind": "wall", "label": None, "x0": x, "length": L,
-                            "speed": 0.0, "facing": 1.0, "depth_near": y, "width": 0.25,
-                            "base": kh, "height": h})
-        x += L + aux.uniform(0.0, 3.0) * (not wall)
 
 
 def _more_clutter(p, objects, x_lo, x_hi, t_of_x, in_free, rng):

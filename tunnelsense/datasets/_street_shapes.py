@@ -235,6 +235,54 @@ def _tree_boxes(o, s):
     return boxes
 
 
+def _bicycle_boxes(o, s):
+    """A bicycle: tubes, rims and a saddle 2-8 cm thick, a handlebar 1.0 m high.
+    Parallel to the kerb the plane cuts it across its length (``s`` behind its
+    nose); at right angles (``across``) along it, ``s`` across its bar, and only the
+    plane through its middle meets the wheels and the frame."""
+    n = len(s)
+    L, zb, bar = o["bike_length"], o["base"], o["bar"]
+    R, rim = 0.34, 0.04
+    if not o["across"]:
+        boxes = np.full((n, 8, 5), np.inf)
+        boxes[..., 4] = _BODY
+        yc = o["depth_near"] + o["width"] / 2
+        for j, axle in enumerate((0.36, L - 0.36)):
+            d = np.abs(s - axle)
+            c = np.sqrt(np.maximum(R**2 - d**2, 0))
+            _set(boxes, 2 * j, d < R, yc - 0.02, yc + 0.02, zb + R - c,
+                 zb + np.minimum(R - c + rim, R + c), _TYRE)
+            _set(boxes, 2 * j + 1, d < R - rim, yc - 0.02, yc + 0.02,
+                 zb + R + c - rim, zb + R + c, _TYRE)
+        _set(boxes, 4, (s > 0.45) & (s < L - 0.62), yc - 0.02, yc + 0.02, zb + 0.76,
+             zb + 0.80)
+        h = 0.72 - (s - 0.5) / (0.55 * L - 0.5) * 0.42  # the down tube
+        _set(boxes, 5, (s > 0.5) & (s < 0.55 * L), yc - 0.02, yc + 0.02, zb + h - 0.03,
+             zb + h + 0.03)
+        _set(boxes, 6, (s > L - 0.75) & (s < L - 0.5), yc - 0.08, yc + 0.08, zb + 0.92,
+             zb + 0.98)
+        _set(boxes, 7, (s > 0.28) & (s < 0.36), yc - bar / 2, yc + bar / 2, zb + 1.0,
+             zb + 1.05)
+        return boxes
+    boxes = np.full((n, 12, 5), np.inf)
+    boxes[..., 4] = _BODY
+    t = np.abs(s - bar / 2)  # from the bicycle's middle plane
+    y = o["depth_near"]  # its front, nearest the road
+    _set(boxes, 0, t < bar / 2, y + 0.28, y + 0.36, zb + 1.0, zb + 1.05)
+    _set(boxes, 1, t < 0.08, y + L - 0.75, y + L - 0.5, zb + 0.92, zb + 0.98)
+    _set(boxes, 2, t < 0.17, y + 0.55 * L - 0.1, y + 0.55 * L + 0.1, zb + 0.2, zb + 0.35)
+    mid = t < 0.025
+    _set(boxes, 3, mid, y + 0.45, y + L - 0.62, zb + 0.76, zb + 0.80)
+    for j, axle in enumerate((0.36, L - 0.36)):
+        a = y + axle
+        k = 4 + 4 * j
+        _set(boxes, k, mid, a - 0.15, a + 0.15, zb, zb + rim, _TYRE)
+        _set(boxes, k + 1, mid, a - 0.15, a + 0.15, zb + 2 * R - rim, zb + 2 * R, _TYRE)
+        _set(boxes, k + 2, mid, a - R, a - R + rim, zb + 0.2, zb + 0.48, _TYRE)
+        _set(boxes, k + 3, mid, a + R - rim, a + R, zb + 0.2, zb + 0.48, _TYRE)
+    return boxes
+
+
 _PROFILES = {
     "car": _car_boxes,
     "van": _car_boxes,
@@ -250,6 +298,7 @@ _PROFILES = {
     "communal_bin": _bin_boxes,
     "hedge": _hedge_boxes,
     "tree": _tree_boxes,
+    "bicycle": _bicycle_boxes,
 }
 
 

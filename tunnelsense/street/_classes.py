@@ -25,7 +25,8 @@ import numpy as np
 from tunnelsense.street._census import VEHICLE_CLASSES
 from tunnelsense.street._vehicles import length_share
 
-__all__ = ["VEHICLE_CLASSES", "class_features", "vehicle_class", "weighted_median"]
+__all__ = ["VEHICLE_CLASSES", "class_features", "stands_across", "vehicle_class",
+           "weighted_median"]
 
 #: Bits of the per-cluster evidence flags (see ``_objects.BODY_FLAGS``).
 ROOF_FLAG, WALL_FLAG = 0b0001, 0b0010
@@ -233,3 +234,74 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
     if f["roof"] <= motorbike_roof and narrow:
         return "motorbike"
     return "car"
+
+
+def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=0.8,
+                  longest=7.0):
+    """Whether one object's body stands across the street or obliquely to it, as a
+    car in a bay at right angles or at 45 degrees to the kerb does and traffic
+    never does (traffic drives along the street).
+
+    Oblique: its near side moves across the street over its length by at least
+    ``width`` (:func:`near_travel`; a vehicle driving along the street keeps it),
+    and it is no longer along the street than ``longest`` (one vehicle: cars in a
+    row of bays that single linkage joined are no one car).
+    Across: shorter along the street than ``min_car_length`` while its
+    cross-sections are at least ``depth`` deep (the median over its scans; a car
+    seen end on shows its width along the street and its length across it).
+
+    Parameters
+    ----------
+    scan : ndarray of shape (n_clusters,) of int
+        Scan position of every intra-cluster of the object.
+    side, far : ndarray of shape (n_clusters,)
+        Nearest and farthest depth (m) of every intra-cluster's body (+inf / NaN:
+        none).
+    cum : ndarray
+        Metres from the window's start to every scan position (``cum[p]``).
+    width : float, default=1.2
+        Smallest travel of the near side (m) of an oblique body.
+    min_car_length : float, default=2.4
+        Shortest car (m) along the street.
+    depth : float, default=0.8
+        Smallest depth (m) of the cross-sections of a body across the street.
+    longest : float, default=7.0
+        Longest oblique body (m along the street; ``van_length``).
+
+    Returns
+    -------
+    across : bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._classes import stands_across
+    >>> cum = np.arange(40) * 0.15
+    >>> s = np.arange(30)  # 4.5 m along the street, near side 2.5 -> 4.0 m
+    >>> bool(stands_across(s, np.linspace(2.5, 4.0, 30), np.full(30, 4.5), cum))
+    True
+    >>> bool(stands_across(s, np.full(30, 1.6), np.full(30, 3.1), cum))  # traffic
+    False
+    >>> bool(stands_across(s[:12], np.full(12, 3.0), np.full(12, 4.4), cum))  # end on
+    True
+    """
+    scan = np.asarray(scan, dtype=np.int64)
+    side = np.asarray(side, dtype=np.float64)
+    far = np.asarray(far, dtype=np.float64)
+    body = np.isfinite(side) & np.isfinite(far)
+    if not body.any():
+        return False
+    first, last = int(scan.min()), int(scan.max())
+    length = float(cum[last + 1] - cum[first])
+    s, lo = scan[body], side[body]
+    order = np.argsort(s, kind="stable")
+    s, lo = s[order], lo[order]
+    starts = np.flatnonzero(np.r_[True, s[1:] != s[:-1]])
+    near = np.minimum.reduceat(lo, starts)
+    along = np.asarray(cum, dtype=np.float64)[s[starts]]
+    if near_travel(near, along) >= width:
+        return length <= longest
+    if length >= min_car_length:
+        return False
+    extent = np.maximum.reduceat(far[body][order], starts) - near
+    return bool(np.median(extent) >= depth)

@@ -94,7 +94,8 @@ class _Labelling:
                 min_raised_fraction=est.min_raised_fraction,
                 min_across_length=est.min_across_length if parked else None,
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
-                min_across_top=est.min_across_top, inside=passed_ok)
+                min_across_top=est.min_across_top, inside=passed_ok,
+                where_seen=est.seen_evidence)
             vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
                                  hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)

@@ -34,7 +34,7 @@ import numpy as np
 from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
-from tunnelsense.street._classes import vehicle_class
+from tunnelsense.street._classes import stands_across, vehicle_class
 from tunnelsense.street._clustering import (
     components,
     concat,
@@ -231,12 +231,22 @@ class _RunState(_Labelling, ScanWindow):
         with np.errstate(invalid="ignore"):
             inside = (prof.depth >= hi) & (side < hi)
         depth = np.where(inside, np.maximum(side, lo), prof.depth)
-        if self.est.region_depth == "span":
+        if self.est.region_depth in ("span", "across"):
             # the far side (median farthest body depth) reaching region II from
             # region I: a body across the lane edge stands in the parking lane
             far = -near_side(objects, -self.far[clusters], prof.n)
             with np.errstate(invalid="ignore"):
                 across = (depth < lo) & (far >= lo) & (far < hi)
+            if self.est.region_depth == "across":
+                # ... when it stands across the street or obliquely (no traffic)
+                est = self.est
+                for o in np.flatnonzero(across):
+                    mine = objects == o
+                    c = clusters[mine]
+                    across[o] = stands_across(
+                        prof.position[mine], self.side[c], self.far[c], self.cum,
+                        width=est.motorbike_width, min_car_length=est.min_car_length,
+                        depth=est.roof_width, longest=est.van_length)
             depth = np.where(across, far, depth)
         return depth
 

@@ -17,6 +17,7 @@ import numpy as np
 from tunnelsense.street._clustering import concat
 from tunnelsense.street._objects import (
     BODY_FLAGS,
+    HIDDEN_FLAG,
     PASSED_FLAG,
     RAISED_FLAG,
     SUSPENDED_FLAG,
@@ -28,6 +29,7 @@ __all__ = [
     "hidden_ends",
     "is_vehicle",
     "length_share",
+    "seen_share",
 ]
 
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
@@ -81,10 +83,42 @@ def length_share(mask, lengths):
     return float(np.mean(mask))
 
 
+def seen_share(flags, evidence, lengths, where_seen=True, min_scans=2):
+    """The share of an object's length showing ``evidence`` (bits of ``flags``),
+    of the length where it could be seen.
+
+    A scan whose lower part something nearer hides (``HIDDEN_FLAG``: the beam just
+    below the object ends on the occluder) cannot show a body raised between wheels
+    or hanging in the air, nor a beam passing under it; it says nothing either way,
+    unless it shows the evidence.  Such scans are left out of the share when
+    ``where_seen`` and at least ``min_scans`` scans show the evidence (one scan's
+    evidence is too little to stand for the object); otherwise the share is of
+    all its length.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._vehicles import seen_share
+    >>> flags = np.array([0b1000, 0b1000, 0b1000, 0b0100, 0b0100, 0b0000])
+    >>> round(seen_share(flags, 0b0100, np.full(6, 0.15), where_seen=False), 3)
+    0.333
+    >>> round(seen_share(flags, 0b0100, np.full(6, 0.15)), 3)
+    0.667
+    >>> round(seen_share(flags[2:], 0b0100, np.full(4, 0.15), min_scans=3), 3)
+    0.5
+    """
+    shows = (flags & evidence) > 0
+    informative = shows | ((flags & HIDDEN_FLAG) == 0)
+    if not where_seen or shows.sum() < min_scans:
+        return length_share(shows, lengths)
+    return length_share(shows[informative], lengths[informative])
+
+
 def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_length,
                link_distance, min_body_fraction, min_car_length=0.0,
                min_raised_fraction=0.0, min_across_length=None, min_across_raised=0.5,
-               top=np.inf, min_across_top=0.0, inside=True, end_length=0.0):
+               top=np.inf, min_across_top=0.0, inside=True, end_length=0.0,
+               where_seen=False):
     """Whether an object (its scans ``seen``, sorted) can be one vehicle.
 
     Long enough in all and without a break (a scan of its span counts as seen when
@@ -106,7 +140,11 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     consecutive scans (a run's first or last scans cut what they show: a van's end
     is not a motorbike).  ``end_length`` (m) is the length of the scans past its
     ends that see its top joined to something behind (:func:`end_match`); it
-    counts to the length of a motorbike across the kerb.
+    counts to the length of a motorbike across the kerb.  ``where_seen``: an
+    object seen shorter than ``min_car_length`` (it can only be a motorbike) takes
+    the shares of its body (raised, hanging or any body evidence), of its raised or
+    hanging body and of the beams passing under it over the length where they could
+    be seen (:func:`seen_share`).
     """
     length = cum[seen[-1] + 1] - cum[seen[0]]
     cut_short = hidden_length > 0 and length >= MIN_VISIBLE
@@ -126,10 +164,15 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
     # shares of the object's length, not of its scans: a car standing still sees
     # one cross-section in many scans
     lengths = cum[seen + 1] - cum[seen]
+    # shorter than any car as seen, it can only be a motorbike: its body raised or
+    # hanging where the beams could see under it
+    where_seen = bool(where_seen and length < min_car_length)
     body = length_share((flags & BODY_FLAGS) > 0, lengths)
+    if where_seen:
+        body = max(body, seen_share(flags, BODY_FLAGS | SUSPENDED_FLAG, lengths))
     if vehicle and length + hidden_length < min_car_length:
         # a body raised between the wheels, or seen hanging in the air
-        hanging = length_share((flags & (RAISED_FLAG | SUSPENDED_FLAG)) > 0, lengths)
+        hanging = seen_share(flags, RAISED_FLAG | SUSPENDED_FLAG, lengths, where_seen)
         vehicle = hanging >= min_raised_fraction
         body = max(body, hanging)
     elif (not vehicle and min_across_length is not None and hidden_length == 0
@@ -137,7 +180,7 @@ def is_vehicle(seen, flags, depth, hidden_length, cum, near, *, min_length, max_
           and top >= min_across_top
           and (cum[seen + 1] - cum[seen]).sum() >= length - MIN_VISIBLE / 2):
         evidence = RAISED_FLAG | (PASSED_FLAG if inside else 0)
-        under = length_share((flags & evidence) > 0, lengths)
+        under = seen_share(flags, evidence, lengths, where_seen)
         vehicle = under >= min_across_raised  # a motorbike across the kerb
         body = max(body, under)  # its body: raised, or a beam passing under it
     return bool(vehicle and body >= min_body_fraction)
