@@ -50,15 +50,15 @@ measured too: ``tunnelsense train tunnel`` on that tour, whole process, median o
 
 import argparse
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from _common import load, timed_process  # noqa: E402
 
 _DECODE = (
     "import sys, glob, cv2, numpy as np\n"
@@ -76,22 +76,6 @@ MODES = ("decode", "stages")
 
 def _cli(*argv):
     return [sys.executable, "-m", "tunnelsense._cli", *argv]
-
-
-def _timed(cmd, cpu=None):
-    """Wall seconds of ``cmd``; its CPU seconds appended to ``cpu`` when given."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if cpu is not None:
-        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
-    return wall
-
-
-def _load():
-    return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def _wide(tour, name):
@@ -193,13 +177,13 @@ def main(argv=None):
         parser.error(f"--workdir {workdir}: holds tours of {stamp.read_text().strip()} "
                      f"frames, not {args.frames}; give another folder")
     stamp.write_text(f"{args.frames}\n")
-    print(f"tours in {workdir} ({args.frames} frames each); {_load()}", flush=True)
+    print(f"tours in {workdir} ({args.frames} frames each); {load()}", flush=True)
     train, tours = _write_tours(workdir, args.tours, args.frames, args.dense_gain)
     bits_needed = {"16bit" if n.endswith("16bit") else "8bit" for n in tours}
     models = {bits: workdir / f"model-{bits}.skops" for bits in bits_needed}
 
     def train_model(bits):
-        return _timed(_cli("train", "tunnel", str(train[bits]), "--model",
+        return timed_process(_cli("train", "tunnel", str(train[bits]), "--model",
                            str(models[bits]), "--force", "--quiet"))
 
     if not args.no_train:
@@ -230,9 +214,9 @@ def main(argv=None):
         cpu = {m: [] for m in MODES}
         outs = {m: workdir / f"{name}.{m}.txt" for m in MODES}
         for k in range(args.repeats):
-            decode.append(_timed([sys.executable, "-c", _DECODE, str(path)], decode_cpu))
+            decode.append(timed_process([sys.executable, "-c", _DECODE, str(path)], decode_cpu))
             for mode in (MODES if k % 2 == 0 else MODES[::-1]):
-                wall[mode].append(_timed(_cli(
+                wall[mode].append(timed_process(_cli(
                     "detect", "tunnel", "--model", str(model), str(path), "--out",
                     str(outs[mode]), "--force", "--quiet", "--readers", mode, *jobs),
                     cpu[mode]))
@@ -252,7 +236,7 @@ def main(argv=None):
               f"{s / d:.2f} | {s / e:.2f} | {statistics.median(paired):.2f} "
               f"({min(paired):.2f}-{max(paired):.2f}) | {dc:.2f} / {ec:.2f} / {sc:.2f} | "
               f"{before:.1f} -> {os.getloadavg()[0]:.1f} |", flush=True)
-    print(f"\n{_load()} after")
+    print(f"\n{load()} after")
 
 
 if __name__ == "__main__":

@@ -26,16 +26,17 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import statistics  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from _common import load  # noqa: E402
+
 cv2.setNumThreads(1)
-
-
-def _load():
-    return ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def _one_pass(stream, names, frames, clock):
@@ -82,7 +83,7 @@ def main(argv=None):
     print("\n" + head)
     print("|" + "---|" * (head.count("|") - 1))
     for path in args.tours:
-        before = _load()
+        before = load()
         tour = open_tour(path, ground_truth=False)
         frames = [FrameRecord(r.tour, r.frame, r.image, dict(r.payload))
                   for r in tour.frames]
@@ -117,7 +118,7 @@ def main(argv=None):
         print(f"| {tour.name} | {n} | {kp:.0f} | {clusters:.1f} | {cells} | "
               f"{statistics.median(rc):.2f} ({min(rc):.2f}-{max(rc):.2f}) | "
               f"{statistics.median(rw):.2f} ({min(rw):.2f}-{max(rw):.2f}) | "
-              f"{before} -> {_load()} |", flush=True)
+              f"{before} -> {load()} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -30,14 +30,15 @@ NumPy, OpenCV.  The goal for ``detect`` on 10 frames (0.6 s) is printed, met or 
 
 import argparse
 import json
-import os
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from _common import load, timed_process  # noqa: E402
 
 _EXIT = """
 import sys, time
@@ -63,22 +64,6 @@ print(json.dumps(sorted({m.partition(".")[0] for m in sys.modules} & heavy)))
 
 def _cli(*argv):
     return [sys.executable, "-m", "tunnelsense._cli", *argv]
-
-
-def _timed(cmd, cpu=None):
-    """Wall seconds of ``cmd``; its CPU seconds (user + system) appended to ``cpu``."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if cpu is not None:
-        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
-    return wall
-
-
-def _load():
-    return "load average " + ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def _exit_time(how, argv):
@@ -136,11 +121,11 @@ def main():
         }
         times = {k: [] for k in cases}
         cpu = {k: [] for k in cases}
-        print(_load(), "before", flush=True)
+        print(load(), "before", flush=True)
         exits = {"command (no final collection)": [], "with final collection": []}
         for _ in range(args.repeats):
             for name, cmd in cases.items():
-                times[name].append(_timed(cmd, cpu[name]))
+                times[name].append(timed_process(cmd, cpu[name], stderr=subprocess.DEVNULL))
             exits["command (no final collection)"].append(_exit_time("command", detect))
             exits["with final collection"].append(_exit_time("call", detect))
     med = {k: statistics.median(v) for k, v in times.items()}
@@ -148,7 +133,7 @@ def main():
           "(user + system)")
     for name, value in med.items():
         print(f"  {name:34s} {value:6.3f} {statistics.median(cpu[name]):6.3f}")
-    print(_load(), "after")
+    print(load(), "after")
     print("process exit after detect tunnel returns (median):")
     for name, values in exits.items():
         print(f"  {name:32s} {statistics.median(values) * 1000:6.0f} ms")

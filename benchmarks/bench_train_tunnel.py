@@ -27,13 +27,14 @@ than one thread); it exits 1 when the first round's train median exceeds
 import argparse
 import multiprocessing as mp
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from _common import load as machine_load  # noqa: E402
+from _common import timed_process  # noqa: E402
 
 _DECODE = (
     "import sys, glob, cv2, numpy as np\n"
@@ -45,17 +46,6 @@ _DECODE = (
 def _busy():
     while True:
         pass
-
-
-def _timed(cmd, env=None):
-    """Wall seconds and CPU seconds (user + system) of one process."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, env=env)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu
 
 
 def _runs(tour, model, baseline):
@@ -78,15 +68,10 @@ def _round(runs, repeats):
     cpu = {k: [] for k in names}
     for r in range(repeats):
         for name in names[r % len(names):] + names[:r % len(names)]:
-            w, c = _timed(*runs[name])
-            wall[name].append(w)
-            cpu[name].append(c)
+            cmd, env = runs[name]
+            wall[name].append(timed_process(cmd, cpu[name], env=env))
     return ({k: statistics.median(v) for k, v in wall.items()},
             {k: statistics.median(v) for k, v in cpu.items()})
-
-
-def _load():
-    return "/".join(f"{v:.1f}" for v in os.getloadavg())
 
 
 def main(argv=None):
@@ -110,23 +95,23 @@ def main(argv=None):
     runs = _runs(tour, work / "m.skops", args.baseline)
     rounds = []
     label = "as it is"
-    load = _load()
-    rounds.append((label, load, *_round(runs, args.repeats), _load()))
+    load = machine_load()
+    rounds.append((label, load, *_round(runs, args.repeats), machine_load()))
     if not args.no_busy:
         busy = [mp.Process(target=_busy, daemon=True) for _ in range(2)]
         for b in busy:
             b.start()
         try:
-            load = _load()
+            load = machine_load()
             rounds.append(("2 busy processes", load, *_round(runs, args.repeats),
-                           _load()))
+                           machine_load()))
         finally:
             for b in busy:
                 b.terminate()
     print(f"train tunnel, one {args.frames}-frame light-traffic tour, whole processes, "
           f"medians of {args.repeats} (interleaved):")
     for label, before, wall, cpu, after in rounds:
-        print(f"  {label} (load average {before} before, {after} after):")
+        print(f"  {label} ({before} before, {after} after):")
         decode = wall["decode"]
         for name in wall:
             extra = "" if name == "decode" else f"  ({wall[name] / decode:.2f}x decode)"

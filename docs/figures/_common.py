@@ -35,6 +35,24 @@ def load() -> str:
         return "load average unknown"
 
 
+def timed_process(cmd, cpu=None, *, env=None, stderr=None) -> float:
+    """Wall seconds of the process ``cmd``, run to its end with its output discarded
+    (``stderr`` as :func:`subprocess.run` takes it); its CPU seconds (user + system)
+    appended to the list ``cpu`` when given."""
+    import resource
+    import subprocess
+    import time
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=stderr, env=env)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if cpu is not None:
+        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return wall
+
+
 def output_path(name: str, out: str | None) -> Path:
     path = Path(out) if out else STATIC / name
     path.parent.mkdir(parents=True, exist_ok=True)
