@@ -5,6 +5,7 @@ Run on tuning seeds (5000-5299, 6000-6199; never on the evaluation seeds 7000-71
 
     python benchmarks/positioning_lock_limits.py rivals [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py bound [--first-seed 5000] [--seeds 300]
+    python benchmarks/positioning_lock_limits.py margins 9 8 7 [--failures]
 
 The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km started
 300-3,000 m into a tunnel whose indicators stand at gaps of 150-250 m; scale errors
@@ -24,6 +25,10 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
   trajectory has at least ``--min-boxes`` boxes (what one sign's track could
   measure at best, whatever the cue: box size, elevation angle).  The tours below
   10x are printed with the distance from the start to the first pass.
+* ``margins M ...``: without a start, the passes until the lock and the wrong locks
+  (a chainage written 50 m or more off, for how many metres) with ``lock_margin``
+  M; ``--failures``: one of the first three signs missed and a false alarm in the
+  first 600 m of every tour.
 """
 
 import os
@@ -39,7 +44,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from _common import machine  # noqa: E402
-from positioning_accuracy import _after_first_pass, _lock_tour  # noqa: E402
+from positioning_accuracy import _after_first_pass, _lock_on, _lock_tour  # noqa: E402
 
 from tunnelsense.positioning import TunnelPositioner, dead_reckoning  # noqa: E402
 from tunnelsense.positioning._fixes import detection_table  # noqa: E402
@@ -166,9 +171,31 @@ def bound(seeds, scale_range, sigma, min_boxes):
                   f"trajectory {x[4]} boxes")
 
 
+def margins(seeds, scale_range, values, failures):
+    print(f"lock-on without a start, seeds {seeds[0]}-{seeds[-1]}, scale error "
+          f"{100 * scale_range[0]:.0f}-{100 * scale_range[1]:.0f} %"
+          + (", a missed sign and a false alarm among the first passes" if failures
+             else ""))
+    tours = [_lock_tour(seed, scale_range, failures) for seed in seeds]
+    for m in values:
+        runs = [_lock_on(ind, det, odo, pos, lock_margin=m)
+                for _, pos, odo, ind, det in tours]
+        passes = [r[0] for r in runs if r is not None]
+        wrong = [(seed, round(r[1])) for seed, r in zip(seeds, runs, strict=True)
+                 if r is not None and r[1] is not None]
+        print(f"  lock_margin {m:g}: passes until the lock "
+              + ", ".join(f"{k}: {passes.count(k)}" for k in sorted(set(passes)))
+              + f"; never {sum(r is None for r in runs)}; wrong locks {len(wrong)}"
+              + (f" (seed, metres written wrong: {wrong})" if wrong else ""))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=["rivals", "bound"])
+    parser.add_argument("what", choices=["rivals", "bound", "margins"])
+    parser.add_argument("values", nargs="*", type=float, default=[9.0],
+                        help="margins: the lock margins to try")
+    parser.add_argument("--failures", action="store_true",
+                        help="margins: a missed sign and a false alarm in every tour")
     parser.add_argument("--first-seed", type=int, default=5000)
     parser.add_argument("--seeds", type=int, default=300)
     parser.add_argument("--harder", action="store_true",
@@ -185,8 +212,10 @@ def main():
     scale_range = (0.02, 0.04) if args.harder else (0.01, 0.04)
     if args.what == "rivals":
         rivals(seeds, scale_range)
-    else:
+    elif args.what == "bound":
         bound(seeds, scale_range, args.sigma, args.min_boxes)
+    else:
+        margins(seeds, scale_range, args.values, args.failures)
 
 
 if __name__ == "__main__":
