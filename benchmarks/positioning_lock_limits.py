@@ -37,10 +37,12 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_v] = "1"
 
 import argparse  # noqa: E402
+import hashlib  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from _common import machine  # noqa: E402
@@ -189,13 +191,80 @@ def margins(seeds, scale_range, values, failures):
               + (f" (seed, metres written wrong: {wrong})" if wrong else ""))
 
 
+def _side_tour(seed, scale_range, failures, side):
+    """``_lock_tour`` with the indicators' sides drawn by ``side`` (the simulator's
+    ``indicator_side``; "left" passes nothing: the tours as they always were)."""
+    if side == "left":
+        return _lock_tour(seed, scale_range, failures)
+    import positioning_accuracy as pa
+
+    real = pa.make_tunnel_kinematics
+    pa.make_tunnel_kinematics = lambda *a, **k: real(*a, indicator_side=side, **k)
+    try:
+        return _lock_tour(seed, scale_range, failures)
+    finally:
+        pa.make_tunnel_kinematics = real
+
+
+def _digest(*tables):
+    h = hashlib.sha256()
+    for t in tables:
+        h.update(pd.util.hash_pandas_object(t, index=True).to_numpy().tobytes())
+    return h.hexdigest()[:16]
+
+
+def sides(seeds, scale_range, failures, side, **kw):
+    """Lock-on without a start on maps whose indicators stand on ``side``: the passes
+    until the lock, wrong locks, the error after the lock, and digests of the tours
+    and of the positions written (byte-identity)."""
+    print(f"lock-on without a start, seeds {seeds[0]}-{seeds[-1]}, scale error "
+          f"{100 * scale_range[0]:.0f}-{100 * scale_range[1]:.0f} %, indicators "
+          f"{side}" + (", a missed sign and a false alarm among the first passes"
+                       if failures else "") + (f", {kw}" if kw else ""))
+    tours_h, pos_h, runs = hashlib.sha256(), hashlib.sha256(), []
+    for seed in seeds:
+        scale, positions, odometry, indicators, det = _side_tour(
+            seed, scale_range, failures, side)
+        tours_h.update(_digest(positions, odometry, indicators, det).encode())
+        s = positions["chainage"].to_numpy()
+        est, fixes = TunnelPositioner(initial_chainage=None, **kw).fit(
+            indicators).predict(det, odometry, return_fixes=True)
+        pos_h.update(_digest(est).encode())
+        if not est["locked"].any():
+            runs.append(None)
+            continue
+        passes = int(fixes["reason"].str.contains("lock").sum())
+        bad = np.abs(est["chainage"].to_numpy() - s) > 50.0
+        wrong = float(np.diff(s, prepend=s[0])[bad].sum()) if bad.any() else None
+        ok = est["locked"].to_numpy() & ~bad
+        runs.append((seed, passes, wrong,
+                     float(np.abs(est["chainage"].to_numpy() - s)[ok].max())))
+    done = [r for r in runs if r is not None]
+    passes = [r[1] for r in done]
+    wrong = [(r[0], round(r[2])) for r in done if r[2] is not None]
+    print("  passes until the lock " + ", ".join(
+        f"{k}: {passes.count(k)}" for k in sorted(set(passes)))
+        + f"; never {sum(r is None for r in runs)}; wrong locks {len(wrong)}"
+        + (f" (seed, metres written wrong: {wrong})" if wrong else "")
+        + (f"; largest error after the lock {max(r[3] for r in done):.2f} m"
+           if done else ""))
+    print(f"  digest of the tours {tours_h.hexdigest()[:16]}, of the positions "
+          f"{pos_h.hexdigest()[:16]}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", choices=["rivals", "bound", "margins"])
+    parser.add_argument("what", choices=["rivals", "bound", "margins", "sides"])
     parser.add_argument("values", nargs="*", type=float, default=[9.0],
                         help="margins: the lock margins to try")
     parser.add_argument("--failures", action="store_true",
                         help="margins: a missed sign and a false alarm in every tour")
+    parser.add_argument("--side", default="left",
+                        help="sides: the simulator's indicator_side (left, random)")
+    parser.add_argument("--side-error", type=float, default=None,
+                        help="sides: the positioner's side_error (default: its own)")
+    parser.add_argument("--evaluation", action="store_true",
+                        help="sides: allow the evaluation seeds (once, at the end)")
     parser.add_argument("--first-seed", type=int, default=5000)
     parser.add_argument("--seeds", type=int, default=300)
     parser.add_argument("--harder", action="store_true",
@@ -205,7 +274,9 @@ def main():
     parser.add_argument("--min-boxes", type=int, default=22,
                         help="bound: fewest boxes of a first trajectory that measures")
     args = parser.parse_args()
-    if 7000 <= args.first_seed < 7200 or 7000 <= args.first_seed + args.seeds - 1 < 7200:
+    evaluation = (7000 <= args.first_seed < 7200
+                  or 7000 <= args.first_seed + args.seeds - 1 < 7200)
+    if evaluation and not (args.what == "sides" and args.evaluation):
         parser.error("seeds 7000-7199 are the evaluation seeds: not for this analysis")
     print(machine())
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
@@ -214,6 +285,9 @@ def main():
         rivals(seeds, scale_range)
     elif args.what == "bound":
         bound(seeds, scale_range, args.sigma, args.min_boxes)
+    elif args.what == "sides":
+        kw = {} if args.side_error is None else {"side_error": args.side_error}
+        sides(seeds, scale_range, args.failures, args.side, **kw)
     else:
         margins(seeds, scale_range, args.values, args.failures)
 
