@@ -191,21 +191,6 @@ def margins(seeds, scale_range, values, failures):
               + (f" (seed, metres written wrong: {wrong})" if wrong else ""))
 
 
-def _side_tour(seed, scale_range, failures, side):
-    """``_lock_tour`` with the indicators' sides drawn by ``side`` (the simulator's
-    ``indicator_side``; "left" passes nothing: the tours as they always were)."""
-    if side == "left":
-        return _lock_tour(seed, scale_range, failures)
-    import positioning_accuracy as pa
-
-    real = pa.make_tunnel_kinematics
-    pa.make_tunnel_kinematics = lambda *a, **k: real(*a, indicator_side=side, **k)
-    try:
-        return _lock_tour(seed, scale_range, failures)
-    finally:
-        pa.make_tunnel_kinematics = real
-
-
 def _digest(*tables):
     h = hashlib.sha256()
     for t in tables:
@@ -223,7 +208,7 @@ def sides(seeds, scale_range, failures, side, **kw):
                        if failures else "") + (f", {kw}" if kw else ""))
     tours_h, pos_h, runs = hashlib.sha256(), hashlib.sha256(), []
     for seed in seeds:
-        scale, positions, odometry, indicators, det = _side_tour(
+        scale, positions, odometry, indicators, det = _lock_tour(
             seed, scale_range, failures, side)
         tours_h.update(_digest(positions, odometry, indicators, det).encode())
         s = positions["chainage"].to_numpy()
@@ -246,8 +231,8 @@ def sides(seeds, scale_range, failures, side, **kw):
         f"{k}: {passes.count(k)}" for k in sorted(set(passes)))
         + f"; never {sum(r is None for r in runs)}; wrong locks {len(wrong)}"
         + (f" (seed, metres written wrong: {wrong})" if wrong else "")
-        + (f"; largest error after the lock {max(r[3] for r in done):.2f} m"
-           if done else ""))
+        + (f"; largest error after the lock {max(r[3] for r in done):.2f} m (seed "
+           f"{max(done, key=lambda r: r[3])[0]})" if done else ""))
     print(f"  digest of the tours {tours_h.hexdigest()[:16]}, of the positions "
           f"{pos_h.hexdigest()[:16]}")
 
@@ -263,6 +248,8 @@ def main():
                         help="sides: the simulator's indicator_side (left, random)")
     parser.add_argument("--side-error", type=float, default=None,
                         help="sides: the positioner's side_error (default: its own)")
+    parser.add_argument("--lock-margin", type=float, default=None,
+                        help="sides: the positioner's lock_margin (default: its own)")
     parser.add_argument("--evaluation", action="store_true",
                         help="sides: allow the evaluation seeds (once, at the end)")
     parser.add_argument("--first-seed", type=int, default=5000)
@@ -286,7 +273,8 @@ def main():
     elif args.what == "bound":
         bound(seeds, scale_range, args.sigma, args.min_boxes)
     elif args.what == "sides":
-        kw = {} if args.side_error is None else {"side_error": args.side_error}
+        kw = {k: v for k, v in (("side_error", args.side_error),
+                                ("lock_margin", args.lock_margin)) if v is not None}
         sides(seeds, scale_range, args.failures, args.side, **kw)
     else:
         margins(seeds, scale_range, args.values, args.failures)

@@ -256,12 +256,13 @@ def memory(sizes=(3_000, 30_000, 300_000), repeats=3, kmh=None):
               f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
 
 
-def _lock_tour(seed, scale_range, failures):
-    """A 2.4 km tour started mid-tunnel on a map with gaps of 150-250 m."""
+def _lock_tour(seed, scale_range, failures, side="left"):
+    """A 2.4 km tour started mid-tunnel on a map with gaps of 150-250 m, its
+    indicators on ``side`` (``indicator_side``: "random", each on either wall)."""
     rng = np.random.default_rng(seed)
     truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
                                    indicator_spacing_m=(150.0, 250.0),
-                                   random_state=seed)
+                                   indicator_side=side, random_state=seed)
     scale = rng.choice([-1, 1]) * rng.uniform(*scale_range)
     positions, odometry, indicators = make_tunnel_odometry(
         truth, scale_error=scale, random_state=seed)
@@ -346,10 +347,11 @@ def _print_lock(runs, n):
           f"{max(r[3] for r in runs):.2f} m")
 
 
-def lock(seeds, scale_range=(0.01, 0.04), failures=False):
+def lock(seeds, scale_range=(0.01, 0.04), failures=False, side="left"):
     """Lock-on without a start, and a start 10 m off, on tours started mid-tunnel."""
     lo, hi = scale_range
-    print(f"lock-on, irregular map (gaps 150-250 m), {len(seeds)} tours (seeds "
+    print(f"lock-on, irregular map (gaps 150-250 m, indicators: {side}), "
+          f"{len(seeds)} tours (seeds "
           f"{seeds[0]}-{seeds[-1]}), start 300-3000 m in, scale error "
           f"{100 * lo:.0f}-{100 * hi:.0f} %"
           + (", one of the first three signs missed and a false alarm in the first "
@@ -359,7 +361,7 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False):
                   "online, sign size known": [], "online, size 2 % off": []}
     for seed in seeds:
         scale, positions, odometry, indicators, det = _lock_tour(seed, scale_range,
-                                                                 failures)
+                                                                 failures, side)
         s = positions["chainage"].to_numpy()
         runs[""].append(_lock_on(indicators, det, odometry, positions))
         runs["sign size known"].append(_lock_on(indicators, det, odometry, positions,
@@ -460,6 +462,9 @@ def main():
     parser.add_argument("--failures", action="store_true", help="--lock tours with "
                         "one of the first three signs missed and a false alarm in the "
                         "first 600 m (lock-on only)")
+    parser.add_argument("--side", default="left", choices=["left", "random"],
+                        help="--lock maps: the indicators' wall (random: each on "
+                        "either)")
     parser.add_argument("--speed", action="store_true", help="only position --model "
                         "beside detect tunnel on one rendered tour")
     parser.add_argument("--frames", type=int, default=3000)
@@ -474,7 +479,7 @@ def main():
         return
     if args.lock:
         lock(list(range(args.first_seed, args.first_seed + args.seeds)),
-             (0.02, 0.04) if args.harder else (0.01, 0.04), args.failures)
+             (0.02, 0.04) if args.harder else (0.01, 0.04), args.failures, args.side)
         return
     if not args.only_rendered:
         statistical(list(range(args.seeds)))

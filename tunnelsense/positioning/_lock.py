@@ -90,8 +90,9 @@ class LockOn:
     sides : ndarray of int or None, default=None
         The wall of each indicator: -1 left, +1 right, 0 unknown.  None (or a map
         with fewer than two walls named): the side is not used.
-    side_error : float, default=0.05
-        Probability that a pass's observed side is the other wall.
+    side_error : float or None, default=0.05
+        Probability that a pass's observed side is the other wall; None (or 0.5):
+        the side is not used.
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
@@ -115,8 +116,10 @@ class LockOn:
         if sides is not None and not ((sides < 0).any() and (sides > 0).any()):
             sides = None  # one wall: the side separates no place
         self.sides = sides
-        e = float(side_error)
+        e = 0.5 if side_error is None else float(side_error)
         self.side_cost = math.log(e / (1.0 - e)) if 0.0 < e < 0.5 else 0.0
+        if not self.side_cost:
+            self.sides = None
         self.n_passes = 0
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing

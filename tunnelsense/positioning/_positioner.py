@@ -141,14 +141,17 @@ class TunnelPositioner(BaseEstimator):
     relock_after : int, default=3
         Passes rejected by the gate in a row after which the position is dropped
         and found again by locking on (0: never).
-    side_error : float, default=0.05
+    side_error : float or None, default=None
         Probability that the wall a trajectory is seen on
         (:func:`observed_side`, from the boxes' drift as they grow) is the other
-        one (lock-on scoring).  Where the map's ``side`` column names both walls, a
-        hypothesis that explains a pass by an indicator on the other wall pays
-        ``log(side_error / (1 - side_error))`` (-2.9 at 0.05: never a veto); an
-        unknown side costs nothing.  On a map with one wall it is not used.  0.5:
-        never used.
+        one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
+        both walls, a hypothesis that explains a pass by an indicator on the other
+        wall pays ``log(side_error / (1 - side_error))`` (-2.9 at 0.05: never a
+        veto); an unknown side, and a pass taken as false, cost nothing.  On a map
+        with one wall it is not used.  None (or 0.5): the side is not used.  Off by
+        default: it lets most tours lock a pass sooner, but it also removes rivals
+        that had kept a wrong place (a missed sign and a false alarm among the
+        first passes) from locking.
 
     Attributes
     ----------
@@ -201,7 +204,7 @@ class TunnelPositioner(BaseEstimator):
         "miss_rate": [Interval(numbers.Real, 0, 1, closed="neither")],
         "false_pass_rate": [Interval(numbers.Real, 0, None, closed="neither")],
         "relock_after": [Interval(numbers.Integral, 0, None, closed="left")],
-        "side_error": [Interval(numbers.Real, 0, 0.5, closed="right")],
+        "side_error": [Interval(numbers.Real, 0, 0.5, closed="right"), None],
     }
 
     def __init__(
@@ -230,7 +233,7 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
-        side_error=0.05,
+        side_error=None,
     ):
         self.estimate_scale = estimate_scale
         self.smooth = smooth
