@@ -6,6 +6,8 @@ Run on tuning seeds (5000-5299, 6000-6199; never on the evaluation seeds 7000-71
     python benchmarks/positioning_lock_limits.py rivals [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py bound [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py margins 9 8 7 [--failures]
+    python benchmarks/positioning_lock_limits.py sides [--side random]
+        [--side-error 0.05] [--periodic] [--failures] [--harder]
 
 The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km started
 300-3,000 m into a tunnel whose indicators stand at gaps of 150-250 m; scale errors
@@ -29,6 +31,11 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
   (a chainage written 50 m or more off, for how many metres) with ``lock_margin``
   M; ``--failures``: one of the first three signs missed and a false alarm in the
   first 600 m of every tour.
+* ``sides``: without a start, on maps whose indicators stand on ``--side`` (the
+  simulator's ``indicator_side``; ``--periodic``: every 200 m), the passes until
+  the lock, wrong locks, the error after the lock, and digests of the tours and of
+  the positions (byte-identity before/after a change).  ``--evaluation`` allows
+  the evaluation seeds, to be run once when every setting is chosen.
 """
 
 import os
@@ -198,18 +205,19 @@ def _digest(*tables):
     return h.hexdigest()[:16]
 
 
-def sides(seeds, scale_range, failures, side, **kw):
+def sides(seeds, scale_range, failures, side, periodic=False, **kw):
     """Lock-on without a start on maps whose indicators stand on ``side``: the passes
     until the lock, wrong locks, the error after the lock, and digests of the tours
     and of the positions written (byte-identity)."""
     print(f"lock-on without a start, seeds {seeds[0]}-{seeds[-1]}, scale error "
           f"{100 * scale_range[0]:.0f}-{100 * scale_range[1]:.0f} %, indicators "
           f"{side}" + (", a missed sign and a false alarm among the first passes"
-                       if failures else "") + (f", {kw}" if kw else ""))
+                       if failures else "") + (f", {kw}" if kw else "")
+          + (", every 200 m" if periodic else ""))
     tours_h, pos_h, runs = hashlib.sha256(), hashlib.sha256(), []
     for seed in seeds:
         scale, positions, odometry, indicators, det = _lock_tour(
-            seed, scale_range, failures, side)
+            seed, scale_range, failures, side, 200.0 if periodic else (150.0, 250.0))
         tours_h.update(_digest(positions, odometry, indicators, det).encode())
         s = positions["chainage"].to_numpy()
         est, fixes = TunnelPositioner(initial_chainage=None, **kw).fit(
@@ -250,6 +258,8 @@ def main():
                         help="sides: the positioner's side_error (default: its own)")
     parser.add_argument("--lock-margin", type=float, default=None,
                         help="sides: the positioner's lock_margin (default: its own)")
+    parser.add_argument("--periodic", action="store_true",
+                        help="sides: a map with an indicator every 200 m")
     parser.add_argument("--evaluation", action="store_true",
                         help="sides: allow the evaluation seeds (once, at the end)")
     parser.add_argument("--first-seed", type=int, default=5000)
@@ -275,7 +285,7 @@ def main():
     elif args.what == "sides":
         kw = {k: v for k, v in (("side_error", args.side_error),
                                 ("lock_margin", args.lock_margin)) if v is not None}
-        sides(seeds, scale_range, args.failures, args.side, **kw)
+        sides(seeds, scale_range, args.failures, args.side, args.periodic, **kw)
     else:
         margins(seeds, scale_range, args.values, args.failures)
 

@@ -256,12 +256,13 @@ def memory(sizes=(3_000, 30_000, 300_000), repeats=3, kmh=None):
               f"{(peak - base) / 1024:>8.0f} {n_fixes:>6}")
 
 
-def _lock_tour(seed, scale_range, failures, side="left"):
-    """A 2.4 km tour started mid-tunnel on a map with gaps of 150-250 m, its
-    indicators on ``side`` (``indicator_side``: "random", each on either wall)."""
+def _lock_tour(seed, scale_range, failures, side="left", spacing=(150.0, 250.0)):
+    """A 2.4 km tour started mid-tunnel on a map with gaps of 150-250 m
+    (``spacing``), its indicators on ``side`` (``indicator_side``: "random", each
+    on either wall)."""
     rng = np.random.default_rng(seed)
     truth = make_tunnel_kinematics(2400.0, start_chainage_m=rng.uniform(300, 3000),
-                                   indicator_spacing_m=(150.0, 250.0),
+                                   indicator_spacing_m=spacing,
                                    indicator_side=side, random_state=seed)
     scale = rng.choice([-1, 1]) * rng.uniform(*scale_range)
     positions, odometry, indicators = make_tunnel_odometry(
