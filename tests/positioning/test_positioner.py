@@ -211,9 +211,13 @@ def test_records_and_results_tables_are_the_same_input():
     img = np.zeros((4, 4), np.uint8)
     records = [FrameRecord("t", f, img, {"detections": np.array(
         [[1.0, 2.0, 3.0, 10.0 + f, 7, 1.0]])}) for f in (1, 2, 3)]
-    table = pd.DataFrame({"frame": [1, 2, 3], "id": [7, 7, 7],
-                          "bb_height": [11.0, 12.0, 13.0]})
+    table = pd.DataFrame({"frame": [1, 2, 3], "id": [7, 7, 7], "bb_left": 1.0,
+                          "bb_width": 3.0, "bb_height": [11.0, 12.0, 13.0]})
     pd.testing.assert_frame_equal(detection_table(records), detection_table(table))
+    # the box's horizontal centre (the side it is seen on); without bb_left and
+    # bb_width, a table has none
+    assert detection_table(table)["bb_centre_x"].tolist() == [2.5] * 3
+    assert "bb_centre_x" not in detection_table(table.drop(columns="bb_left"))
 
 
 def test_bad_inputs_are_named():

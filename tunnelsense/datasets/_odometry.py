@@ -74,8 +74,9 @@ class TourKinematics:
         Their ids (the ground-truth ids of the indicators' boxes).
     seed : int
         The tour's seed; the odometry's noise is drawn from a stream derived from it.
-    side : str, default="left"
-        The tunnel wall the indicators stand on.
+    side : str or ndarray of str, default="left"
+        The tunnel wall the indicators stand on ("left" or "right"), one for all or
+        one per indicator.
     """
 
     stamps: np.ndarray
@@ -85,7 +86,7 @@ class TourKinematics:
     indicator_chainage: np.ndarray
     indicator_ids: np.ndarray
     seed: int
-    side: str = "left"
+    side: str | np.ndarray = "left"
 
     def positions(self) -> pd.DataFrame:
         """The true chainage per frame: ``frame, stamp, chainage``."""
@@ -241,6 +242,7 @@ def make_tunnel_kinematics(
     start_chainage_m=0.0,
     frame_rate=30.0,
     curve_radius_m=math.inf,
+    indicator_side="left",
     random_state=None,
 ):
     """The motion of a camera through a long tunnel, without rendering its frames.
@@ -273,6 +275,10 @@ def make_tunnel_kinematics(
         Frames per second.
     curve_radius_m : float, default=inf
         Signed radius of the tunnel (> 0 curves right).
+    indicator_side : {"left", "right", "random"}, default="left"
+        The wall the indicators stand on; "random" draws each one's side (left or
+        right, even odds) from a stream of its own, so the motion and the map's
+        chainages are those of the same seed with one side.
     random_state : int, RandomState instance or None, default=None
 
     Returns
@@ -291,6 +297,9 @@ def make_tunnel_kinematics(
         gap_lo = _check_error("indicator_spacing_m", gap_lo, 20.0, 1e5)
         gap_hi = _check_error("indicator_spacing_m", gap_hi, gap_lo, 1e5)
     start = _check_error("start_chainage_m", start_chainage_m, 0.0, 1e7)
+    if indicator_side not in ("left", "right", "random"):
+        raise ValueError("indicator_side must be 'left', 'right' or 'random'; got "
+                         f"{indicator_side!r}")
     seed = int(check_random_state(random_state).randint(0, 2**31 - 1))
     rng = np.random.default_rng(seed)
     base = rng.uniform(lo, hi)
@@ -318,8 +327,12 @@ def make_tunnel_kinematics(
         ind = first + np.concatenate([[0.0], np.cumsum(gaps)])
         ind = ind[ind <= end]
     kappa = 0.0 if math.isinf(curve_radius_m) else 1.0 / float(curve_radius_m)
+    side = indicator_side
+    if side == "random":  # a stream of its own: the map's chainages do not change
+        side = np.where(np.random.default_rng([seed, 2]).random(len(ind)) < 0.5,
+                        "left", "right")
     return TourKinematics(t[:n], s[:n], speed[:n], kappa, ind,
-                          np.arange(1, len(ind) + 1), seed)
+                          np.arange(1, len(ind) + 1), seed, side)
 
 
 def simulate_indicator_detections(
@@ -339,8 +352,10 @@ def simulate_indicator_detections(
     Each indicator is detected, as one trajectory, from the frame its box grows to
     ``min_height_px`` until it leaves the image (``exit_depth_m`` ahead, plus up to
     2 m earlier at random); its box height is ``focal_length_px * sign_height_m /
-    depth`` with relative noise ``box_noise``.  A false alarm is a trajectory of an
-    object that looks like an indicator but stands elsewhere.
+    depth`` with relative noise ``box_noise``; it stands 3.7 m beside the camera on
+    its wall (``kinematics.side``), so its box drifts outwards on that side as it
+    grows.  A false alarm is a trajectory of an object that looks like an indicator
+    but stands elsewhere (on the left wall).
 
     Parameters
     ----------
@@ -368,17 +383,19 @@ def simulate_indicator_detections(
     rng = check_random_state(random_state)
     s = np.asarray(kinematics.chainage, np.float64)
     missed = {int(m) for m in missed}
+    sides = np.broadcast_to(np.asarray(kinematics.side),
+                            np.shape(kinematics.indicator_ids))
     objects = [
-        (int(i), float(c))
-        for i, c in zip(kinematics.indicator_ids, kinematics.indicator_chainage,
-                        strict=True)
+        (int(i), float(c), str(side) == "right")
+        for i, c, side in zip(kinematics.indicator_ids,
+                              kinematics.indicator_chainage, sides, strict=True)
         if int(i) not in missed
     ]
     next_id = int(max(kinematics.indicator_ids, default=0)) + 1
-    objects += [(next_id + k, float(c)) for k, c in enumerate(false_alarms)]
+    objects += [(next_id + k, float(c), False) for k, c in enumerate(false_alarms)]
     fh = float(focal_length_px) * float(sign_height_m)
     rows = []
-    for oid, c in objects:
+    for oid, c, right in objects:
         depth = c - s
         end = exit_depth_m + rng.uniform(0.0, 2.0)
         seen = np.flatnonzero((depth >= end) & (fh / np.maximum(depth, 1e-9)
@@ -387,7 +404,10 @@ def simulate_indicator_detections(
             continue
         h = fh / depth[seen] * (1.0 + box_noise * rng.standard_normal(len(seen)))
         w = 0.45 * h
-        left = 320.0 - focal_length_px * 3.7 / depth[seen] - w
+        if right:  # the box's left edge 3.7 m right of the camera
+            left = 320.0 + focal_length_px * 3.7 / depth[seen]
+        else:  # its right edge 3.7 m left of it
+            left = 320.0 - focal_length_px * 3.7 / depth[seen] - w
         top = 240.0 - focal_length_px * 1.1 / depth[seen] - h / 2
         rows.extend(zip(seen + 1, [oid] * len(seen), left, top, w, h,
                         [1.0] * len(seen), strict=True))

@@ -38,7 +38,9 @@ def detection_table(detections) -> pd.DataFrame:
     Returns
     -------
     table : DataFrame
-        Sorted by frame and track.
+        Sorted by frame and track; with ``bb_centre_x`` too (the box's horizontal
+        centre, px: the side of the road it is seen on) when the boxes' ``bb_left``
+        and ``bb_width`` are given (always in frame records).
 
     Examples
     --------
@@ -58,7 +60,12 @@ def detection_table(detections) -> pd.DataFrame:
                 f"detections: a table needs the columns frame, id (or track_id) and "
                 f"bb_height; missing {missing}"
             )
-        table = table[list(DETECTION_TABLE_COLUMNS)]
+        lateral = {"bb_left", "bb_width"} <= set(table.columns)
+        if lateral:
+            table = table.assign(bb_centre_x=pd.to_numeric(table["bb_left"])
+                                 + pd.to_numeric(table["bb_width"]) / 2.0)
+        table = table[list(DETECTION_TABLE_COLUMNS)
+                      + (["bb_centre_x"] if lateral else [])]
     elif isinstance(detections, Sequence) or hasattr(detections, "__iter__"):
         rows = []
         tours = set()
@@ -71,12 +78,13 @@ def detection_table(detections) -> pd.DataFrame:
                 )
             tours.add(record.tour)
             det = np.asarray(payload["detections"], np.float64).reshape(-1, 6)
-            rows.extend((record.frame, int(d[4]), d[3]) for d in det)
+            rows.extend((record.frame, int(d[4]), d[3], d[0] + d[2] / 2.0)
+                        for d in det)
         if len(tours) > 1:
             raise InputFormatError(
                 f"detections: frame records of one tour expected; got {sorted(tours)}"
             )
-        table = pd.DataFrame(rows, columns=list(DETECTION_TABLE_COLUMNS))
+        table = pd.DataFrame(rows, columns=[*DETECTION_TABLE_COLUMNS, "bb_centre_x"])
     else:
         raise InputFormatError(
             f"detections: expected a table or frame records; got {type(detections)}"

@@ -20,6 +20,14 @@ taken before the next pass (once the best hypothesis explains one pass more than
 ``min_passes``).  Hypotheses are anchored at each of the first few passes, so one
 false alarm among them does not prevent the lock.
 
+Where the map says which wall each indicator stands on, and on both walls, the side
+a pass's trajectory was seen on (:func:`~tunnelsense.positioning.observed_side`) is
+a likelihood factor: a hypothesis that explains the pass by an indicator on the
+other wall pays ``log(side_error / (1 - side_error))`` -- never a veto, so a side
+misread does not lose the right place.  An unknown side (observed or on the map)
+costs nothing, nor does a pass taken as false.  On a map whose indicators all
+stand on one wall the side separates no place: it is not used.
+
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another place by
 ``margin``.  The score is the likelihood of the passes with the scale marginalized
@@ -79,11 +87,18 @@ class LockOn:
         have been in view before the record began: it is not counted as missed.
     per_indicator : int, default=8
         Hypotheses kept whose last indicator is the same (the best of them).
+    sides : ndarray of int or None, default=None
+        The wall of each indicator: -1 left, +1 right, 0 unknown.  None (or a map
+        with fewer than two walls named): the side is not used.
+    side_error : float or None, default=0.05
+        Probability that a pass's observed side is the other wall; None (or 0.5):
+        the side is not used.
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
                  false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
-                 start=None, clearance=60.0, per_indicator=8):
+                 start=None, clearance=60.0, per_indicator=8, sides=None,
+                 side_error=0.05):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -97,6 +112,14 @@ class LockOn:
         self.start = None if start is None else float(start)
         self.clearance = float(clearance)
         self.per_indicator = int(per_indicator)
+        sides = None if sides is None else np.asarray(sides, np.int64)
+        if sides is not None and not ((sides < 0).any() and (sides > 0).any()):
+            sides = None  # one wall: the side separates no place
+        self.sides = sides
+        e = 0.5 if side_error is None else float(side_error)
+        self.side_cost = math.log(e / (1.0 - e)) if 0.0 < e < 0.5 else 0.0
+        if not self.side_cost:
+            self.sides = None
         self.n_passes = 0
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
@@ -109,12 +132,20 @@ class LockOn:
     def n_hypotheses(self) -> int:
         return len(self._last)
 
-    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None):
+    def _side_terms(self, j, side):
+        """The side's log-likelihood term of explaining a pass seen on ``side``
+        (-1, +1; 0 unknown) by indicators ``j``."""
+        if self.sides is None or not side or not self.side_cost:
+            return 0.0
+        return np.where(self.sides[j] == -int(side), self.side_cost, 0.0)
+
+    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None, side=0):
         """A pass at odometry distance ``dist`` (variance ``var``).
 
         ``q_s, q_c``: process noise of the chainage and the scale accumulated since
         the previous pass.  ``tag`` is given back with the pass's association at the
-        lock.  Returns the lock (:meth:`lock`) or None.
+        lock; ``side`` the wall its trajectory was seen on (-1 left, +1 right, 0
+        unknown).  Returns the lock (:meth:`lock`) or None.
         """
         h = self._h
         if self.n_hypotheses:
@@ -149,7 +180,8 @@ class LockOn:
             e = np.flatnonzero(ok)
             score = h["score"]
             h["score"] = np.concatenate([
-                score[e] + skipped[e] * self.log_miss + gauss[e],
+                score[e] + skipped[e] * self.log_miss + gauss[e]
+                + self._side_terms(j[e], side),
                 score + miss_false + self.log_false])
             h["s"] = np.concatenate([s[e] + k0[e] * res[e], s])
             h["c"] = np.concatenate([c[e] + k1[e] * res[e], c])
@@ -164,7 +196,7 @@ class LockOn:
         else:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
-            assign = self._spawn(float(dist), float(var), assign)
+            assign = self._spawn(float(dist), float(var), assign, side)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
@@ -209,10 +241,11 @@ class LockOn:
             return None
         return self.lock(self.unseen_since(dist, margin), self.min_passes + 1)
 
-    def _spawn(self, dist, var, assign):
+    def _spawn(self, dist, var, assign, side=0):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
         m = len(self.map)
         score = np.full(m, self.n_passes * self.log_false + self.log_hit)
+        score += self._side_terms(np.arange(m), side)
         if self.start is not None:
             score += self.log_miss * unseen_before(self.map, dist - self.start,
                                                    self.scale, self.scale_sigma,

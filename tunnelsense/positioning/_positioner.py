@@ -12,6 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.positioning._filter import forward, rts_smooth
 from tunnelsense.positioning._fixes import detection_table
+from tunnelsense.positioning._side import side_code
 from tunnelsense.positioning._stream import PositionStream
 from tunnelsense.positioning._tables import (
     ESTIMATE_COLUMNS,
@@ -140,6 +141,17 @@ class TunnelPositioner(BaseEstimator):
     relock_after : int, default=3
         Passes rejected by the gate in a row after which the position is dropped
         and found again by locking on (0: never).
+    side_error : float or None, default=None
+        Probability that the wall a trajectory is seen on
+        (:func:`observed_side`, from the boxes' drift as they grow) is the other
+        one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
+        both walls, a hypothesis that explains a pass by an indicator on the other
+        wall pays ``log(side_error / (1 - side_error))`` (-2.9 at 0.05: never a
+        veto); an unknown side, and a pass taken as false, cost nothing.  On a map
+        with one wall it is not used.  None (or 0.5): the side is not used.  Off by
+        default: it lets most tours lock a pass sooner, but it also removes rivals
+        that had kept a wrong place (a missed sign and a false alarm among the
+        first passes) from locking.
 
     Attributes
     ----------
@@ -147,6 +159,9 @@ class TunnelPositioner(BaseEstimator):
         The map's chainages, increasing.
     indicator_ids_ : ndarray of shape (n_indicators,)
         Their ids.
+    indicator_side_ : ndarray of shape (n_indicators,)
+        Their walls from the map's ``side`` column: -1 left, +1 right, 0 unknown
+        (any other entry, or no such column).
     n_indicators_ : int
 
     Examples
@@ -189,6 +204,7 @@ class TunnelPositioner(BaseEstimator):
         "miss_rate": [Interval(numbers.Real, 0, 1, closed="neither")],
         "false_pass_rate": [Interval(numbers.Real, 0, None, closed="neither")],
         "relock_after": [Interval(numbers.Integral, 0, None, closed="left")],
+        "side_error": [Interval(numbers.Real, 0, 0.5, closed="right"), None],
     }
 
     def __init__(
@@ -217,6 +233,7 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
+        side_error=None,
     ):
         self.estimate_scale = estimate_scale
         self.smooth = smooth
@@ -241,6 +258,7 @@ class TunnelPositioner(BaseEstimator):
         self.miss_rate = miss_rate
         self.false_pass_rate = false_pass_rate
         self.relock_after = relock_after
+        self.side_error = side_error
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -261,6 +279,8 @@ class TunnelPositioner(BaseEstimator):
         table = check_indicator_map(X, "X (indicator map)")
         self.indicator_chainage_ = table["chainage"].to_numpy(np.float64)
         self.indicator_ids_ = table["id"].to_numpy(np.int64)
+        self.indicator_side_ = (side_code(table["side"]) if "side" in table.columns
+                                else np.zeros(len(table), np.int64))
         self.n_indicators_ = len(table)
         return self
 
@@ -320,6 +340,8 @@ class TunnelPositioner(BaseEstimator):
         starts = np.searchsorted(frames, odometry["frame"].to_numpy(), side="left")
         ends = np.searchsorted(frames, odometry["frame"].to_numpy(), side="right")
         tracks, heights = table["track_id"].tolist(), table["bb_height"].tolist()
+        centres = (table["bb_centre_x"].tolist() if "bb_centre_x" in table.columns
+                   else [np.nan] * len(table))
         frames = frames.tolist()
         stream = PositionStream(self, lagged=False, keep_fixes=True)
         f_all = odometry["frame"].tolist()
@@ -328,7 +350,8 @@ class TunnelPositioner(BaseEstimator):
                                  strict=True):
             stream._advance(f, t, v)  # noqa: SLF001 - push without a table per frame
             if b > a:
-                stream._add_rows(frames[a:b], tracks[a:b], heights[a:b])  # noqa: SLF001
+                stream._add_rows(frames[a:b], tracks[a:b], heights[a:b],  # noqa: SLF001
+                                 centres[a:b])
             stream._finish(f)  # noqa: SLF001
         positions = stream.close()
         if self.smooth:

@@ -76,6 +76,7 @@ class PositionStream(_TrackInput, _LockingOn, _LaggedRelease):
         self._p = p
         self._map = np.asarray(p.indicator_chainage_, np.float64)
         self._ids = np.asarray(p.indicator_ids_, np.int64)
+        self._sides = np.asarray(p.indicator_side_, np.int64)
         W = self._W = max(int(p.window), 2)
         self._fr = np.zeros(W, np.int64)
         self._st, self._d, self._u = np.zeros(W), np.zeros(W), np.zeros(W)
@@ -91,7 +92,9 @@ class PositionStream(_TrackInput, _LockingOn, _LaggedRelease):
         # (frame index, u, z, r) of every fix, for the whole-tour smoother (offline)
         self.fix_list = [] if keep_fixes else None
         self.relocked = False
-        self._tracks = {}  # track id -> [distances, heights, last frame, last index]
+        # track id -> [distances, heights, last frame, last index, first frame,
+        # box centres]
+        self._tracks = {}
         # relative box-height noise (squared) of the last long trajectories: their
         # median is the least noise a short trajectory's pass is given
         self._box_noise = deque(maxlen=31)

@@ -27,7 +27,8 @@ class _LockingOn:
             self._map, scale=self._c0, scale_sigma=math.sqrt(self._sc2),
             fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
             false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
-            min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation)
+            min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation,
+            sides=self._sides, side_error=p.side_error)
 
     def lock_status(self) -> str:
         """A sentence on the lock: where it was taken, or why there is none."""
@@ -56,7 +57,8 @@ class _LockingOn:
         # hypotheses: with a false pass and a missed sign among the first passes, a
         # scale known that well let a wrong place explain them best (1 tour in 200
         # with such failures); it is used from the lock on
-        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row))
+        lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row),
+                                side=row.get("_side", 0))
         row.update(accepted=False, reason=(f"{row['reason']}; " if row["reason"] else "")
                    + "locking on")
         if lock is not None:

@@ -14,6 +14,7 @@ from tunnelsense.positioning._fixes import (
     detection_table,
     scale_from_slope,
 )
+from tunnelsense.positioning._side import observed_side
 
 __all__ = []
 
@@ -35,13 +36,15 @@ class _TrackInput:
             raise RuntimeError("the stream is closed")
         if isinstance(detections, list) and all(
                 hasattr(r, "payload") for r in detections):
-            frames, tracks, heights = _from_records(detections)
+            frames, tracks, heights, centres = _from_records(detections)
         else:
             table = detection_table(detections)
             frames, tracks, heights = (table["frame"].tolist(),
                                        table["track_id"].tolist(),
                                        table["bb_height"].tolist())
-        self._add_rows(frames, tracks, heights)
+            centres = (table["bb_centre_x"].tolist() if "bb_centre_x" in table.columns
+                       else None)
+        self._add_rows(frames, tracks, heights, centres)
 
     def _index(self, frame):
         """The index of a frame still held; None when it has left the window."""
@@ -62,9 +65,13 @@ class _TrackInput:
         i0, i1 = lo % W, (n - 1) % W + 1
         return a[i0:i1] if i0 < i1 else np.concatenate([a[i0:], a[:i1]])
 
-    def _add_rows(self, frames, tracks, heights):
+    def _add_rows(self, frames, tracks, heights, centres=None):
+        """Boxes in: frame, trajectory, height (px) and horizontal centre (px; None
+        or NaN: not given) of each."""
+        if centres is None:
+            centres = [math.nan] * len(frames)
         last_f, last_k = None, None
-        for f, t, h in zip(frames, tracks, heights, strict=True):
+        for f, t, h, x in zip(frames, tracks, heights, centres, strict=True):
             if f != last_f:
                 k = self._index(f)
                 if k is None:
@@ -77,14 +84,15 @@ class _TrackInput:
                 last_f, last_k = f, k
             entry = self._tracks.get(t)
             if entry is None:
-                entry = self._tracks[t] = [[], [], f, last_k, f]
+                entry = self._tracks[t] = [[], [], f, last_k, f, []]
             entry[0].append(float(self._d[last_k % self._W]))
             entry[1].append(h)
+            entry[5].append(x)
             entry[2], entry[3] = f, last_k
 
     def _end_track(self, track):
         p = self._p
-        d, hs, last_frame, last_k, first_frame = self._tracks.pop(track)
+        d, hs, last_frame, last_k, first_frame, xs = self._tracks.pop(track)
         d, hs = np.asarray(d), np.asarray(hs, np.float64)
         keep = hs >= float(p.min_height)
         row = {"track_id": track, "first_frame": first_frame,
@@ -128,12 +136,17 @@ class _TrackInput:
             self._log.append(row)
             return
         row["_var"], row["_noise2"] = var, noise2
+        lk = self._lockon
+        if lk is not None and lk.sides is not None:
+            # the wall it was seen on: a likelihood factor of the lock-on
+            side = observed_side(hs[keep], np.asarray(xs, np.float64)[keep])
+            row["_side"] = {"left": -1, "right": 1}.get(side, 0)
         self._apply(dist, row)
 
 
 def _from_records(records):
     """``frame, track_id, bb_height`` lists of the detector's frame records."""
-    frames, tracks, heights = [], [], []
+    frames, tracks, heights, centres = [], [], [], []
     for record in records:
         det = record.payload.get("detections") if record.payload else None
         if det is None:
@@ -150,4 +163,5 @@ def _from_records(records):
         frames.extend([int(record.frame)] * len(det))
         tracks.extend(det[order, 4].astype(np.int64).tolist())
         heights.extend(h[order].tolist())
-    return frames, tracks, heights
+        centres.extend((det[order, 0] + det[order, 2] / 2.0).tolist())
+    return frames, tracks, heights, centres
