@@ -43,6 +43,8 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   12 ms (at 100-130 km/h): near objects smeared along their paths.
 * ``signs-0.6x0.6``: camera A, square signs 0.6 m x 0.6 m (another design than
   the training tour's 0.45 m x 1.0 m).
+* ``fast``: camera A driving at 100-130 km/h (the tours of ``lag-12ms-fast``
+  without the lag).
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -105,7 +107,13 @@ CONDITIONS = {
     "lag-12ms-fast": dict(scenario="light", thermal_time_constant_s=0.012,
                           speed_kmh=(100.0, 130.0), **CAMERA_A),
     "signs-0.6x0.6": dict(scenario="light", indicator_size_m=(0.6, 0.6), **CAMERA_A),
+    "fast": dict(scenario="light", speed_kmh=(100.0, 130.0), **CAMERA_A),
 }
+
+#: conditions drawn on the tours of another (the same seeds, so the same tunnel,
+#: traffic and noise): ``fast`` is ``lag-12ms-fast`` without the thermal lag (which
+#: draws nothing at random); such conditions take no seed offset of their own
+SAME_TOURS_AS = {"fast": "lag-12ms-fast"}
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
 #: training indicators, cluster rectangles the in-band region): the earlier default
@@ -141,10 +149,12 @@ EVAL_TEST_SEEDS = (3001, 3002)
 @functools.lru_cache(maxsize=2)
 def tour(condition, seed, n_frames):
     """The tour of ``condition`` for ``seed``: each condition's tours have seeds of
-    their own (ten times the condition's index added)."""
+    their own (ten times the condition's index added), but those of
+    :data:`SAME_TOURS_AS` share another's."""
     kw = dict(CONDITIONS[condition])
     scenario = kw.pop("scenario")
-    offset = 10 * list(CONDITIONS).index(condition)
+    own = [c for c in CONDITIONS if c not in SAME_TOURS_AS]
+    offset = 10 * own.index(SAME_TOURS_AS.get(condition, condition))
     return make_tunnel_tour(n_frames, scenario=scenario, random_state=seed + offset,
                             **COMMON, **kw)
 
