@@ -281,7 +281,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         face of an object longer than ``van_length`` whose depth lies outside the
         region labelled ``"passing"`` (behind the parking lane) is flat when the
         object's lowest point in a scan stands above ``min_clearance`` with the
-        beam just below it passing farther (a body raised between wheels) in less
+        beam just below it passing farther or leaving no point in the region of
+        interest (it reached the road under a body raised between wheels) in less
         than ``min_raised_fraction`` of the face's length.  A hedge's face, ragged
         in depth and top, reaches the footway all along; a roof-wide top (a thick
         hedge's) and beams passing through gaps in its foliage above the ground

@@ -166,15 +166,16 @@ class _Labelling:
 
     def _raised_scans(self, mine, pos, first, last, face):
         """Per scan ``first .. last``, whether the lowest point of clusters ``mine``
-        stands above ``min_clearance`` with the beam below it passing farther
-        (:func:`~tunnelsense.street._carving.raised_section`)."""
+        stands above ``min_clearance`` with the beam below it passing farther or
+        returning nothing in the region of interest (it reached the road under it;
+        :func:`~tunnelsense.street._carving.raised_section`)."""
         tol = float(self.resolution(face))
         out = np.zeros(last - first + 1, dtype=np.int64)
         for p in range(first, last + 1):
             points, beams, local = self.payload[p]
             want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
             out[p - first] = raised_section(points, beams, np.isin(local, want),
-                                            self.est.min_clearance, tol)
+                                            self.est.min_clearance, tol, absent=True)
         return out
 
     def _carve(self, mine, pos, first, last, whole=False):
