@@ -116,7 +116,7 @@ def protrusions(near, margin, length, max_length, *, ends=False, quantile=50.0):
     return face, runs
 
 
-def raised_section(points, beams, section, min_clearance, tolerance):
+def raised_section(points, beams, section, min_clearance, tolerance, *, absent=False):
     """Whether a cross-section is raised between wheels in one scan.
 
     The lowest beam of the section ends at least ``min_clearance`` above the road
@@ -133,6 +133,9 @@ def raised_section(points, beams, section, min_clearance, tolerance):
     section : ndarray of shape (n,) of bool
         Which points belong to the cross-section.
     min_clearance, tolerance : float
+    absent : bool, default=False
+        What a beam below that left no point in the region of interest (it reached
+        the road under the body, below the region) says: raised (True) or not.
 
     Returns
     -------
@@ -145,6 +148,9 @@ def raised_section(points, beams, section, min_clearance, tolerance):
     >>> pts = np.array([[7.2, 0.15], [6.1, 0.5], [6.1, 0.6], [7.3, 1.4]])
     >>> raised_section(pts, np.arange(4), np.array([0, 1, 1, 0], bool), 0.2, 0.1)
     True
+    >>> raised_section(pts[1:], np.arange(1, 4), np.array([1, 1, 0], bool), 0.2, 0.1,
+    ...                absent=True)
+    True
     """
     idx = np.flatnonzero(section)
     if not len(idx):
@@ -153,7 +159,9 @@ def raised_section(points, beams, section, min_clearance, tolerance):
     if points[low, 1] < min_clearance:
         return False
     below = np.flatnonzero(beams == beams[low] - 1)
-    return bool(len(below) and points[below[0], 0] > points[low, 0] + tolerance)
+    if not len(below):
+        return bool(absent)
+    return bool(points[below[0], 0] > points[low, 0] + tolerance)
 
 
 def widen(near, a, b, depth, length, gap):

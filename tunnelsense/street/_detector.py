@@ -276,6 +276,18 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         motorbikes parked behind passing traffic, but at twice the scan rate, at
         20 km/h and with the kerb at 7.3 m it also lets a short false object
         through.
+    flat_by_ground : bool, default=False
+        Walls judged where their face meets the ground (beyond the paper): the
+        face of an object longer than ``van_length`` whose depth lies outside the
+        region labelled ``"passing"`` (behind the parking lane) is flat when the
+        object's lowest point in a scan stands above ``min_clearance`` with the
+        beam just below it passing farther or leaving no point in the region of
+        interest (it reached the road under a body raised between wheels) in less
+        than ``min_raised_fraction`` of the face's length.  A hedge's face, ragged
+        in depth and top, reaches the footway all along; a roof-wide top (a thick
+        hedge's) and beams passing through gaps in its foliage above the ground
+        say nothing either way.  False (the default): a roof, a raised body at any
+        point or a body hanging in the air count (``carve_protrusions``).
 
     Attributes
     ----------
@@ -347,6 +359,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "motorbike_width": [Interval(numbers.Real, 0, None, closed="left")],
         "carve_protrusions": ["boolean"],
         "seen_evidence": ["boolean"],
+        "flat_by_ground": ["boolean"],
     }
 
     def __init__(
@@ -390,6 +403,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         motorbike_width=1.2,
         carve_protrusions=True,
         seen_evidence=False,
+        flat_by_ground=False,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -430,6 +444,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.motorbike_width = motorbike_width
         self.carve_protrusions = carve_protrusions
         self.seen_evidence = seen_evidence
+        self.flat_by_ground = flat_by_ground
 
     def _class_params(self):
         """The keywords of :func:`~tunnelsense.street.vehicle_class`."""

@@ -150,15 +150,33 @@ class _Labelling:
         """Whether the object of clusters ``mine`` is a flat vertical face (a
         wall, fence or facade) wherever nothing stands in front of it: a roof or a
         raised body in less than ``min_raised_fraction`` of that face's length
-        (:func:`~tunnelsense.street._carving.flat_face`)."""
+        (:func:`~tunnelsense.street._carving.flat_face`); ``flat_by_ground``: its
+        lowest point raised (:meth:`_raised_scans`) behind the parking lane."""
         est, cum = self.est, self.cum
         near = scan_near_side(pos, self.side[mine], first, last)
         face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
                                  est.max_length, ends=True, quantile=WALL_QUANTILE)
-        return flat_face(near, self._scan_flags(mine, pos, first, last), face, runs,
-                         est.link_distance, np.diff(cum[first:last + 2]),
-                         NOT_FLAT,
+        flags, evidence = self._scan_flags(mine, pos, first, last), NOT_FLAT
+        if (est.flat_by_ground and np.isfinite(face) and est.labels_[
+                int(depth_region(face, self.edges([first])[0]))] != "passing"):
+            flags, evidence = self._raised_scans(mine, pos, first, last, face), 1
+        return flat_face(near, flags, face, runs, est.link_distance,
+                         np.diff(cum[first:last + 2]), evidence,
                          est.min_raised_fraction)
+
+    def _raised_scans(self, mine, pos, first, last, face):
+        """Per scan ``first .. last``, whether the lowest point of clusters ``mine``
+        stands above ``min_clearance`` with the beam below it passing farther or
+        returning nothing in the region of interest (it reached the road under it;
+        :func:`~tunnelsense.street._carving.raised_section`)."""
+        tol = float(self.resolution(face))
+        out = np.zeros(last - first + 1, dtype=np.int64)
+        for p in range(first, last + 1):
+            points, beams, local = self.payload[p]
+            want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
+            out[p - first] = raised_section(points, beams, np.isin(local, want),
+                                            self.est.min_clearance, tol, absent=True)
+        return out
 
     def _carve(self, mine, pos, first, last, whole=False):
         """Queue entries of motorbikes standing against the structure of clusters
