@@ -287,7 +287,10 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         in depth and top, reaches the footway all along; a roof-wide top (a thick
         hedge's) and beams passing through gaps in its foliage above the ground
         say nothing either way.  False (the default): a roof, a raised body at any
-        point or a body hanging in the air count (``carve_protrusions``).
+        point or a body hanging in the air count (``carve_protrusions``).  Not
+        the default because roofs then count for nothing: two cars with little
+        ground clearance (a body down to 0.15 m) touching bumpers, if left
+        unsplit, are one long object with no raised body, taken for a wall.
 
     Attributes
     ----------
