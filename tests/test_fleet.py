@@ -287,7 +287,14 @@ def test_a_terminated_fleet_command_ends_its_workers(tunnel_model, tmp_path):
         assert child.poll() is None, (tmp_path / "stderr").read_text()
         child.send_signal(signal.SIGTERM)
         assert child.wait(timeout=120) == 143
-        assert (tmp_path / "stderr").read_text() == "tunnelsense: terminated\n"
+        # loky's resource tracker, a process of its own, may warn on its way out
+        # that a semaphore of the killed workers is already gone (a race in loky,
+        # seen on some runs): its lines are not the command's
+        # (each warning: its header line, then the indented source line)
+        lines = (tmp_path / "stderr").read_text().splitlines()
+        ours = [s for k, s in enumerate(lines) if "resource_tracker" not in s and not (
+            s.startswith(" ") and k and "resource_tracker" in lines[k - 1])]
+        assert ours == ["tunnelsense: terminated"], lines
         for _ in range(600):  # the process group empties: no worker left behind
             try:
                 os.killpg(child.pid, 0)
