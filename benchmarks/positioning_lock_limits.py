@@ -7,7 +7,7 @@ Run on tuning seeds (5000-5299, 6000-6199; never on the evaluation seeds 7000-71
     python benchmarks/positioning_lock_limits.py bound [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py margins 9 8 7 [--failures]
     python benchmarks/positioning_lock_limits.py sides [--side random]
-        [--side-error 0.05] [--periodic] [--failures] [--harder]
+        [--side-error 0.05] [--side-margin 0] [--side-passes 4] [--periodic] [--failures] [--harder]
 
 The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km started
 300-3,000 m into a tunnel whose indicators stand at gaps of 150-250 m; scale errors
@@ -256,6 +256,10 @@ def main():
                         help="sides: the simulator's indicator_side (left, random)")
     parser.add_argument("--side-error", type=float, default=None,
                         help="sides: the positioner's side_error (default: its own)")
+    parser.add_argument("--side-margin", type=float, default=None,
+                        help="sides: the positioner's side_margin (default: its own)")
+    parser.add_argument("--side-passes", type=int, default=None,
+                        help="sides: the positioner's side_passes (default: its own)")
     parser.add_argument("--lock-margin", type=float, default=None,
                         help="sides: the positioner's lock_margin (default: its own)")
     parser.add_argument("--periodic", action="store_true",
@@ -284,6 +288,8 @@ def main():
         bound(seeds, scale_range, args.sigma, args.min_boxes)
     elif args.what == "sides":
         kw = {k: v for k, v in (("side_error", args.side_error),
+                                ("side_margin", args.side_margin),
+                                ("side_passes", args.side_passes),
                                 ("lock_margin", args.lock_margin)) if v is not None}
         sides(seeds, scale_range, args.failures, args.side, args.periodic, **kw)
     else:
