@@ -101,9 +101,9 @@ class LockOn:
         first (or level with others), and never lifts one the spacing puts behind
         another.
     side_passes : int, default=4
-        Fewest passes a lock the side terms are needed for explains (the anchor
-        included): a lock from three passes rests on two gaps, and the walls of
-        three passes are matched by chance by one stretch in eight.
+        Fewest passes seen (false ones included) before a lock the side terms are
+        needed for: a wrong stretch matches the walls of three passes by chance
+        one time in eight, and a pass more can contradict it.
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
@@ -372,7 +372,7 @@ class LockOn:
             plain = self.lead_without_side(best, missed)
             # (to rounding: on an evenly spaced map the places tie)
             if plain < self.margin and (plain < self.side_margin - 1e-6
-                                        or self._hits[best] < self.side_passes):
+                                        or self.n_passes < self.side_passes):
                 return None  # the side is needed, and may not settle it
         h = self._h
         return {

@@ -160,10 +160,10 @@ class TunnelPositioner(BaseEstimator):
         the place the spacing of the passes already ranks first, and never lifts
         a place the spacing puts behind another.
     side_passes : int, default=4
-        Fewest passes a lock that the side is needed for explains (a lock from
-        three passes rests on two gaps, and a wrong stretch matches the walls of
-        three passes by chance one time in eight).  Locks that the spacing alone
-        gives keep ``lock_passes``.
+        Fewest passes seen (false ones included) before a lock that the side is
+        needed for: a wrong stretch matches the walls of three passes by chance
+        one time in eight, and a pass more can contradict it.  Locks that the
+        spacing alone gives keep ``lock_passes``.
 
     Attributes
     ----------
