@@ -146,8 +146,8 @@ def test_the_simulator_draws_the_sides_and_the_boxes_follow(global_random_seed):
 
 def test_a_periodic_map_with_both_walls_locks_and_one_wall_does_not(global_random_seed):
     """Every 200 m: the spacing says nothing, the walls do (never a wrong chainage;
-    most tours lock); on one wall, without box positions or by default, nothing
-    locks."""
+    most tours lock); on one wall, without box positions or with side_error=None,
+    nothing locks."""
     locks = 0
     for seed in range(global_random_seed, global_random_seed + 3):
         _, positions, odometry, indicators, det = _tour(seed, "random", spacing=200.0)
@@ -181,7 +181,8 @@ def test_one_wall_changes_nothing(global_random_seed):
 
 def test_cli_side_error(tmp_path, capsys):
     """--side-error reaches the positioner: a map every 200 m with both walls locks
-    with it, not without; a value outside (0, 0.5] is refused."""
+    by default (0.05) and with 0.01, not with 'off'; a value outside (0, 0.5] is
+    refused."""
     truth, positions, _, _, det = _tour(0, "random", spacing=200.0)
     tour = tmp_path / "tour"
     tour.mkdir()
@@ -196,7 +197,9 @@ def test_cli_side_error(tmp_path, capsys):
     assert locked.any()
     s = positions.set_index("frame").loc[got["frame"], "chainage"].to_numpy()
     assert np.abs(got["chainage"].to_numpy() - s)[locked].max() < 1.0
-    assert main([*base, str(tmp_path / "q.csv")]) == 0
+    assert main([*base, str(tmp_path / "d.csv")]) == 0  # the default, 0.05
+    assert read_positions(tmp_path / "d.csv", sigma=True)["locked"].any()
+    assert main([*base, str(tmp_path / "q.csv"), "--side-error", "off"]) == 0
     assert not read_positions(tmp_path / "q.csv", sigma=True)["locked"].any()
     capsys.readouterr()
     for bad in ("0.6", "0", "x"):

@@ -75,11 +75,13 @@ def _positive(text):
 
 
 def _side_error(text):
-    """``--side-error``: a probability in (0, 0.5]."""
+    """``--side-error``: a probability in (0, 0.5], or ``off``."""
+    if text.strip().lower() in ("off", "none"):
+        return None
     value = _positive(text)
     if value > 0.5:
         raise argparse.ArgumentTypeError(
-            f"expected a probability above 0 and at most 0.5; got {text!r}")
+            f"expected a probability above 0 and at most 0.5, or 'off'; got {text!r}")
     return value
 
 
@@ -162,12 +164,12 @@ def register_top(sub) -> None:
                    "to about 1 %%). Default: not known")
     p.add_argument("--sign-height", type=_positive, metavar="M", help="height of the "
                    "indicators (m), with --focal-length")
-    p.add_argument("--side-error", type=_side_error, metavar="E", help="with "
-                   "--start-chainage unknown and a map whose side column names both "
-                   "walls: use the wall each trajectory is seen on (its box drifts "
-                   "towards it as it grows) to lock on; E is the probability that it "
-                   "is read as the other wall, e.g. 0.05 (above 0, at most 0.5). "
-                   "Default: the side is not used")
+    p.add_argument("--side-error", type=_side_error, default=0.05, metavar="E",
+                   help="with --start-chainage unknown and a map whose side column "
+                   "names both walls, the wall each trajectory is seen on (its box "
+                   "drifts towards it as it grows) helps to lock on: E is the "
+                   "probability that it is read as the other wall (above 0, at most "
+                   "0.5; default 0.05); 'off': the side is not used"),
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode frames ahead of the detector (with --model; default: the "
                    "number of CPUs)")

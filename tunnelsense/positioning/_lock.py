@@ -23,10 +23,16 @@ false alarm among them does not prevent the lock.
 Where the map says which wall each indicator stands on, and on both walls, the side
 a pass's trajectory was seen on (:func:`~tunnelsense.positioning.observed_side`) is
 a likelihood factor: a hypothesis that explains the pass by an indicator on the
-other wall pays ``log(side_error / (1 - side_error))`` -- never a veto, so a side
-misread does not lose the right place.  An unknown side (observed or on the map)
-costs nothing, nor does a pass taken as false.  On a map whose indicators all
-stand on one wall the side separates no place: it is not used.
+other wall pays ``log(e / (1 - e))``, ``e`` the pass's own error
+(:func:`side_error_of`: ``side_error`` for a drift read surely, more for a weak
+one) -- never a veto, so a side misread does not lose the right place.  An unknown
+side (observed or on the map) costs nothing, nor does a pass taken as false.  On a
+map whose indicators all stand on one wall the side separates no place: it is not
+used.  The side only settles what the spacing leaves open: a lock it is needed for
+(the lead without the side terms below ``margin``) must be at a place the spacing
+alone ranks first (``side_margin``) and come after ``side_passes`` passes.  A false
+alarm stands on a wall too: a wrong stretch that takes it for an indicator, with a
+missed sign at the right place, can match the walls of three passes by chance.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another place by

@@ -141,7 +141,7 @@ class TunnelPositioner(BaseEstimator):
     relock_after : int, default=3
         Passes rejected by the gate in a row after which the position is dropped
         and found again by locking on (0: never).
-    side_error : float or None, default=None
+    side_error : float or None, default=0.05
         Probability that the wall a trajectory is seen on
         (:func:`observed_side`, from the boxes' drift as they grow) is the other
         one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
@@ -151,9 +151,11 @@ class TunnelPositioner(BaseEstimator):
         drift of 3 to 5 standard errors (a normal tail at a third of the drift's
         t statistic: 0.16 at 3, as if its standard error were three times what
         the boxes' scatter says).  An unknown side, and a pass taken as false,
-        cost nothing.  On a map with one wall it is not used.  None (or 0.5):
-        the side is not used.  Off by default: the rate at which a real
-        detector's trajectories misread the wall is not measured.
+        cost nothing.  On a map with one wall (or none named) it is not used.
+        None (or 0.5): the side is not used.  The rate at which a real
+        detector's trajectories misread the wall is not measured: should it be
+        higher, give it (the side then counts less), or None.  The side only
+        settles what the spacing leaves open (``side_margin``, ``side_passes``).
     side_margin : float, default=0.0
         A lock that the side is needed for (without it the lead is below
         ``lock_margin``) also needs this lead without it: at 0 the side settles
@@ -247,7 +249,7 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
-        side_error=None,
+        side_error=0.05,
         side_margin=0.0,
         side_passes=4,
     ):
