@@ -34,7 +34,9 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
 * ``sides``: without a start, on maps whose indicators stand on ``--side`` (the
   simulator's ``indicator_side``; ``--periodic``: every 200 m), the passes until
   the lock, wrong locks, the error after the lock, and digests of the tours and of
-  the positions (byte-identity before/after a change).  ``--evaluation`` allows
+  the positions (byte-identity before/after a change); ``--side-error`` (0.5: the
+  side not used), ``--side-margin``, ``--side-passes`` and ``--lock-margin`` set
+  the positioner's (default: its own).  ``--evaluation`` allows
   the evaluation seeds, to be run once when every setting is chosen.
 """
 
