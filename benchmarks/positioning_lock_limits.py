@@ -7,7 +7,8 @@ Run on tuning seeds (5000-5299, 6000-6199; never on the evaluation seeds 7000-71
     python benchmarks/positioning_lock_limits.py bound [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py margins 9 8 7 [--failures]
     python benchmarks/positioning_lock_limits.py sides [--side random]
-        [--side-error 0.05] [--side-margin 0] [--side-passes 4] [--periodic] [--failures] [--harder]
+        [--side-error 0.05] [--side-margin 0] [--side-passes 4] [--periodic]
+        [--failures] [--harder]
 
 The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km started
 300-3,000 m into a tunnel whose indicators stand at gaps of 150-250 m; scale errors

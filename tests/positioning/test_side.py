@@ -17,8 +17,8 @@ from tunnelsense.positioning import (
     position_errors,
     read_positions,
 )
-from tunnelsense.positioning._lock import LockOn, side_error_of
-from tunnelsense.positioning._side import side_code
+from tunnelsense.positioning._lock import LockOn
+from tunnelsense.positioning._side import side_code, side_error_of
 
 F, H = 800.0, 1.0  # focal length (px), sign height (m)
 

@@ -24,15 +24,16 @@ Where the map says which wall each indicator stands on, and on both walls, the s
 a pass's trajectory was seen on (:func:`~tunnelsense.positioning.observed_side`) is
 a likelihood factor: a hypothesis that explains the pass by an indicator on the
 other wall pays ``log(e / (1 - e))``, ``e`` the pass's own error
-(:func:`side_error_of`: ``side_error`` for a drift read surely, more for a weak
-one) -- never a veto, so a side misread does not lose the right place.  An unknown
-side (observed or on the map) costs nothing, nor does a pass taken as false.  On a
-map whose indicators all stand on one wall the side separates no place: it is not
-used.  The side only settles what the spacing leaves open: a lock it is needed for
-(the lead without the side terms below ``margin``) must be at a place the spacing
-alone ranks first (``side_margin``) and come after ``side_passes`` passes.  A false
-alarm stands on a wall too: a wrong stretch that takes it for an indicator, with a
-missed sign at the right place, can match the walls of three passes by chance.
+(:func:`~tunnelsense.positioning._side.side_error_of`: ``side_error`` for a drift
+read surely, more for a weak one) -- never a veto, so a side misread does not
+lose the right place.  An unknown side (observed or on the map) costs nothing, nor
+does a pass taken as false.  On a map whose indicators all stand on one wall the
+side separates no place: it is not used.  The side only settles what the spacing
+leaves open: a lock it is needed for (the lead without the side terms below
+``margin``) must be at a place the spacing alone ranks first (``side_margin``) and
+come after ``side_passes`` passes.  A false alarm stands on a wall too: a wrong
+stretch that takes it for an indicator, with a missed sign at the right place, can
+match the walls of three passes by chance.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another place by
@@ -54,7 +55,9 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["LockOn", "side_error_of"]
+from tunnelsense.positioning._side import side_error_of
+
+__all__ = ["LockOn"]
 
 
 class LockOn:
@@ -98,7 +101,8 @@ class LockOn:
         with fewer than two walls named): the side is not used.
     side_error : float or None, default=0.05
         Probability that a pass's observed side is the other wall, for a side read
-        surely (the least a pass's own, :func:`side_error_of`); None (or 0.5): the
+        surely (the least a pass's own,
+        :func:`~tunnelsense.positioning._side.side_error_of`); None (or 0.5): the
         side is not used.
     side_margin : float, default=0.0
         A lock the side terms are needed for (its lead without them below
@@ -171,7 +175,8 @@ class LockOn:
         the previous pass.  ``tag`` is given back with the pass's association at the
         lock; ``side`` the wall its trajectory was seen on (-1 left, +1 right, 0
         unknown) and ``side_t`` how surely (the drift's t statistic,
-        :func:`side_error_of`).  Returns the lock (:meth:`lock`) or None.
+        :func:`~tunnelsense.positioning._side.side_error_of`).  Returns the lock
+        (:meth:`lock`) or None.
         """
         h = self._h
         if self.n_hypotheses:
@@ -389,27 +394,6 @@ class LockOn:
             "passes": [(t, int(a[best])) for t, a in self._assign],
             "margin": margin,
         }
-
-
-def side_error_of(t, side_error, inflation=3.0):
-    """Probability that a pass's observed side is the other wall, from its drift's
-    t statistic ``t`` (:func:`~tunnelsense.positioning._side.side_statistic`): the
-    normal tail beyond ``|t| / inflation``, and at least ``side_error``.
-
-    ``inflation`` widens the drift's standard error: the boxes' jitter is taken as
-    independent from frame to frame, which a real detector's need not be (a box
-    that lags as a sign brightens); a drift of three standard errors, the least
-    :func:`~tunnelsense.positioning.observed_side` reads, then counts for an error
-    of 0.16, one of 5 or more for ``side_error`` (0.05).  An infinite ``t`` (a
-    side given as sure) gives ``side_error``.
-
-    Examples
-    --------
-    >>> from tunnelsense.positioning._lock import side_error_of
-    >>> round(side_error_of(3.0, 0.05), 3), side_error_of(9.0, 0.05)
-    (0.159, 0.05)
-    """
-    return max(float(side_error), 0.5 * math.erfc(abs(float(t)) / inflation / math.sqrt(2)))
 
 
 def unseen_before(chainage, driven, scale, scale_sigma, clearance):

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-__all__ = ["observed_side", "side_code"]
+__all__ = ["observed_side", "side_code", "side_error_of", "side_statistic"]
 
 #: Codes of a side (``side_code``): unknown 0, left -1, right +1.
 _CODES = {"left": -1, "right": 1}
@@ -142,3 +142,25 @@ def _drift(h, x, min_noise):
     if not np.isfinite(var_b) or var_b <= 0:
         return None
     return float(coef[1] / hm), float(np.sqrt(var_b) / hm), coef
+
+
+def side_error_of(t, side_error, inflation=3.0):
+    """Probability that a pass's observed side is the other wall, from its drift's
+    t statistic ``t`` (:func:`side_statistic`): the normal tail beyond
+    ``|t| / inflation``, and at least ``side_error``.
+
+    ``inflation`` widens the drift's standard error: the boxes' jitter is taken as
+    independent from frame to frame, which a real detector's need not be (a box
+    that lags as a sign brightens); a drift of three standard errors, the least
+    :func:`~tunnelsense.positioning.observed_side` reads, then counts for an error
+    of 0.16, one of 5 or more for ``side_error`` (0.05).  An infinite ``t`` (a
+    side given as sure) gives ``side_error``.
+
+    Examples
+    --------
+    >>> from tunnelsense.positioning._side import side_error_of
+    >>> round(side_error_of(3.0, 0.05), 3), side_error_of(9.0, 0.05)
+    (0.159, 0.05)
+    """
+    tail = 0.5 * math.erfc(abs(float(t)) / float(inflation) / math.sqrt(2.0))
+    return max(float(side_error), tail)
