@@ -7,7 +7,8 @@ Run on tuning seeds (5000-5299, 6000-6199; never on the evaluation seeds 7000-71
     python benchmarks/positioning_lock_limits.py bound [--first-seed 5000] [--seeds 300]
     python benchmarks/positioning_lock_limits.py margins 9 8 7 [--failures]
     python benchmarks/positioning_lock_limits.py sides [--side random]
-        [--side-error 0.05] [--periodic] [--failures] [--harder]
+        [--side-error 0.05] [--side-margin 0] [--side-passes 4] [--periodic]
+        [--failures] [--harder]
 
 The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km started
 300-3,000 m into a tunnel whose indicators stand at gaps of 150-250 m; scale errors
@@ -34,7 +35,9 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
 * ``sides``: without a start, on maps whose indicators stand on ``--side`` (the
   simulator's ``indicator_side``; ``--periodic``: every 200 m), the passes until
   the lock, wrong locks, the error after the lock, and digests of the tours and of
-  the positions (byte-identity before/after a change).  ``--evaluation`` allows
+  the positions (byte-identity before/after a change); ``--side-error`` (0.5: the
+  side not used), ``--side-margin``, ``--side-passes`` and ``--lock-margin`` set
+  the positioner's (default: its own).  ``--evaluation`` allows
   the evaluation seeds, to be run once when every setting is chosen.
 """
 
@@ -256,6 +259,10 @@ def main():
                         help="sides: the simulator's indicator_side (left, random)")
     parser.add_argument("--side-error", type=float, default=None,
                         help="sides: the positioner's side_error (default: its own)")
+    parser.add_argument("--side-margin", type=float, default=None,
+                        help="sides: the positioner's side_margin (default: its own)")
+    parser.add_argument("--side-passes", type=int, default=None,
+                        help="sides: the positioner's side_passes (default: its own)")
     parser.add_argument("--lock-margin", type=float, default=None,
                         help="sides: the positioner's lock_margin (default: its own)")
     parser.add_argument("--periodic", action="store_true",
@@ -284,6 +291,8 @@ def main():
         bound(seeds, scale_range, args.sigma, args.min_boxes)
     elif args.what == "sides":
         kw = {k: v for k, v in (("side_error", args.side_error),
+                                ("side_margin", args.side_margin),
+                                ("side_passes", args.side_passes),
                                 ("lock_margin", args.lock_margin)) if v is not None}
         sides(seeds, scale_range, args.failures, args.side, args.periodic, **kw)
     else:

@@ -359,7 +359,7 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False, side="left"):
              "600 m" if failures else ""))
     runs = {"": [], "sign size known": [], "size 2 % off": []}
     if side != "left":
-        runs["side of the road"] = []
+        runs["side of the road not used"] = []
     start_rows = {"online": [], "smoothed": [], "online, scale carried": [],
                   "online, sign size known": [], "online, size 2 % off": []}
     for seed in seeds:
@@ -372,8 +372,8 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False, side="left"):
         runs["size 2 % off"].append(_lock_on(indicators, det, odometry, positions,
                                              **SIZE_OFF))
         if side != "left":
-            runs["side of the road"].append(_lock_on(indicators, det, odometry,
-                                                     positions, side_error=0.05))
+            runs["side of the road not used"].append(_lock_on(
+                indicators, det, odometry, positions, side_error=None))
         if failures:
             continue
         for name, kw in (("online", {}), ("smoothed", {"smooth": True}),
@@ -389,9 +389,9 @@ def lock(seeds, scale_range=(0.01, 0.04), failures=False, side="left"):
             start_rows[name].append(_after_first_pass(positions, est, fixes, odometry,
                                                       indicators))
     for name, r in runs.items():
-        if name == "side of the road":
-            print(" side of the road used (side_error=0.05: each trajectory's wall "
-                  "from its boxes, the map's side column):")
+        if name == "side of the road not used":
+            print(" side of the road not used (side_error=None; by default each "
+                  "trajectory's wall, from its boxes, meets the map's side column):")
         elif name:
             print(f" {name} (focal length x sign height given: the box growth "
                   "measures the scale; 2 % off: believed 2 % too small):")

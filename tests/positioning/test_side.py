@@ -5,14 +5,20 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tunnelsense._cli import main
 from tunnelsense.datasets import (
     make_tunnel_kinematics,
     make_tunnel_odometry,
     simulate_indicator_detections,
 )
-from tunnelsense.positioning import TunnelPositioner, observed_side, position_errors
+from tunnelsense.positioning import (
+    TunnelPositioner,
+    observed_side,
+    position_errors,
+    read_positions,
+)
 from tunnelsense.positioning._lock import LockOn
-from tunnelsense.positioning._side import side_code
+from tunnelsense.positioning._side import side_code, side_error_of
 
 F, H = 800.0, 1.0  # focal length (px), sign height (m)
 
@@ -140,8 +146,8 @@ def test_the_simulator_draws_the_sides_and_the_boxes_follow(global_random_seed):
 
 def test_a_periodic_map_with_both_walls_locks_and_one_wall_does_not(global_random_seed):
     """Every 200 m: the spacing says nothing, the walls do (never a wrong chainage;
-    most tours lock); on one wall, without box positions or by default, nothing
-    locks."""
+    most tours lock); on one wall, without box positions or with side_error=None,
+    nothing locks."""
     locks = 0
     for seed in range(global_random_seed, global_random_seed + 3):
         _, positions, odometry, indicators, det = _tour(seed, "random", spacing=200.0)
@@ -171,3 +177,105 @@ def test_one_wall_changes_nothing(global_random_seed):
         indicators).predict(det, odometry) for e in (None, 0.05, 0.5, 1e-6)]
     for other in runs[1:]:
         pd.testing.assert_frame_equal(runs[0], other)
+
+
+def test_cli_side_error(tmp_path, capsys):
+    """--side-error reaches the positioner: a map every 200 m with both walls locks
+    by default (0.05) and with 0.01, not with 'off'; a value outside (0, 0.5] is
+    refused."""
+    truth, positions, _, _, det = _tour(0, "random", spacing=200.0)
+    tour = tmp_path / "tour"
+    tour.mkdir()
+    truth.write(tour)
+    results = tmp_path / "r.txt"
+    det.assign(x=-1, y=-1, z=-1).to_csv(results, header=False, index=False)
+    base = ["position", str(tour), "--results", str(results), "--start-chainage",
+            "unknown", "--quiet", "--out"]
+    assert main([*base, str(tmp_path / "p.csv"), "--side-error", "0.01"]) == 0
+    got = read_positions(tmp_path / "p.csv", sigma=True)
+    locked = got["locked"].to_numpy()
+    assert locked.any()
+    s = positions.set_index("frame").loc[got["frame"], "chainage"].to_numpy()
+    assert np.abs(got["chainage"].to_numpy() - s)[locked].max() < 1.0
+    assert main([*base, str(tmp_path / "d.csv")]) == 0  # the default, 0.05
+    assert read_positions(tmp_path / "d.csv", sigma=True)["locked"].any()
+    assert main([*base, str(tmp_path / "q.csv"), "--side-error", "off"]) == 0
+    assert not read_positions(tmp_path / "q.csv", sigma=True)["locked"].any()
+    capsys.readouterr()
+    for bad in ("0.6", "0", "x"):
+        with pytest.raises(SystemExit):
+            main([*base, str(tmp_path / "x.csv"), "--side-error", bad])
+        assert "--side-error" in capsys.readouterr().err
+
+
+def _twin_stretches(eps):
+    """A map whose stretch at 18 repeats the gaps of the stretch at 3 (each gap
+    ``1 +- eps`` times), on the other walls; the passes of the stretch at 3 (seen on
+    the walls of the stretch at 18 when ``seen_twin``)."""
+    g = np.random.default_rng(3).uniform(150.0, 250.0, 30)
+    g[18:24] = g[3:9] * (1.0 + eps * (-1.0) ** np.arange(6))
+    chainage = np.cumsum(g)
+    sides = np.ones(len(chainage), int)
+    sides[::3] = -1
+    sides[18:25] = -sides[3:10]
+    return chainage, sides
+
+
+def _lock_at(chainage, sides, dists, seen, **kw):
+    kw = dict(scale=1.0, scale_sigma=0.05, fix_sigma=0.3, gate=4.0, miss_rate=0.4,
+              false_pass_rate=5e-5, margin=9.0, min_passes=3, side_error=0.01) | kw
+    lock = LockOn(chainage, sides=sides, **kw)
+    got = [lock.add(d, 0.01, side=s) for d, s in zip(dists, seen, strict=True)]
+    return next(((k + 1, g["indicator"]) for k, g in enumerate(got) if g is not None),
+                (None, None))
+
+
+def test_the_side_never_lifts_a_place_the_spacing_ranks_behind():
+    """The passes fit the stretch at 3 a little better (its twin's gaps are 0.3 %
+    off, alternately), but are seen on the twin's walls: with the side alone the
+    twin wins by far (a lock there after 4 passes), with side_margin 0 no lock is
+    taken there; where the gaps tie, the side settles it, but not before
+    side_passes passes."""
+    chainage, sides = _twin_stretches(0.003)
+    dists = chainage[3:10] - chainage[3]
+    seen = sides[18:25]
+    n, where = _lock_at(chainage, sides, dists, seen, side_margin=-np.inf,
+                        side_passes=2)
+    assert (n, where) == (4, 21)
+    lock = LockOn(chainage, sides=sides, scale=1.0, scale_sigma=0.05, fix_sigma=0.3,
+                  gate=4.0, miss_rate=0.4, false_pass_rate=5e-5, margin=9.0,
+                  min_passes=3, side_error=0.01)
+    for d, s in zip(dists[:4], seen[:4], strict=True):
+        assert lock.add(d, 0.01, side=s) is None
+    best, margin = lock.ranking()
+    assert margin > 9.0 and -9.0 < lock.lead_without_side(best) < 0.0
+    assert _lock_at(chainage, sides, dists, seen) == (None, None)
+    # without the side the seventh gap (not repeated) singles out the stretch at 3
+    assert _lock_at(chainage, sides, dists, seen, side_error=None) == (7, 9)
+    chainage, sides = _twin_stretches(0.0)
+    dists = chainage[18:24] - chainage[18]
+    assert _lock_at(chainage, sides, dists, sides[18:24]) == (4, 21)
+    assert _lock_at(chainage, sides, dists, sides[18:24], side_passes=5) == (5, 22)
+    assert _lock_at(chainage, sides, dists, sides[18:24], side_error=None) == (
+        None, None)
+
+
+def test_a_weak_drift_counts_less():
+    """A side read from a drift of 3 to 5 standard errors costs less than one read
+    surely; never more than side_error allows."""
+    e = [side_error_of(t, 0.05) for t in (3.0, 4.0, 5.0, 8.0, np.inf, -3.0)]
+    assert e[0] == pytest.approx(0.1587, abs=1e-4) and e[0] == e[5]
+    assert e[0] > e[1] > e[2] >= 0.05 and e[3] == e[4] == 0.05
+    assert side_error_of(20.0, 0.01) < 0.05 and side_error_of(20.0, 0.2) == 0.2
+    chainage = np.arange(0.0, 4000.0, 200.0)
+    sides = np.where(np.arange(len(chainage)) % 2, 1, -1)
+    costs = []
+    for t in (3.0, np.inf):
+        lock = LockOn(chainage, sides=sides, scale=1.0, scale_sigma=0.05,
+                      fix_sigma=0.3, gate=4.0, miss_rate=0.05, false_pass_rate=5e-4,
+                      margin=9.0, min_passes=3, side_error=0.05)
+        lock.add(0.0, 0.01, side=1, side_t=t)
+        score = lock._h["score"]  # noqa: SLF001
+        costs.append(float(np.unique(score[sides == -1] - score[sides == 1])[0]))
+    np.testing.assert_allclose(costs, [np.log(0.1587 / 0.8413), np.log(0.05 / 0.95)],
+                               atol=1e-3)

@@ -26,6 +26,7 @@ def _cmd_position(args) -> int:
         odometry_scale=args.odometry_scale,
         odometry_scale_sigma=args.odometry_scale_sigma,
         focal_length_px=args.focal_length, sign_height_m=args.sign_height,
+        side_error=args.side_error,
         overwrite=args.force, inputs=[args.model, *common.key_files(args)],
         colour=common.colour(args),
         n_threads=args.jobs,
@@ -70,6 +71,17 @@ def _positive(text):
         value = math.nan
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
+    return value
+
+
+def _side_error(text):
+    """``--side-error``: a probability in (0, 0.5], or ``off``."""
+    if text.strip().lower() in ("off", "none"):
+        return None
+    value = _positive(text)
+    if value > 0.5:
+        raise argparse.ArgumentTypeError(
+            f"expected a probability above 0 and at most 0.5, or 'off'; got {text!r}")
     return value
 
 
@@ -152,6 +164,12 @@ def register_top(sub) -> None:
                    "to about 1 %%). Default: not known")
     p.add_argument("--sign-height", type=_positive, metavar="M", help="height of the "
                    "indicators (m), with --focal-length")
+    p.add_argument("--side-error", type=_side_error, default=0.05, metavar="E",
+                   help="with --start-chainage unknown and a map whose side column "
+                   "names both walls, the wall each trajectory is seen on (its box "
+                   "drifts towards it as it grows) helps to lock on: E is the "
+                   "probability that it is read as the other wall (above 0, at most "
+                   "0.5; default 0.05); 'off': the side is not used"),
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode frames ahead of the detector (with --model; default: the "
                    "number of CPUs)")

@@ -23,10 +23,17 @@ false alarm among them does not prevent the lock.
 Where the map says which wall each indicator stands on, and on both walls, the side
 a pass's trajectory was seen on (:func:`~tunnelsense.positioning.observed_side`) is
 a likelihood factor: a hypothesis that explains the pass by an indicator on the
-other wall pays ``log(side_error / (1 - side_error))`` -- never a veto, so a side
-misread does not lose the right place.  An unknown side (observed or on the map)
-costs nothing, nor does a pass taken as false.  On a map whose indicators all
-stand on one wall the side separates no place: it is not used.
+other wall pays ``log(e / (1 - e))``, ``e`` the pass's own error
+(:func:`~tunnelsense.positioning._side.side_error_of`: ``side_error`` for a drift
+read surely, more for a weak one) -- never a veto, so a side misread does not
+lose the right place.  An unknown side (observed or on the map) costs nothing, nor
+does a pass taken as false.  On a map whose indicators all stand on one wall the
+side separates no place: it is not used.  The side only settles what the spacing
+leaves open: a lock it is needed for (the lead without the side terms below
+``margin``) must be at a place the spacing alone ranks first (``side_margin``) and
+come after ``side_passes`` passes.  A false alarm stands on a wall too: a wrong
+stretch that takes it for an indicator, with a missed sign at the right place, can
+match the walls of three passes by chance.
 
 The lock is taken when the best hypothesis has explained ``min_passes`` passes and
 its score beats every hypothesis that puts the vehicle at another place by
@@ -47,6 +54,8 @@ import math
 from collections import deque
 
 import numpy as np
+
+from tunnelsense.positioning._side import side_error_of
 
 __all__ = ["LockOn"]
 
@@ -91,14 +100,26 @@ class LockOn:
         The wall of each indicator: -1 left, +1 right, 0 unknown.  None (or a map
         with fewer than two walls named): the side is not used.
     side_error : float or None, default=0.05
-        Probability that a pass's observed side is the other wall; None (or 0.5):
-        the side is not used.
+        Probability that a pass's observed side is the other wall, for a side read
+        surely (the least a pass's own,
+        :func:`~tunnelsense.positioning._side.side_error_of`); None (or 0.5): the
+        side is not used.
+    side_margin : float, default=0.0
+        A lock the side terms are needed for (its lead without them below
+        ``margin``) also needs a lead of ``side_margin`` without them (to
+        rounding): at 0 the side settles the place the spacing already ranks
+        first (or level with others), and never lifts one the spacing puts behind
+        another.
+    side_passes : int, default=4
+        Fewest passes seen (false ones included) before a lock the side terms are
+        needed for: a wrong stretch matches the walls of three passes by chance
+        one time in eight, and a pass more can contradict it.
     """
 
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
                  false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
                  start=None, clearance=60.0, per_indicator=8, sides=None,
-                 side_error=0.05):
+                 side_error=0.05, side_margin=0.0, side_passes=4):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -117,13 +138,17 @@ class LockOn:
             sides = None  # one wall: the side separates no place
         self.sides = sides
         e = 0.5 if side_error is None else float(side_error)
+        self.side_error = e
         self.side_cost = math.log(e / (1.0 - e)) if 0.0 < e < 0.5 else 0.0
         if not self.side_cost:
             self.sides = None
+        self.side_margin = float(side_margin)
+        self.side_passes = int(side_passes)
         self.n_passes = 0
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
-        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score")}
+        self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score",
+                                            "side")}
         self._last = np.empty(0, np.int64)  # last indicator explained
         self._hits = np.empty(0, np.int64)  # passes explained
         self._assign = deque(maxlen=int(memory))  # per pass: (tag, indicator per hyp)
@@ -132,20 +157,26 @@ class LockOn:
     def n_hypotheses(self) -> int:
         return len(self._last)
 
-    def _side_terms(self, j, side):
+    def _side_terms(self, j, side, side_t=math.inf):
         """The side's log-likelihood term of explaining a pass seen on ``side``
-        (-1, +1; 0 unknown) by indicators ``j``."""
+        (-1, +1; 0 unknown; ``side_t``: its drift's t statistic) by indicators
+        ``j``."""
         if self.sides is None or not side or not self.side_cost:
             return 0.0
-        return np.where(self.sides[j] == -int(side), self.side_cost, 0.0)
+        e = side_error_of(side_t, self.side_error)
+        if e >= 0.5:
+            return 0.0
+        return np.where(self.sides[j] == -int(side), math.log(e / (1.0 - e)), 0.0)
 
-    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None, side=0):
+    def add(self, dist, var, q_s=0.0, q_c=0.0, tag=None, side=0, side_t=math.inf):
         """A pass at odometry distance ``dist`` (variance ``var``).
 
         ``q_s, q_c``: process noise of the chainage and the scale accumulated since
         the previous pass.  ``tag`` is given back with the pass's association at the
         lock; ``side`` the wall its trajectory was seen on (-1 left, +1 right, 0
-        unknown).  Returns the lock (:meth:`lock`) or None.
+        unknown) and ``side_t`` how surely (the drift's t statistic,
+        :func:`~tunnelsense.positioning._side.side_error_of`).  Returns the lock
+        (:meth:`lock`) or None.
         """
         h = self._h
         if self.n_hypotheses:
@@ -179,10 +210,11 @@ class LockOn:
             k0, k1 = p00 / S, p01 / S
             e = np.flatnonzero(ok)
             score = h["score"]
+            side_e = self._side_terms(j[e], side, side_t) + np.zeros(len(e))
             h["score"] = np.concatenate([
-                score[e] + skipped[e] * self.log_miss + gauss[e]
-                + self._side_terms(j[e], side),
+                score[e] + skipped[e] * self.log_miss + gauss[e] + side_e,
                 score + miss_false + self.log_false])
+            h["side"] = np.concatenate([h["side"][e] + side_e, h["side"]])
             h["s"] = np.concatenate([s[e] + k0[e] * res[e], s])
             h["c"] = np.concatenate([c[e] + k1[e] * res[e], c])
             h["p00"] = np.concatenate([(p00 - k0 * p00)[e], p00])
@@ -196,7 +228,7 @@ class LockOn:
         else:
             assign = np.empty(0, np.int64)
         if self.n_passes < self.max_anchors:
-            assign = self._spawn(float(dist), float(var), assign, side)
+            assign = self._spawn(float(dist), float(var), assign, side, side_t)
         self._assign.append((tag, assign))
         self.n_passes += 1
         self._last_dist = float(dist)
@@ -241,11 +273,12 @@ class LockOn:
             return None
         return self.lock(self.unseen_since(dist, margin), self.min_passes + 1)
 
-    def _spawn(self, dist, var, assign, side=0):
+    def _spawn(self, dist, var, assign, side=0, side_t=math.inf):
         """Hypotheses "this pass is indicator j" for every j; earlier passes false."""
         m = len(self.map)
         score = np.full(m, self.n_passes * self.log_false + self.log_hit)
-        score += self._side_terms(np.arange(m), side)
+        side_m = self._side_terms(np.arange(m), side, side_t) + np.zeros(m)
+        score += side_m
         if self.start is not None:
             score += self.log_miss * unseen_before(self.map, dist - self.start,
                                                    self.scale, self.scale_sigma,
@@ -253,7 +286,7 @@ class LockOn:
         new = {"s": self.map.copy(), "c": np.full(m, self.scale),
                "p00": np.full(m, self.fix_var + self.scale**2 * var),
                "p01": np.zeros(m), "p11": np.full(m, self.scale_sigma**2),
-               "score": score}
+               "score": score, "side": side_m}
         for key, value in new.items():
             self._h[key] = np.concatenate([self._h[key], value])
         self._last = np.concatenate([self._last, np.arange(m)])
@@ -302,8 +335,20 @@ class LockOn:
         if not len(score):
             return None, 0.0
         best = int(np.argmax(score))
+        return best, self._lead(score, best)
+
+    def _lead(self, score, best):
+        """Lead of hypothesis ``best``'s ``score`` over any elsewhere (inf: none)."""
         rival = score[self._elsewhere(best)]
-        return best, float(score[best] - rival.max()) if len(rival) else math.inf
+        return float(score[best] - rival.max()) if len(rival) else math.inf
+
+    def lead_without_side(self, best, missed=None):
+        """The lead of hypothesis ``best`` over any elsewhere, the side terms left
+        out (``margin`` of :meth:`ranking` when the side is not used)."""
+        score = self._h["score"] - self._h["side"]
+        if missed is not None:
+            score = score + missed * self.log_miss
+        return self._lead(score, best)
 
     def n_explaining(self):
         """How many places of the map explain the passes within ``margin`` of the best."""
@@ -334,6 +379,12 @@ class LockOn:
         least = self.min_passes if min_passes is None else min_passes
         if best is None or self._hits[best] < least or margin < self.margin:
             return None
+        if self.sides is not None:
+            plain = self.lead_without_side(best, missed)
+            # (to rounding: on an evenly spaced map the places tie)
+            if plain < self.margin and (plain < self.side_margin - 1e-6
+                                        or self.n_passes < self.side_passes):
+                return None  # the side is needed, and may not settle it
         h = self._h
         return {
             "state": np.array([h["s"][best], h["c"][best]]),

@@ -141,17 +141,31 @@ class TunnelPositioner(BaseEstimator):
     relock_after : int, default=3
         Passes rejected by the gate in a row after which the position is dropped
         and found again by locking on (0: never).
-    side_error : float or None, default=None
+    side_error : float or None, default=0.05
         Probability that the wall a trajectory is seen on
         (:func:`observed_side`, from the boxes' drift as they grow) is the other
         one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
         both walls, a hypothesis that explains a pass by an indicator on the other
-        wall pays ``log(side_error / (1 - side_error))`` (-2.9 at 0.05: never a
-        veto); an unknown side, and a pass taken as false, cost nothing.  On a map
-        with one wall it is not used.  None (or 0.5): the side is not used.  Off by
-        default: it lets most tours lock a pass sooner, but it also removes rivals
-        that had kept a wrong place (a missed sign and a false alarm among the
-        first passes) from locking.
+        wall pays ``log(e / (1 - e))`` (-2.9 at 0.05: never a veto), ``e`` the
+        pass's own error: ``side_error`` for a drift read surely, more for a
+        drift of 3 to 5 standard errors (a normal tail at a third of the drift's
+        t statistic: 0.16 at 3, as if its standard error were three times what
+        the boxes' scatter says).  An unknown side, and a pass taken as false,
+        cost nothing.  On a map with one wall (or none named) it is not used.
+        None (or 0.5): the side is not used.  The rate at which a real
+        detector's trajectories misread the wall is not measured: should it be
+        higher, give it (the side then counts less), or None.  The side only
+        settles what the spacing leaves open (``side_margin``, ``side_passes``).
+    side_margin : float, default=0.0
+        A lock that the side is needed for (without it the lead is below
+        ``lock_margin``) also needs this lead without it: at 0 the side settles
+        the place the spacing of the passes already ranks first, and never lifts
+        a place the spacing puts behind another.
+    side_passes : int, default=4
+        Fewest passes seen (false ones included) before a lock that the side is
+        needed for: a wrong stretch matches the walls of three passes by chance
+        one time in eight, and a pass more can contradict it.  Locks that the
+        spacing alone gives keep ``lock_passes``.
 
     Attributes
     ----------
@@ -205,6 +219,8 @@ class TunnelPositioner(BaseEstimator):
         "false_pass_rate": [Interval(numbers.Real, 0, None, closed="neither")],
         "relock_after": [Interval(numbers.Integral, 0, None, closed="left")],
         "side_error": [Interval(numbers.Real, 0, 0.5, closed="right"), None],
+        "side_margin": [Interval(numbers.Real, None, None, closed="neither")],
+        "side_passes": [Interval(numbers.Integral, 2, None, closed="left")],
     }
 
     def __init__(
@@ -233,7 +249,9 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
-        side_error=None,
+        side_error=0.05,
+        side_margin=0.0,
+        side_passes=4,
     ):
         self.estimate_scale = estimate_scale
         self.smooth = smooth
@@ -259,6 +277,8 @@ class TunnelPositioner(BaseEstimator):
         self.false_pass_rate = false_pass_rate
         self.relock_after = relock_after
         self.side_error = side_error
+        self.side_margin = side_margin
+        self.side_passes = side_passes
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):

@@ -56,8 +56,8 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, start_chainage=0.0,
                   start_sigma=1.0, odometry_scale=1.0, odometry_scale_sigma=0.05,
-                  focal_length_px=None, sign_height_m=None, overwrite=False,
-                  progress=None, inputs=(), n_threads=0, colour=None):
+                  focal_length_px=None, sign_height_m=None, side_error=0.05,
+                  overwrite=False, progress=None, inputs=(), n_threads=0, colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
     The file has a row per frame: ``frame,stamp,chainage,sigma,locked,scale,
@@ -96,6 +96,11 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         The camera's focal length (px) and the indicators' height (m): each sign's
         box growth then measures the odometry's scale, before a second sign is
         passed (see :class:`TunnelPositioner`).  None: not known.
+    side_error : float or None, default=0.05
+        Without a start, where the map's ``side`` column names both walls, the
+        wall each trajectory is seen on helps to lock on: the probability that it
+        is read as the other wall (see :class:`TunnelPositioner`).  None: the
+        side is not used.
     overwrite : bool, default=False
         Replace an existing ``out``.
     colour : int, "luminance" or None, default=None
@@ -142,7 +147,8 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     positioner = TunnelPositioner(
         smooth=smooth, initial_chainage=start_chainage, initial_sigma=start_sigma,
         initial_scale=odometry_scale, scale_sigma=odometry_scale_sigma,
-        focal_length_px=focal_length_px, sign_height_m=sign_height_m)
+        focal_length_px=focal_length_px, sign_height_m=sign_height_m,
+        side_error=side_error)
     odo = read_odometry(odometry)
     positioner.fit(read_indicator_map(indicator_map))
     if results is not None:

@@ -28,7 +28,8 @@ class _LockingOn:
             fix_sigma=p.fix_sigma, gate=p.gate, miss_rate=p.miss_rate,
             false_pass_rate=p.false_pass_rate / 1000.0, margin=p.lock_margin,
             min_passes=p.lock_passes, start=start, clearance=p.max_extrapolation,
-            sides=self._sides, side_error=p.side_error)
+            sides=self._sides, side_error=p.side_error,
+            side_margin=p.side_margin, side_passes=p.side_passes)
 
     def lock_status(self) -> str:
         """A sentence on the lock: where it was taken, or why there is none."""
@@ -58,7 +59,8 @@ class _LockingOn:
         # scale known that well let a wrong place explain them best (1 tour in 200
         # with such failures); it is used from the lock on
         lock = self._lockon.add(dist, var, q[0], q[1], tag=(k, u, var, row),
-                                side=row.get("_side", 0))
+                                side=row.get("_side", 0),
+                                side_t=row.get("_side_t", math.inf))
         row.update(accepted=False, reason=(f"{row['reason']}; " if row["reason"] else "")
                    + "locking on")
         if lock is not None:

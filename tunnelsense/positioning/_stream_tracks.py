@@ -14,13 +14,16 @@ from tunnelsense.positioning._fixes import (
     detection_table,
     scale_from_slope,
 )
-from tunnelsense.positioning._side import observed_side
+from tunnelsense.positioning._side import side_statistic
 
 __all__ = []
 
 #: A trajectory with this many degrees of freedom (boxes beyond the line's two
 #: parameters) tells the detector's box-height noise (its estimate within a third).
 _NOISE_DOF = 20
+
+#: Least drift (in standard errors) that reads a side: :func:`observed_side`'s.
+_SIDE_MIN_T = 3.0
 
 
 class _TrackInput:
@@ -139,8 +142,9 @@ class _TrackInput:
         lk = self._lockon
         if lk is not None and lk.sides is not None:
             # the wall it was seen on: a likelihood factor of the lock-on
-            side = observed_side(hs[keep], np.asarray(xs, np.float64)[keep])
-            row["_side"] = {"left": -1, "right": 1}.get(side, 0)
+            t = side_statistic(hs[keep], np.asarray(xs, np.float64)[keep])
+            if abs(t) >= _SIDE_MIN_T:  # NaN: unknown
+                row["_side"], row["_side_t"] = (1 if t > 0 else -1), t
         self._apply(dist, row)
 
 
