@@ -2,10 +2,18 @@
 
 import numpy as np
 import pytest
+from _street_scenes import make_run, sedan
 
 from tunnelsense.metrics import street_scores
 from tunnelsense.street import ScanClusterer
-from tunnelsense.street._carving import flat_face, protrusions, raised_section, widen
+from tunnelsense.street._carving import (
+    flat_face,
+    long_runs,
+    protrusions,
+    raised_section,
+    under_gap,
+    widen,
+)
 
 
 def test_a_motorbike_against_a_hedge_is_carved_out():
@@ -142,7 +150,7 @@ def test_cars_in_front_of_a_wall_are_carved_out_and_the_wall_is_no_van(seed):
         .itertuples(index=False) if t[3] == "parked"]
 
 
-def test_a_ragged_hedge_behind_the_kerb_is_no_van_when_judged_by_the_ground():
+def test_a_ragged_hedge_behind_the_kerb_is_no_van_judged_by_the_ground():
     from tunnelsense.datasets import make_street_scans
 
     # a hedge tight behind the kerb: beams reach into its foliage and through its
@@ -150,9 +158,71 @@ def test_a_ragged_hedge_behind_the_kerb_is_no_van_when_judged_by_the_ground():
     # stands on the footway; cars in front of it join it in one object
     run = make_street_scans(2000, scenario="sparse", random_state=104,
                             tight_hedge_fraction=0.6)
-    est = ScanClusterer().fit(run.scans)
+    est = ScanClusterer(flat_by_ground=False).fit(run.scans)
     before = street_scores(run.gt, est.detect(run.scans))["parked"]
     after = street_scores(run.gt, est.set_params(flat_by_ground=True).detect(
         run.scans))["parked"]
     assert before["fn"] > 0 and before["fp"] > 0
     assert after["tp"] > before["tp"] and after["fp"] < before["fp"]
+
+
+def test_under_gap_needs_the_next_beam_farther_and_lower():
+    pts = np.array([[5.0, 0.15], [5.0, 0.2], [5.0, 0.25]])
+    beams = np.arange(3)
+    section = np.ones(3, dtype=bool)
+
+    def gap(below):
+        under = np.array([below, [5.0, 0.15], [5.0, 0.2]], dtype=float)
+        return under_gap(pts, beams, under, section, 0.1)
+
+    assert gap([5.4, 0.0])  # under a car's sill, to the road
+    assert not gap([5.0, 0.1])  # the same face, one beam lower
+    assert not gap([5.25, 0.12])  # into foliage: farther, not lower
+    assert not gap([5.4, 0.1])  # farther, but not lower by the resolution
+    assert not gap([4.8, 0.0])  # the footway in front of a wall
+    assert not gap([np.nan, np.nan])  # no return says nothing
+    assert not under_gap(pts, beams, pts, np.zeros(3, bool), 0.1)
+
+
+def test_long_runs_keep_stretches_not_single_scans():
+    mask = np.array([1, 0, 1, 1, 0, 1, 1, 1, 1], dtype=bool)
+    kept = long_runs(mask, np.full(9, 0.15), 0.5)
+    assert kept.tolist() == [False] * 5 + [True] * 4
+    assert long_runs(mask, np.full(9, 0.3), 0.5).tolist() == [
+        False, False, True, True, False, True, True, True, True]
+    assert not long_runs(np.zeros(0, bool), np.zeros(0), 0.5).any()
+
+
+@pytest.mark.parametrize("bottom", [0.0, 0.15])
+def test_a_hedge_standing_on_the_ground_is_no_vehicle_but_low_cars_are(bottom):
+    # a thick hedge (its top roof-wide, 1.1 m) on the footway just behind two cars
+    # whose bodies come down to 0.15 m: single linkage joins the cars' roofs to the
+    # hedge's face in every scan, one 19 m object
+    speed = 11.0
+    hedge = [dict(s0=1.0, s1=20.0, depth=6.5, top=1.3, width=1.1, bottom=0.0)]
+    cars = [dict(s0=4.0, s1=8.4, depth=4.7, top=sedan, bottom=0.15),
+            dict(s0=12.0, s1=16.4, depth=4.7, top=sedan, bottom=0.15)]
+    labels = [None, "parked", "parked"]
+    run = make_run(hedge + cars, labels, n_scans=int(21.0 / speed * 75), speed=speed,
+                   mount_height=2.4)
+    old = ScanClusterer(flat_by_ground=False).fit(run.scans)
+    new = ScanClusterer().fit(run.scans)
+    before = street_scores(run.gt, old.detect(run.scans))["parked"]
+    after = street_scores(run.gt, new.detect(run.scans))["parked"]
+    # with a roof counted as a vehicle's mark, the hedge and the cars are one "van"
+    assert before["tp"] == 0 and before["fp"] == 1
+    assert after["tp"] == 2 and after["fp"] == 0
+    # the same two cars nose to tail without the hedge, left unsplit, are one
+    # 9 m object without a body raised 0.2 m: the beams passing under their
+    # bodies to the road keep it a vehicle
+    pair = [dict(s0=4.0, s1=8.4, depth=4.7, top=sedan, bottom=bottom),
+            dict(s0=8.45, s1=12.85, depth=4.7, top=sedan, bottom=bottom)]
+    run = make_run(pair, ["parked", "parked"], n_scans=int(14.0 / speed * 75),
+                   speed=speed, mount_height=2.4)
+    det = ScanClusterer(split_merged=False).fit(run.scans).detect(run.scans)
+    parked = det[det.label == "parked"]
+    if bottom > 0:
+        assert len(parked) == 1 and parked.length.iloc[0] > 8.0
+    else:  # the gap is what tells: the same boxes standing on the road are a wall
+        assert len(parked) == 0
+

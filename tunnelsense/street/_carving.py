@@ -18,7 +18,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["flat_face", "protrusions", "raised_section", "scan_near_side", "widen"]
+__all__ = [
+    "flat_face",
+    "long_runs",
+    "protrusions",
+    "raised_section",
+    "scan_near_side",
+    "under_gap",
+    "widen",
+]
 
 
 def scan_near_side(scan, side, first, last):
@@ -162,6 +170,92 @@ def raised_section(points, beams, section, min_clearance, tolerance, *, absent=F
     if not len(below):
         return bool(absent)
     return bool(points[below[0], 0] > points[low, 0] + tolerance)
+
+
+def under_gap(points, beams, under, section, tolerance):
+    """Whether the beam just below a cross-section passes under it to the ground.
+
+    The beam next below the section's lowest point returns more than
+    ``tolerance`` farther *and* more than ``tolerance`` lower than that point: it
+    went through the space under the body (a car's ground clearance, however
+    small) and fell to the road or footway beyond the body's near side.  On a
+    face standing on the ground (a wall, a hedge) the next beam down ends on the
+    same face, one beam spacing lower, or on the ground in front of it; beams
+    reaching into foliage end a little farther but not lower.  Unlike
+    :func:`raised_section` no clearance is required: the gap under the body is
+    measured in beam spacings (``tolerance``), not in metres above the road.
+
+    Parameters
+    ----------
+    points : ndarray of shape (n, 2)
+        ``(depth, height)`` of the scan's region-of-interest points, in beam order.
+    beams : ndarray of shape (n,) of int
+        Their beam numbers.
+    under : ndarray of shape (n, 2)
+        ``(depth, height)`` where the next beam down from every point ends (NaN:
+        no return; it may lie outside the region of interest).
+    section : ndarray of shape (n,) of bool
+        Which points belong to the cross-section.
+    tolerance : float
+        Depth and height resolution (m) of the beams there (two beam spacings).
+
+    Returns
+    -------
+    gap : bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._carving import under_gap
+    >>> # a car's sill 0.15 m high at 5.0 m; the next beam reaches the road at 5.4 m
+    >>> pts = np.array([[5.0, 0.15], [5.0, 0.2], [5.0, 0.25]])
+    >>> under_gap(pts, np.arange(3), np.array([[5.4, 0.0], [5.0, 0.15],
+    ...           [5.0, 0.2]]), np.ones(3, bool), 0.1)
+    True
+    >>> # a hedge's foot: the next beam ends in its foliage, farther but not lower
+    >>> under_gap(pts, np.arange(3), np.array([[5.25, 0.1], [5.0, 0.15],
+    ...           [5.0, 0.2]]), np.ones(3, bool), 0.1)
+    False
+    """
+    idx = np.flatnonzero(section)
+    if not len(idx):
+        return False
+    low = idx[np.argmin(beams[idx])]
+    below = under[low]
+    with np.errstate(invalid="ignore"):
+        return bool((below[0] > points[low, 0] + tolerance)
+                    & (below[1] < points[low, 1] - tolerance))
+
+
+def long_runs(mask, metres, min_length):
+    """``mask`` kept only in runs of consecutive True at least ``min_length`` long.
+
+    Parameters
+    ----------
+    mask : ndarray of shape (n,) of bool
+    metres : ndarray of shape (n,)
+        Length (m) along the street of every scan.
+    min_length : float
+
+    Returns
+    -------
+    kept : ndarray of shape (n,) of bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._carving import long_runs
+    >>> long_runs(np.array([1, 0, 1, 1, 1, 0], bool), np.full(6, 0.2), 0.5).tolist()
+    [False, False, True, True, True, False]
+    """
+    mask = np.asarray(mask, dtype=bool)
+    out = np.zeros(len(mask), dtype=bool)
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1),
+                    strict=True):
+        if float(np.sum(metres[a:b])) >= min_length:
+            out[a:b] = True
+    return out
 
 
 def widen(near, a, b, depth, length, gap):

@@ -276,21 +276,26 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         motorbikes parked behind passing traffic, but at twice the scan rate, at
         20 km/h and with the kerb at 7.3 m it also lets a short false object
         through.
-    flat_by_ground : bool, default=False
+    flat_by_ground : bool, default=True
         Walls judged where their face meets the ground (beyond the paper): the
         face of an object longer than ``van_length`` whose depth lies outside the
-        region labelled ``"passing"`` (behind the parking lane) is flat when the
-        object's lowest point in a scan stands above ``min_clearance`` with the
+        region labelled ``"passing"`` (behind the parking lane) is flat unless, over
+        ``min_raised_fraction`` of the face's length, it shows the space under a
+        body: its lowest point in a scan stands above ``min_clearance`` with the
         beam just below it passing farther or leaving no point in the region of
-        interest (it reached the road under a body raised between wheels) in less
-        than ``min_raised_fraction`` of the face's length.  A hedge's face, ragged
-        in depth and top, reaches the footway all along; a roof-wide top (a thick
-        hedge's) and beams passing through gaps in its foliage above the ground
-        say nothing either way.  False (the default): a roof, a raised body at any
-        point or a body hanging in the air count (``carve_protrusions``).  Not
-        the default because roofs then count for nothing: two cars with little
-        ground clearance (a body down to 0.15 m) touching bumpers, if left
-        unsplit, are one long object with no raised body, taken for a wall.
+        interest (a body raised between wheels), or, over a stretch of at least
+        0.5 m, the beam just below its lowest point returns more than two beam
+        spacings farther *and* lower (it passed under the body to the ground,
+        whatever the ground clearance: a car whose body comes down to 0.15 m).  A
+        face standing on the ground (a wall, a hedge on the footway) ends the next
+        beam down on itself or on the ground in front of it; beams into a hedge's
+        foliage end farther but not lower, and through its gaps in a scan or two.
+        A roof-wide top (a thick hedge's) says nothing either way.  False: a roof,
+        a raised body at any point or a body hanging in the air count
+        (``carve_protrusions``), and a hedge right behind the kerb with the cars in
+        front of it is taken for a van.  A face with a gap at the bottom (a
+        fence on posts, a railing, a hedge bare at its foot) shows that space and
+        is not set aside.
 
     Attributes
     ----------
@@ -406,7 +411,7 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         motorbike_width=1.2,
         carve_protrusions=True,
         seen_evidence=False,
-        flat_by_ground=False,
+        flat_by_ground=True,
     ):
         self.cut = cut
         self.link_distance = link_distance

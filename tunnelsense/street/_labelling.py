@@ -17,9 +17,11 @@ import numpy as np
 from tunnelsense._records import RUN_LABELS
 from tunnelsense.street._carving import (
     flat_face,
+    long_runs,
     protrusions,
     raised_section,
     scan_near_side,
+    under_gap,
     widen,
 )
 from tunnelsense.street._classes import ROOF_FLAG, WALL_FLAG, class_features
@@ -47,6 +49,10 @@ __all__ = []
 WALL_QUANTILE = 75.0
 #: Evidence bits a flat face lacks: a roof, a body raised between wheels or hanging.
 NOT_FLAT = ROOF_FLAG | RAISED_FLAG | SUSPENDED_FLAG
+#: Shortest stretch (m) of consecutive scans whose beams pass under a face to the
+#: ground that counts as the space under a body: a car's between its wheels is
+#: over 2 m long; a beam through a gap in foliage lasts a scan or two.
+GAP_RUN = 0.5
 
 
 class _Labelling:
@@ -168,15 +174,22 @@ class _Labelling:
         """Per scan ``first .. last``, whether the lowest point of clusters ``mine``
         stands above ``min_clearance`` with the beam below it passing farther or
         returning nothing in the region of interest (it reached the road under it;
-        :func:`~tunnelsense.street._carving.raised_section`)."""
+        :func:`~tunnelsense.street._carving.raised_section`), or, over a stretch of
+        at least ``GAP_RUN`` metres, the beam below it passes under it to the
+        ground, whatever its clearance
+        (:func:`~tunnelsense.street._carving.under_gap`)."""
         tol = float(self.resolution(face))
-        out = np.zeros(last - first + 1, dtype=np.int64)
+        raised = np.zeros(last - first + 1, dtype=bool)
+        gap = np.zeros(last - first + 1, dtype=bool)
         for p in range(first, last + 1):
             points, beams, local = self.payload[p]
             want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
-            out[p - first] = raised_section(points, beams, np.isin(local, want),
-                                            self.est.min_clearance, tol, absent=True)
-        return out
+            section = np.isin(local, want)
+            raised[p - first] = raised_section(points, beams, section,
+                                               self.est.min_clearance, tol, absent=True)
+            gap[p - first] = under_gap(points, beams, self.under[p], section, tol)
+        gap = long_runs(gap, np.diff(self.cum[first:last + 2]), GAP_RUN)
+        return (raised | gap).astype(np.int64)
 
     def _carve(self, mine, pos, first, last, whole=False):
         """Queue entries of motorbikes standing against the structure of clusters

@@ -101,6 +101,7 @@ class ScanWindow:
         self.base = 0
         self.records = []
         self.payload = []  # (points, beams, clusters) of every scan
+        self.under = []  # (depth, height) the next beam down from every point ends at
         self.scans = np.empty(0, np.int64)
         self.follows = np.empty(0, bool)
         self.near = np.empty(0)  # mean depth of the nearest cluster
@@ -264,6 +265,7 @@ class ScanWindow:
         bounds = np.searchsorted(roi.scan, np.arange(n + 1))
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
             self.payload.append((roi.points[a:b], roi.beam[a:b], local[a:b]))
+            self.under.append(roi.below[a:b])
         self.records.extend(block)
         self.scans = concat(self.scans, scans)
         self.follows = concat(self.follows, follows)
@@ -310,6 +312,7 @@ class ScanWindow:
         self.base += d
         del self.records[:d]
         del self.payload[:d]
+        del self.under[:d]
         for name in ("scans", "follows", "near", "cum", "tilt", "kerb", "horizon",
                      "n_clusters",
                      "first_cluster"):
