@@ -592,8 +592,10 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             frames.append((r, rects, H, owner, core_rects))
             patches += box_patches(image, core_rects, margin)
             hws.append(core_rects[:, [3, 2]])
-        decision = (self._decision(_invariant_rows(
-            patches, np.concatenate(hws).tolist(), self.features))
+        # the cores of a whole training tour in chunks (their tables stay small)
+        rows = _invariant_rows if described is None else _chunked_features
+        decision = (self._decision(rows(
+            patches, np.concatenate(hws).tolist(), features=self.features))
                     if patches else np.empty(0))
         if described is not None:
             # clusters' rows first, then the cores', frame by frame, as below
