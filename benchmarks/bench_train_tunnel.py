@@ -49,12 +49,16 @@ def _busy():
 
 
 def _runs(tour, model, baseline):
-    cli = [sys.executable, "-m", "tunnelsense._cli", "train", "tunnel", str(tour),
+    # -P: the working directory is not put first on the path, so each run imports
+    # the tree its PYTHONPATH names (this one, or --baseline) wherever the script
+    # is started from (from the repository's root, the baseline ran this tree)
+    cli = [sys.executable, "-P", "-m", "tunnelsense._cli", "train", "tunnel", str(tour),
            "--model", str(model), "--force", "--quiet"]
+    here = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     runs = {"decode": ([sys.executable, "-c", _DECODE, str(tour)], None),
-            "train": (cli, None), "train --jobs 1": ([*cli, "--jobs", "1"], None)}
+            "train": (cli, here), "train --jobs 1": ([*cli, "--jobs", "1"], here)}
     if baseline is not None:
-        env = {**os.environ, "PYTHONPATH": str(baseline)}
+        env = {**os.environ, "PYTHONPATH": str(Path(baseline).resolve())}
         runs["baseline train"] = (cli, env)
         runs["baseline train --jobs 1"] = ([*cli, "--jobs", "1"], env)
     return runs

@@ -327,12 +327,14 @@ def test_any_shape_features_leave_out_the_proportions():
 
 def test_invariant_core_transform_frame_by_frame_or_at_once():
     """The invariant features of all frames' clusters and cores are scored in one
-    call: the same payloads as fit_transform's frame-by-frame scoring, and as one
-    frame at a time, with a frame without clusters among them."""
+    call, by transform and by fit_transform (the clusters' features of the fit,
+    the cores' computed): the same payloads as one frame at a time, with frames
+    without clusters among them (in the middle and at the end)."""
     X, y = _frames(seed=6)
     empty = X[0].evolve(cluster_boxes=np.empty((0, 4)))
-    X = FrameSequence([*X, _sign_in_halo(), empty.evolve()])
-    y = [*y, np.array([[30.0, 40.0, 8.0, 18.0]]), np.empty((0, 4))]
+    X = FrameSequence([X[0], empty.evolve(), *X[1:], _sign_in_halo(), empty.evolve()])
+    y = [y[0], np.empty((0, 4)), *y[1:], np.array([[30.0, 40.0, 8.0, 18.0]]),
+         np.empty((0, 4))]
     X = FrameSequence(r if i != len(X) - 1 else FrameRecord("t", 100, r.image, r.payload)
                       for i, r in enumerate(X))
     a = WeightedAdaBoost(n_estimators=10, features="invariant", core=(0.5, 0.7, 0.85),

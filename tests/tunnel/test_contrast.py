@@ -259,3 +259,25 @@ def test_clusterer_box_contrast_holds_a_keypoint_in_the_grown_rectangle(tours):
             assert inside.any()
         n += int((ba[:, 3] > bb[:, 3]).sum())
     assert n > 0
+
+
+@pytest.mark.parametrize("deep", [False, True])
+@pytest.mark.parametrize("tolerance", [0.0, "learned"])
+def test_fit_transform_equals_fit_then_transform(tours, deep, tolerance):
+    """fit_transform reuses the canonical frames its fit made where the frame's map
+    is the same: the same frames (pixels) and payloads as fit, then transform, on
+    8-bit frames and on 16-bit counts (whose fit maps by other reference levels
+    than its transform)."""
+    plain, _, _ = tours
+    X, y, _ = to_xy([plain])
+    if deep:
+        X = _raw_counts(X)
+    kw = dict(CONTRAST, gain_tolerance=tolerance)
+    a = IntensityKeypointSampler(**kw).fit_transform(X, y)
+    b = IntensityKeypointSampler(**kw).fit(X, y).transform(X)
+    assert a[0].image.dtype == np.uint8
+    for ra, rb in zip(a, b, strict=True):
+        assert np.array_equal(ra.image, rb.image)
+        assert ra.payload.keys() == rb.payload.keys()
+        for key in ra.payload:
+            assert np.array_equal(ra.payload[key], rb.payload[key])

@@ -164,8 +164,7 @@ def key_files(args):
 
 def check_model_output(args, sources):
     """Refuse a ``--model`` to write before any work; return the signing keys."""
-    from tunnelsense.io._output import input_files
-    from tunnelsense.io._trust import check_model_path
+    from tunnelsense.io._output import check_model_path, input_files
 
     inputs = [f for d in sources for f in input_files(d)]
     check_model_path(args.model, overwrite=args.force, inputs=[*inputs, *key_files(args)])

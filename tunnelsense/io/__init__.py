@@ -55,7 +55,7 @@ _NAMES = {
     "read_video": "_sources",
     "read_mot_gt": "_tables",
     "write_mot_gt": "_tables",
-    "check_model_path": "_trust",
+    "check_model_path": "_output",
     "load_trusted_model": "_trust",
     "read_signing_key": "_trust",
     "ResultsWriter": "_writer",

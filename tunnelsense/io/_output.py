@@ -21,12 +21,17 @@ from pathlib import Path
 from tunnelsense.exceptions import OutputExistsError
 
 __all__ = [
+    "PICKLE_SUFFIXES",
     "atomic_write",
     "check_draw_dir",
+    "check_model_path",
     "check_output",
     "input_files",
     "output_error",
 ]
+
+#: Extensions of the pickle model files (``.skops`` is the safe format).
+PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
 
 #: Folders of the operating system's devices and kernel tables: never written.
 _DEVICE_ROOTS = (Path("/dev"), Path("/proc"), Path("/sys"))
@@ -236,3 +241,32 @@ def check_draw_dir(path, *, force, inputs=(), outputs=()) -> Path:
             "(pass --force)"
         )
     return path
+
+
+def check_model_path(path, *, overwrite=False, inputs=()) -> Path:
+    """Refuse a model file to write before any work: its extension, and no overwrite.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.skops`` (the safe format) or a pickle (``.joblib``, ``.pkl``, ``.pickle``).
+    overwrite : bool, default=False
+        Allow replacing an existing file.
+    inputs : sequence of path, default=()
+        Files the model must not be (the training data, the key file).
+
+    Returns
+    -------
+    path : Path
+
+    Examples
+    --------
+    >>> check_model_path("model.txt")
+    Traceback (most recent call last):
+    ...
+    ValueError: --model model.txt: the extension chooses the format: .skops (safe, no code runs on load) or .joblib (pickle)
+    """
+    if Path(path).suffix.lower() not in (*PICKLE_SUFFIXES, ".skops"):
+        raise ValueError(f"--model {path}: the extension chooses the format: "
+                         ".skops (safe, no code runs on load) or .joblib (pickle)")
+    return check_output(path, overwrite=overwrite, what="--model", inputs=inputs)

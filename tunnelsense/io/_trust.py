@@ -21,41 +21,12 @@ from tunnelsense.io._model import (
 )
 from tunnelsense.io._model_file import _as_key, read_metadata, verified_bytes
 from tunnelsense.io._model_strict import check_detector, read_strict
-from tunnelsense.io._output import check_output
+
+# the model path's check lives beside the other output checks, which import no
+# scikit-learn: a training command makes it before its frames are decoded
+from tunnelsense.io._output import PICKLE_SUFFIXES, check_model_path
 
 __all__ = ["PICKLE_SUFFIXES", "check_model_path", "load_trusted_model", "read_signing_key"]
-
-#: Extensions of the pickle model files (``.skops`` is the safe format).
-PICKLE_SUFFIXES = (".joblib", ".pkl", ".pickle")
-
-
-def check_model_path(path, *, overwrite=False, inputs=()) -> Path:
-    """Refuse a model file to write before any work: its extension, and no overwrite.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.skops`` (the safe format) or a pickle (``.joblib``, ``.pkl``, ``.pickle``).
-    overwrite : bool, default=False
-        Allow replacing an existing file.
-    inputs : sequence of path, default=()
-        Files the model must not be (the training data, the key file).
-
-    Returns
-    -------
-    path : Path
-
-    Examples
-    --------
-    >>> check_model_path("model.txt")
-    Traceback (most recent call last):
-    ...
-    ValueError: --model model.txt: the extension chooses the format: .skops (safe, no code runs on load) or .joblib (pickle)
-    """
-    if Path(path).suffix.lower() not in (*PICKLE_SUFFIXES, ".skops"):
-        raise ValueError(f"--model {path}: the extension chooses the format: "
-                         ".skops (safe, no code runs on load) or .joblib (pickle)")
-    return check_output(path, overwrite=overwrite, what="--model", inputs=inputs)
 
 
 def read_signing_key(path=None):

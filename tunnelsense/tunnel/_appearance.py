@@ -171,6 +171,19 @@ def _chunked_features(patches, hws, chunk=128, features="invariant"):
     return out
 
 
+def _interleaved(first, second, counts):
+    """``first`` and ``second`` cut into consecutive pieces of ``counts`` ``(m, k)``
+    rows each and joined piece by piece: ``first[:m0], second[:k0], first[m0:m0 +
+    m1], ...``."""
+    ends = np.cumsum(counts, axis=0) if len(counts) else np.zeros((0, 2), np.intp)
+    starts = ends - np.asarray(counts, dtype=np.intp).reshape(-1, 2)
+    return np.concatenate([
+        piece
+        for (a0, b0), (a1, b1) in zip(starts.tolist(), ends.tolist(), strict=True)
+        for piece in (first[a0:a1], second[b0:b1])
+    ] or [np.empty(0)])
+
+
 class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
     """AdaBoost of histogram-bin stumps with positives weighted up (section 3.4).
 
@@ -491,6 +504,11 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             return super().fit_transform(X, y, **fit_params)
         described = []
         self._fit_frames(X, y, _described=described, **fit_params)
+        if self.features != "histogram" and self.core is not None:
+            # the clusters' features as the fit computed them, their cores' in one
+            # call: the same values as transform's _scored_with_cores
+            return FrameSequence(self._scored_with_cores(
+                [r for r, _, _ in described], described))
         return FrameSequence(self._scored(described))
 
     @_fit_context(prefer_skip_nested_validation=True)
@@ -541,13 +559,15 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
             return self._scored_with_cores(records)
         return self._scored((r, H, F) for r, _, H, F in self._frame_histograms(records))
 
-    def _scored_with_cores(self, records):
+    def _scored_with_cores(self, records, described=None):
         """:meth:`_scored` of frames with ``core``: the invariant features of every
         frame's clusters' patches and of their distinct bright cores' patches in one
         call, scored in one call (each row is its patch's alone: the same values as
-        a call per frame and per kind of patch)."""
+        a call per frame and per kind of patch).  ``described`` (from ``fit``), per
+        frame ``(record, histograms, features)`` of its clusters, which are then
+        not computed again: only the cores' features are."""
         margin = float(self.margin)
-        frames, patches, hws = [], [], []
+        frames, patches, hws, given = [], [], [], []
         for i, r in enumerate(records):
             boxes = boxes_of(r, i, "WeightedAdaBoost")
             if len(boxes) == 0:
@@ -555,22 +575,33 @@ class WeightedAdaBoost(FrameModeMixin, WeightedAdaBoostCore):
                 continue
             image = frame_image(r, i)
             rects = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-            crops = box_patches(image, rects, margin)
-            H = _patch_histograms(crops, self.bins,
-                                  bin_lut(image.dtype, self.bins, self.intensity_range))
+            if described is None:
+                crops = box_patches(image, rects, margin)
+                H = _patch_histograms(crops, self.bins, bin_lut(
+                    image.dtype, self.bins, self.intensity_range))
+                patches += crops
+                hws.append(rects[:, [3, 2]])
+            else:
+                _, H, F = described[i]
+                given.append(F)
             cores = core_boxes(image, rects, margin=margin, fractions=self.core)
             owner = np.repeat(np.arange(len(rects)), cores.shape[1])
             core_rects = cores.reshape(-1, 4)
             other = (core_rects != rects[owner]).any(axis=1)
             owner, core_rects = owner[other], core_rects[other]
             frames.append((r, rects, H, owner, core_rects))
-            patches += crops
             patches += box_patches(image, core_rects, margin)
-            hws.append(rects[:, [3, 2]])
             hws.append(core_rects[:, [3, 2]])
-        decision = (self._decision(_invariant_rows(
-            patches, np.concatenate(hws).tolist(), self.features))
+        # the cores of a whole training tour in chunks (their tables stay small)
+        rows = _invariant_rows if described is None else _chunked_features
+        decision = (self._decision(rows(
+            patches, np.concatenate(hws).tolist(), features=self.features))
                     if patches else np.empty(0))
+        if described is not None:
+            # clusters' rows first, then the cores', frame by frame, as below
+            decision = _interleaved(
+                self._decision(np.concatenate(given)) if given else np.empty(0),
+                decision, [(len(f[1]), len(f[3])) for f in frames if f[1] is not None])
         out, at = [], 0
         for r, rects, H, owner, core_rects in frames:
             if rects is None:

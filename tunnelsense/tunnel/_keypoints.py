@@ -342,7 +342,7 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         return tags
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y=None, _cells=None):
+    def fit(self, X, y=None, _cells=None, _made=None):
         """Set the intensity band (fixed, or learned from labelled frames).
 
         Parameters
@@ -357,7 +357,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         -------
         self : IntensityKeypointSampler
         """
-        # _cells (private, from fit_transform): per frame, cell_means of its image
+        # _cells (private, from fit_transform): per frame, cell_means of its image;
+        # _made (private, a dict from fit_transform) receives, by frame index, the
+        # canonical frames the contrast band is learned on (see _canonical)
         records, boxes = check_frames(X, y)
         self.pixel_dtype_ = _pixel_dtype(records)
         for name in ("ref_level_", "ref_spread_", "gain_tolerance_", "frame_shape_",
@@ -394,7 +396,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             images = [
                 self._canonical(_check_depth(
                     check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r,
-                    levels=tuple(float(v) for v in levels[i]))[0]
+                    levels=tuple(float(v) for v in levels[i]),
+                    made=None if _made is None else _made.setdefault(i, {}))[0]
                 for i, r in enumerate(records) if len(boxes[i])
             ]
             low, high = contrast_band(images, [b for b in boxes if len(b)],
@@ -461,7 +464,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             # transform's background (the same values as computing them twice)
             cells = [cell_means(check_image(r.image, where(r, i)))
                      for i, r in enumerate(records)]
-        return self.fit(records, y, _cells=cells)._transform(records, cells)
+        # the canonical frames the fit makes are reused by the transform where it
+        # maps a frame by the same levels (see _canonical)
+        made = {}
+        return self.fit(records, y, _cells=cells, _made=made)._transform(
+            records, cells, made)
 
     def transform(self, X):
         """Detect the keypoints of every frame.
@@ -485,9 +492,10 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         records are checked, the estimator is not checked again a frame at a time."""
         return self._transform(check_frames(records)[0])
 
-    def _transform(self, records, cells=None):
+    def _transform(self, records, cells=None, made=None):
         """:meth:`transform`; ``cells`` (or None), per frame, ``cell_means`` of its
-        decoded image."""
+        decoded image; ``made`` (or None), by frame index, the canonical frames
+        the fit made (``_canonical``'s ``made``)."""
         kw = dict(
             row_stride=self.row_stride,
             col_stride=self.col_stride,
@@ -507,7 +515,8 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                 _check_depth(image, i, r, fitted, band)
             raw = image
             image, scale, background = self._canonical(
-                image, i, r, small=None if cells is None else cells[i])
+                image, i, r, small=None if cells is None else cells[i],
+                made=None if made is None else made.pop(i, None))
             if background is None:
                 keypoints = sample_keypoints(image, self.low_, self.high_, **kw)
             else:
@@ -531,14 +540,18 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
             out.append(r.evolve(**extra))
         return FrameSequence(out)
 
-    def _canonical(self, image, index, record, *, small=None, levels=None):
+    def _canonical(self, image, index, record, *, small=None, levels=None, made=None):
         """The frame in the training frames' size and radiometry, the scale
         ``(sx, sy)`` applied (None when the size is kept) and, for
         ``radiometry="contrast"``, the mapped frame's background cells (else None).
 
         ``small`` (``cell_means(image)``) and ``levels`` (``background_levels(image)``),
         when given, are used for a frame of the training size instead of computing
-        them again.
+        them again.  ``made`` (a dict, or None) carries a mapped frame from one call
+        to a later one on the same frame (fit, then transform): the first stores
+        the grey-level map's four numbers and its result, a later one whose map
+        has the same four numbers takes that result instead of mapping again (the
+        same pixels: the map is a function of them alone).
         """
         scale = None
         shape = getattr(self, "frame_shape_", None)
@@ -572,8 +585,14 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                                           self.ref_spread_)
             else:
                 spread = beyond_tolerance(spread, self.ref_spread_, tolerance)
-                image = normalize_frame(image, level, spread, self.ref_level_,
-                                        self.ref_spread_)
+                key = (level, spread, self.ref_level_, self.ref_spread_)
+                if made and made.get("key") == key:
+                    image = made["image"]
+                else:
+                    image = normalize_frame(image, level, spread, self.ref_level_,
+                                            self.ref_spread_)
+                    if made is not None:
+                        made.update(key=key, image=image)
             if background is not None:  # the same affine map as the frame's
                 background = (self.ref_level_
                               + (background - level) * (self.ref_spread_ / spread))
