@@ -24,6 +24,8 @@ the spread by ``g``: their ratio does not move.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from tunnelsense.tunnel._intensity import cell_means
@@ -314,12 +316,33 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
         peak = float(values[b])
         if peak <= surround:
             continue
-        mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
+        mask = _at_least(window, surround + fraction * (peak - surround))
         # the bounding box of the component holding the brightest keypoint
         _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         x, y, w, h = stats[comp[kr[b], kc[b]], :4].tolist()
         out[k] = (x + c0, y + r0, w, h)
     return out
+
+
+def _at_least(pixels, level):
+    """The mask ``pixels >= level`` (a float), as uint8 for OpenCV.
+
+    Integer pixels are compared with the least integer at or above ``level``: the
+    same mask, without a floating-point copy of the pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> _at_least(np.array([[3, 4, 5]], np.uint8), 3.5)
+    array([[0, 1, 1]], dtype=uint8)
+    """
+    if pixels.dtype.kind not in "ui":
+        return (pixels >= level).view(np.uint8)
+    info = np.iinfo(pixels.dtype)
+    least = math.ceil(level)
+    if least > info.max:
+        return np.zeros(pixels.shape, np.uint8)
+    return (pixels >= pixels.dtype.type(max(least, info.min))).view(np.uint8)
 
 
 def _median(values):
@@ -407,7 +430,7 @@ def core_boxes(image, boxes, *, margin=0.25, fractions=(0.5, 0.7, 0.85)):
         if peak <= surround:
             continue
         for j, f in enumerate(fractions):
-            mask = (inner >= surround + f * (peak - surround)).view(np.uint8)
+            mask = _at_least(inner, surround + f * (peak - surround))
             _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
             x, y, w, h = stats[comp[b], :4].tolist()
             out[k, j] = (x + ic0 + c0, y + ir0 + r0, w, h)
