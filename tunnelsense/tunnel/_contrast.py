@@ -24,6 +24,7 @@ the spread by ``g``: their ratio does not move.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -353,11 +354,18 @@ def _at_least(pixels, level):
     """
     if pixels.dtype.kind not in "ui":
         return (pixels >= level).view(np.uint8)
-    info = np.iinfo(pixels.dtype)
+    low, high = _integer_range(pixels.dtype)
     least = math.ceil(level)
-    if least > info.max:
+    if least > high:
         return np.zeros(pixels.shape, np.uint8)
-    return (pixels >= pixels.dtype.type(max(least, info.min))).view(np.uint8)
+    return (pixels >= pixels.dtype.type(max(least, low))).view(np.uint8)
+
+
+@functools.lru_cache(maxsize=16)
+def _integer_range(dtype):
+    """The least and greatest values of an integer ``dtype`` (``np.iinfo``, once)."""
+    info = np.iinfo(dtype)
+    return int(info.min), int(info.max)
 
 
 def _median(values):

@@ -263,6 +263,34 @@ def open_frames(source, *, colour=None):
     return frames, total
 
 
+@contextlib.contextmanager
+def opencv_threads(n):
+    """A context in which OpenCV's functions use at most ``n`` threads (process-wide,
+    as OpenCV's setting is; the earlier setting is restored on the way out).
+
+    The detector calls OpenCV on every cluster's small window and patch (median
+    filters, connected components): with a pool of threads, each call pays for waking
+    and joining them, more than the work itself, and the pool contends with the
+    reader threads decoding the next frames.  No result depends on it.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> before = cv2.getNumThreads()
+    >>> with opencv_threads(1):
+    ...     cv2.getNumThreads()
+    1
+    >>> cv2.getNumThreads() == before
+    True
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(int(n))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
+
 def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_readers=False):
     """Run a fitted indicator pipeline online; yield the frames as they are final.
 
@@ -312,8 +340,8 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
     elif n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
     # one frame's matrix products are small: BLAS threads would only contend with
-    # the reader threads
-    with blas_threads(1):
+    # the reader threads; so would OpenCV's on a cluster's small windows and patches
+    with blas_threads(1), opencv_threads(1):
         for k, record in enumerate(frames, 1):
             yield from push(record)
             if progress is not None:
