@@ -183,3 +183,16 @@ def test_stream_detect_runs_opencv_on_one_thread_and_restores_it(model, tours):
         assert_records_equal(out, pooled)
     finally:
         cv2.setNumThreads(before)
+
+
+def test_stream_detect_in_chunks_yields_the_same_records(model, tours):
+    # frames fed to the stages several at once, chunks straddling a change of tour
+    # and a last short chunk: the same records, in the same order, as one at a time
+    from tunnelsense.tunnel import stream_detect
+
+    X = FrameSequence.concat([to_xy([tours["light"]])[0][:23],
+                              to_xy([tours["heavy"]])[0][:18]])
+    one = list(stream_detect(model, iter(X)))
+    assert len(one) == len(X)
+    for chunk in (2, 4, 7):
+        assert_records_equal(list(stream_detect(model, iter(X), chunk=chunk)), one)
