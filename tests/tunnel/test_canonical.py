@@ -14,7 +14,7 @@ from tunnelsense.tunnel import (
     KMeansHistogramVerifier,
     make_indicator_pipeline,
 )
-from tunnelsense.tunnel._intensity import background_levels, normalize_frame
+from tunnelsense.tunnel._intensity import background_levels, cell_means, normalize_frame
 from tunnelsense.tunnel._verification import augment_factors, contrast_copy
 from tunnelsense.utils import record_stage_checks
 
@@ -274,3 +274,24 @@ def test_detect_to_files_on_a_smaller_tour_writes_its_own_pixels(tours, full_siz
 
     pic = cv2.imread(str(sorted((tmp_path / "pics").glob("*.png"))[0]))
     assert pic.shape[:2] == (240, 320)  # drawn on the frame itself
+
+
+@pytest.mark.parametrize("shape", [(480, 640), (240, 320), (60, 80), (6, 8), (30, 40),
+                                   (360, 480), (481, 640), (50, 70)])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_cell_means_equal_the_area_resampling(shape, dtype, global_random_seed):
+    # whole cells of a power-of-two area (from the integral image) or not (resampled):
+    # the same float32 values as cv2.resize(INTER_AREA) of the float32 frame, bright
+    # frames included
+    import cv2
+
+    rng = np.random.default_rng(global_random_seed)
+    top = np.iinfo(dtype).max
+    for image in (rng.integers(0, top + 1, shape).astype(dtype),
+                  np.full(shape, top, dtype)):
+        h, w = shape
+        want = cv2.resize(image.astype(np.float32), (min(80, w), min(60, h)),
+                          interpolation=cv2.INTER_AREA)
+        got = cell_means(image)
+        assert got.dtype == np.float32
+        np.testing.assert_array_equal(got, want)

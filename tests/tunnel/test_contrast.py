@@ -9,6 +9,7 @@ from tunnelsense.io import load_model, save_model
 from tunnelsense.tunnel import IntensityKeypointSampler
 from tunnelsense.tunnel._common import points_in_boxes
 from tunnelsense.tunnel._contrast import (
+    _at_least,
     background_cells,
     contrast_band,
     grid_contrast,
@@ -281,3 +282,18 @@ def test_fit_transform_equals_fit_then_transform(tours, deep, tolerance):
         assert ra.payload.keys() == rb.payload.keys()
         for key in ra.payload:
             assert np.array_equal(ra.payload[key], rb.payload[key])
+
+
+def test_at_least_is_the_float_comparison():
+    # integer pixels against the least integer at or above the level: the same mask
+    # as comparing in floating point, levels between, at and beyond the pixel values
+    rng = np.random.default_rng(0)
+    for dtype in (np.uint8, np.uint16, np.float32):
+        top = 255 if dtype == np.uint8 else 1000
+        pixels = rng.integers(0, top + 1, (9, 7)).astype(dtype)
+        levels = np.r_[rng.uniform(-3, top + 3, 50), np.arange(-2, 5), top - 1, top,
+                       top + 0.5, top + 2, 70000.5]
+        for level in levels.tolist():
+            got = _at_least(pixels, level)
+            assert got.dtype == np.uint8
+            np.testing.assert_array_equal(got, (pixels >= level).astype(np.uint8))

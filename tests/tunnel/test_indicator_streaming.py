@@ -158,3 +158,41 @@ def test_batch_equals_linker_and_verifier_streams(global_random_seed):
     link, verify = linker.start_stream(), verifier.start_stream()
     stream = [o for r in X for o in verify.push(link.push(r)[0])] + verify.close()
     assert_records_equal(stream, [batch[i] for i in np.argsort(perm)])
+
+
+def test_stream_detect_runs_opencv_on_one_thread_and_restores_it(model, tours):
+    # inside the detection OpenCV keeps to one thread (its pool only contends with the
+    # reader threads on small windows); the results are those of a stream with a
+    # pool of two, and the setting is restored when the stream ends
+    import cv2
+
+    from tunnelsense.tunnel import stream_detect
+
+    X = to_xy([tours["light"]])[0][:40]
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(2)
+        pool = cv2.getNumThreads()  # 2, or 1 on a build without threads
+        pooled = list(StreamingPipeline(model).run(X))
+        seen, out = [], []
+        for record in stream_detect(model, iter(X), n_threads=1):
+            seen.append(cv2.getNumThreads())
+            out.append(record)
+        assert seen and set(seen) == {1}
+        assert cv2.getNumThreads() == pool
+        assert_records_equal(out, pooled)
+    finally:
+        cv2.setNumThreads(before)
+
+
+def test_stream_detect_in_chunks_yields_the_same_records(model, tours):
+    # frames fed to the stages several at once, chunks straddling a change of tour
+    # and a last short chunk: the same records, in the same order, as one at a time
+    from tunnelsense.tunnel import stream_detect
+
+    X = FrameSequence.concat([to_xy([tours["light"]])[0][:23],
+                              to_xy([tours["heavy"]])[0][:18]])
+    one = list(stream_detect(model, iter(X)))
+    assert len(one) == len(X)
+    for chunk in (2, 4, 7):
+        assert_records_equal(list(stream_detect(model, iter(X), chunk=chunk)), one)

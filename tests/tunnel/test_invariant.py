@@ -103,3 +103,19 @@ def test_one_patch_equals_its_row_of_a_frame():
         np.testing.assert_array_equal(patch_features(_crop(img, b, 0.25), (b[3], b[2])),
                                       row)
     assert invariant_features(img, np.empty((0, 4))).shape == (0, 22)
+
+
+def test_at_most_counts_as_the_comparison_does():
+    # the binary search over the rows laid end to end gives, row by row, the count
+    # of entries <= each query, as the plain comparison does (empty rows, ties,
+    # queries below, at and above every entry)
+    from tunnelsense.tunnel._invariant import _at_most
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        m = int(rng.integers(1, 7))
+        counts = rng.integers(0, 4, (m, int(rng.integers(1, 12)))) * rng.integers(0, 2, (m, 1))
+        cdf = np.cumsum(counts, axis=1)
+        k = rng.integers(0, cdf[:, -1].max() + 3, (2, m))
+        np.testing.assert_array_equal(_at_most(cdf, k),
+                                      (cdf <= k[..., None]).sum(axis=-1))

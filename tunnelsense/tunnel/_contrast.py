@@ -24,6 +24,9 @@ the spread by ``g``: their ratio does not move.
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
 from tunnelsense.tunnel._intensity import cell_means
@@ -304,22 +307,65 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
     for k, window, (r0, c0), kr, kc in cluster_windows(image, rows, cols, labels,
                                                         boxes, reach):
         left, top, bw, bh = boxes[k]
-        ring = np.ones(window.shape, dtype=bool)
-        ring[int(top) - r0:int(top + bh) - r0, int(left) - c0:int(left + bw) - c0] = False
-        if not ring.any():
+        ring = _rim(window, int(top) - r0, int(top + bh) - r0, int(left) - c0,
+                    int(left + bw) - c0)
+        if not ring.size:
             continue
-        surround = _median(window[ring])
+        surround = _median(ring)
         values = window[kr, kc]
         b = int(np.argmax(values))
         peak = float(values[b])
         if peak <= surround:
             continue
-        mask = (window >= surround + fraction * (peak - surround)).view(np.uint8)
+        mask = _at_least(window, surround + fraction * (peak - surround))
         # the bounding box of the component holding the brightest keypoint
         _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         x, y, w, h = stats[comp[kr[b], kc[b]], :4].tolist()
         out[k] = (x + c0, y + r0, w, h)
     return out
+
+
+def _rim(window, r0, r1, c0, c1):
+    """The pixels of ``window`` outside its rows ``r0:r1`` and columns ``c0:c1``
+    (bounds >= 0, slices as NumPy clips them), in no particular order: what
+    ``window[mask]`` gives of a mask true outside that block, for a median.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sorted(_rim(np.arange(12).reshape(3, 4), 1, 2, 1, 3).tolist())
+    [0, 1, 2, 3, 4, 7, 8, 9, 10, 11]
+    """
+    return np.concatenate((window[:r0].ravel(), window[r1:].ravel(),
+                           window[r0:r1, :c0].ravel(), window[r0:r1, c1:].ravel()))
+
+
+def _at_least(pixels, level):
+    """The mask ``pixels >= level`` (a float), as uint8 for OpenCV.
+
+    Integer pixels are compared with the least integer at or above ``level``: the
+    same mask, without a floating-point copy of the pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> _at_least(np.array([[3, 4, 5]], np.uint8), 3.5)
+    array([[0, 1, 1]], dtype=uint8)
+    """
+    if pixels.dtype.kind not in "ui":
+        return (pixels >= level).view(np.uint8)
+    low, high = _integer_range(pixels.dtype)
+    least = math.ceil(level)
+    if least > high:
+        return np.zeros(pixels.shape, np.uint8)
+    return (pixels >= pixels.dtype.type(max(least, low))).view(np.uint8)
+
+
+@functools.lru_cache(maxsize=16)
+def _integer_range(dtype):
+    """The least and greatest values of an integer ``dtype`` (``np.iinfo``, once)."""
+    info = np.iinfo(dtype)
+    return int(info.min), int(info.max)
 
 
 def _median(values):
@@ -396,18 +442,17 @@ def core_boxes(image, boxes, *, margin=0.25, fractions=(0.5, 0.7, 0.85)):
         ic0, ic1 = max(left - c0, 0), min(left + bw - c0, window.shape[1])
         if ir1 <= ir0 or ic1 <= ic0:
             continue
-        ring = np.ones(window.shape, dtype=bool)
-        ring[ir0:ir1, ic0:ic1] = False
-        if not ring.any():
+        ring = _rim(window, ir0, ir1, ic0, ic1)
+        if not ring.size:
             continue
-        surround = _median(window[ring])
+        surround = _median(ring)
         inner = window[ir0:ir1, ic0:ic1]
-        b = np.unravel_index(int(np.argmax(inner)), inner.shape)
+        b = divmod(int(np.argmax(inner)), inner.shape[1])
         peak = float(inner[b])
         if peak <= surround:
             continue
         for j, f in enumerate(fractions):
-            mask = (inner >= surround + f * (peak - surround)).view(np.uint8)
+            mask = _at_least(inner, surround + f * (peak - surround))
             _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
             x, y, w, h = stats[comp[b], :4].tolist()
             out[k, j] = (x + ic0 + c0, y + ir0 + r0, w, h)

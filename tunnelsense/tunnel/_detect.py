@@ -11,6 +11,7 @@ frame is final, an interrupted run resumed by replay.
 from __future__ import annotations
 
 import contextlib
+import itertools
 from pathlib import Path
 
 import cv2
@@ -263,7 +264,49 @@ def open_frames(source, *, colour=None):
     return frames, total
 
 
-def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_readers=False):
+@contextlib.contextmanager
+def opencv_threads(n):
+    """A context in which OpenCV's functions use at most ``n`` threads (process-wide,
+    as OpenCV's setting is; the earlier setting is restored on the way out).
+
+    The detector calls OpenCV on every cluster's small window and patch (median
+    filters, connected components): with a pool of threads, each call pays for waking
+    and joining them, more than the work itself, and the pool contends with the
+    reader threads decoding the next frames.  No result depends on it.
+
+    Examples
+    --------
+    >>> import cv2
+    >>> before = cv2.getNumThreads()
+    >>> with opencv_threads(1):
+    ...     cv2.getNumThreads()
+    1
+    >>> cv2.getNumThreads() == before
+    True
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(int(n))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
+
+#: Frames :func:`detect_to_files` passes through the per-frame stages at once: each
+#: stage's fixed cost of a call is shared by them, the results are the same, and a
+#: frame is written at most this many frames later.
+DETECT_CHUNK = 4
+
+
+def _chunks(items, size):
+    """``items`` in lists of ``size`` (the last one shorter)."""
+    items = iter(items)
+    while held := list(itertools.islice(items, size)):
+        yield held
+
+
+def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_readers=False,
+                  chunk=1):
     """Run a fitted indicator pipeline online; yield the frames as they are final.
 
     Parameters
@@ -282,6 +325,11 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
         either way.  It spreads the work over idle cores; on a machine whose cores
         are busy it is slower (the readers hold the interpreter lock in turns, and
         the system suspends one that holds it while the others wait).
+    chunk : int, default=1
+        Frames fed to the stages at once (:meth:`StreamingPipeline.push_many`; not
+        with ``stages_in_readers``): each stage's fixed cost of a call is shared by
+        them.  The results are the same; a frame is yielded up to ``chunk - 1``
+        frames later.
 
     Yields
     ------
@@ -312,12 +360,20 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
     elif n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
     # one frame's matrix products are small: BLAS threads would only contend with
-    # the reader threads
-    with blas_threads(1):
-        for k, record in enumerate(frames, 1):
-            yield from push(record)
-            if progress is not None:
-                progress.update(k)
+    # the reader threads; so would OpenCV's on a cluster's small windows and patches
+    with blas_threads(1), opencv_threads(1):
+        if chunk > 1 and not stages_in_readers:
+            done = 0
+            for held in _chunks(frames, chunk):
+                yield from stream.push_many(held)
+                done += len(held)
+                if progress is not None:
+                    progress.update(done)
+        else:
+            for k, record in enumerate(frames, 1):
+                yield from push(record)
+                if progress is not None:
+                    progress.update(k)
         yield from stream.close()
 
 
@@ -391,7 +447,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     if drawing and Path(source).is_file():
         frames = _keep_images(frames, images)  # video frames are decoded once
     released = stream_detect(model, frames, progress=progress, n_threads=n_threads,
-                             stages_in_readers=stages_in_readers)
+                             stages_in_readers=stages_in_readers, chunk=DETECT_CHUNK)
     if drawing:
         pictures = draw_detections(_in_own_pixels(_with_images(released, images)))
     else:

@@ -66,6 +66,19 @@ def _crop(image, box, margin):
     return image[r0:r1, c0:c1], (c0, r0)
 
 
+def _at_most(cdf, k):
+    """Per row ``i`` and query ``k[..., i]``, how many entries of the non-decreasing
+    row ``cdf[i]`` (integers >= 0) are ``<= k[..., i]`` (integers >= 0): as ``(cdf <=
+    k[..., None]).sum(axis=-1)``, by one binary search in the rows laid end to end,
+    each shifted above every entry and query of the row before it."""
+    m, width = cdf.shape
+    k = np.asarray(k, dtype=np.int64)
+    step = max(int(cdf[:, -1].max()), int(k.max())) + 1
+    shift = np.arange(m, dtype=np.int64) * step
+    found = np.searchsorted((cdf + shift[:, None]).ravel(), k + shift, side="right")
+    return found - np.arange(m) * width
+
+
 def _percentiles(counts, n):
     """The 10th and 90th percentiles of ``n[i]`` 8-bit values from their counts.
 
@@ -79,8 +92,8 @@ def _percentiles(counts, n):
     k = np.floor(pos)
     # order statistic k is the number of grey levels whose cumulative count is
     # <= k (np.searchsorted(cdf, k, side="right"), row by row)
-    a = (cdf <= k[..., None]).sum(axis=-1).astype(np.float64)
-    b = (cdf <= np.minimum(k + 1, n - 1)[..., None]).sum(axis=-1).astype(np.float64)
+    a, b = _at_most(cdf, np.stack([k, np.minimum(k + 1, n - 1)]))
+    a, b = a.astype(np.float64), b.astype(np.float64)
     t = pos - k
     # numpy's lerp, term for term (exact equality with np.percentile)
     lo, hi = np.where(t >= 0.5, b - (b - a) * (1 - t), a + (b - a) * t)
@@ -109,8 +122,9 @@ def _level_histograms(zlut, counts, bins):
 
 
 def _order_statistic(counts, j):
-    """Per row, the grey level of order statistic ``j[i]`` of values counted in ``counts``."""
-    return (np.cumsum(counts, axis=1) <= j[:, None]).sum(axis=1)
+    """Per row, the grey level of order statistic ``j[..., i]`` of values counted in
+    ``counts`` (row ``i``)."""
+    return _at_most(np.cumsum(counts, axis=1), j)
 
 
 def _features(patches, box_hws, bins):
@@ -127,45 +141,48 @@ def _features(patches, box_hws, bins):
     out = np.empty((m, n_invariant_features(bins)))
     if m == 0:
         return out
-    filtered, rings = [], []
+    filtered, rings, widths = [], [], []
     for patch in patches:
-        p = np.ascontiguousarray(patch)
+        p = patch
         if p.dtype != np.uint8:
             p = np.clip(p, 0, 255).astype(np.uint8)
         if min(p.shape) >= 3:
-            p = cv2.medianBlur(p, 3)
+            p = cv2.medianBlur(np.ascontiguousarray(p), 3)
         filtered.append(p.ravel())
         rings.append(np.concatenate([p[0], p[-1], p[:, 0], p[:, -1]]))
-    widths = np.array([p.shape[1] for p in patches], dtype=np.intp)
+        widths.append(p.shape[1])
+    widths = np.array(widths, dtype=np.intp)
     n = np.array([p.size for p in filtered], dtype=np.intp)
-    ids = np.repeat(np.arange(m), n)
-    values = np.concatenate(filtered).astype(np.intp)
-    counts = np.bincount(ids * 256 + values, minlength=m * 256).reshape(m, 256)
+    starts = np.cumsum(n) - n
+    # every pixel's (patch, grey level): its cell in the patches' tables of 256
+    key = np.repeat(np.arange(m) * 256, n) + np.concatenate(filtered)
+    counts = np.bincount(key, minlength=m * 256).reshape(m, 256)
     lo, hi = _percentiles(counts, n)
     span = np.maximum(hi - lo, 1.0)
     zlut = (np.arange(256, dtype=np.float64) - lo[:, None]) / span[:, None]
     out[:, :bins] = _level_histograms(zlut, counts, bins) / np.maximum(n, 1)[:, None]
 
-    z = zlut[ids, values]
-    bright = z > 0.5
-    n_bright = np.bincount(ids[bright], minlength=m)
+    # the bright pixels (z > 0.5), in the patches' order, and their z
+    where = np.flatnonzero((zlut > 0.5).ravel()[key])
+    bright_ids = np.repeat(np.arange(m), n)[where]
+    z_bright = zlut.ravel()[key[where]]
+    n_bright = np.bincount(bright_ids, minlength=m)
     out[:, bins] = n_bright / n  # fill
     # the median of the border's z: z grows with the grey level, so the border's
     # middle grey level(s) give it
     n_ring = np.array([r.size for r in rings], dtype=np.intp)
-    ring_ids = np.repeat(np.arange(m), n_ring)
-    ring = np.concatenate(rings).astype(np.intp)
-    ring_counts = np.bincount(ring_ids * 256 + ring, minlength=m * 256).reshape(m, 256)
+    ring = np.repeat(np.arange(m) * 256, n_ring) + np.concatenate(rings)
+    ring_counts = np.bincount(ring, minlength=m * 256).reshape(m, 256)
     half = n_ring // 2
-    upper = zlut[np.arange(m), _order_statistic(ring_counts, half)]
-    lower = zlut[np.arange(m), _order_statistic(ring_counts, np.maximum(half - 1, 0))]
+    upper, lower = zlut[np.arange(m), _order_statistic(
+        ring_counts, np.stack([half, np.maximum(half - 1, 0)]))]
     out[:, bins + 2] = np.where(n_ring % 2 == 1, upper, (lower + upper) / 2)
     # extent of the bright region: rows of a patch's first and last bright pixel
     # (row-major order), least and greatest column over its bright pixels
     ends = np.cumsum(n_bright)
     has = n_bright > 0
-    local = (np.arange(len(ids)) - np.repeat(np.cumsum(n) - n, n))[bright]
-    width = np.repeat(widths, n)[bright]
+    local = where - starts[bright_ids]
+    width = widths[bright_ids]
     row, col = local // width, local % width
     r0 = r1 = c0 = c1 = np.zeros(m, np.intp)
     if has.any():
@@ -180,8 +197,6 @@ def _features(patches, box_hws, bins):
     out[:, bins + 5] = span / np.maximum(lo, 1.0)
     # spread: the standard deviation of z over the bright pixels (two passes: the
     # mean, then the mean squared deviation from it)
-    bright_ids = ids[bright]
-    z_bright = z[bright]
     nb = np.maximum(n_bright, 1)
     mean = np.bincount(bright_ids, weights=z_bright, minlength=m) / nb
     dev = z_bright - mean[bright_ids]
