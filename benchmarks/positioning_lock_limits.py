@@ -39,7 +39,7 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
   side not used), ``--side-margin``, ``--side-passes`` and ``--lock-margin`` set
   the positioner's (default: its own); ``--start-chainage 0``: a wrong start (the
   tours start 300-3,000 m in), the passes and wrong locks counted from the relock
-  (never: no relock).  ``--evaluation`` allows
+  (never: no relock, or dropped and not found again).  ``--evaluation`` allows
   the evaluation seeds, to be run once when every setting is chosen.
 """
 
@@ -229,7 +229,8 @@ def sides(seeds, scale_range, failures, side, periodic=False, **kw):
             indicators).predict(det, odometry, return_fixes=True)
         pos_h.update(_digest(est).encode())
         status = fixes.attrs["lock_status"]
-        if not est["locked"].any() or status.startswith("started"):
+        if not est["locked"].any() or ("initial_chainage" in kw
+                                       and not status.startswith("locked on")):
             runs.append(None)
             continue
         passes = int(fixes["reason"].str.contains("lock").sum())
