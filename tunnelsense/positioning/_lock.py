@@ -55,7 +55,8 @@ from collections import deque
 
 import numpy as np
 
-from tunnelsense.positioning._side import side_error_of
+from tunnelsense.positioning._defaults import SIDE_ERROR
+from tunnelsense.positioning._side import side_error_of, sides_used
 
 __all__ = ["LockOn"]
 
@@ -119,7 +120,7 @@ class LockOn:
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
                  false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
                  start=None, clearance=60.0, per_indicator=8, sides=None,
-                 side_error=0.05, side_margin=0.0, side_passes=4):
+                 side_error=SIDE_ERROR, side_margin=0.0, side_passes=4):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -133,18 +134,17 @@ class LockOn:
         self.start = None if start is None else float(start)
         self.clearance = float(clearance)
         self.per_indicator = int(per_indicator)
-        sides = None if sides is None else np.asarray(sides, np.int64)
-        if sides is not None and not ((sides < 0).any() and (sides > 0).any()):
-            sides = None  # one wall: the side separates no place
-        self.sides = sides
-        e = 0.5 if side_error is None else float(side_error)
+        # one wall (or side_error None, 0.5): the side separates no place
+        self.sides = sides_used(sides, side_error)
+        e = 0.5 if self.sides is None else float(side_error)
         self.side_error = e
-        self.side_cost = math.log(e / (1.0 - e)) if 0.0 < e < 0.5 else 0.0
-        if not self.side_cost:
-            self.sides = None
+        self.side_cost = math.log(e / (1.0 - e)) if self.sides is not None else 0.0
         self.side_margin = float(side_margin)
         self.side_passes = int(side_passes)
         self.n_passes = 0
+        # why the last decision took no lock the side terms gave: "side_margin",
+        # "side_passes" or None
+        self.side_withheld = None
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
         self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score",
@@ -365,8 +365,10 @@ class LockOn:
     def lock(self, missed=None, min_passes=None):
         """The lock, when one hypothesis explains the passes clearly best; else None.
 
-        ``extra``: terms added to the scores for this decision, and ``min_passes``
-        the passes the best must explain then (:meth:`silence`).
+        ``missed``: misses added to each hypothesis's score for this decision, and
+        ``min_passes`` the passes the best must explain then (:meth:`silence`).
+        A lock the side terms would give but ``side_margin`` or ``side_passes``
+        withholds is recorded in :attr:`side_withheld`.
 
         Returns
         -------
@@ -377,14 +379,19 @@ class LockOn:
         """
         best, margin = self.ranking(missed)
         least = self.min_passes if min_passes is None else min_passes
+        self.side_withheld = None
         if best is None or self._hits[best] < least or margin < self.margin:
             return None
         if self.sides is not None:
             plain = self.lead_without_side(best, missed)
             # (to rounding: on an evenly spaced map the places tie)
-            if plain < self.margin and (plain < self.side_margin - 1e-6
-                                        or self.n_passes < self.side_passes):
-                return None  # the side is needed, and may not settle it
+            if plain < self.margin:  # the side is needed, and may not settle it
+                if plain < self.side_margin - 1e-6:
+                    self.side_withheld = "side_margin"
+                elif self.n_passes < self.side_passes:
+                    self.side_withheld = "side_passes"
+                if self.side_withheld:
+                    return None
         h = self._h
         return {
             "state": np.array([h["s"][best], h["c"][best]]),

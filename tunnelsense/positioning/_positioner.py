@@ -10,6 +10,7 @@ from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._defaults import SIDE_ERROR
 from tunnelsense.positioning._filter import forward, rts_smooth
 from tunnelsense.positioning._fixes import detection_table
 from tunnelsense.positioning._side import side_code
@@ -144,14 +145,15 @@ class TunnelPositioner(BaseEstimator):
     side_error : float or None, default=0.05
         Probability that the wall a trajectory is seen on
         (:func:`observed_side`, from the boxes' drift as they grow) is the other
-        one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
-        both walls, a hypothesis that explains a pass by an indicator on the other
-        wall pays ``log(e / (1 - e))`` (-2.9 at 0.05: never a veto), ``e`` the
-        pass's own error: ``side_error`` for a drift read surely, more for a
-        drift of 3 to 5 standard errors (a normal tail at a third of the drift's
-        t statistic: 0.16 at 3, as if its standard error were three times what
-        the boxes' scatter says).  An unknown side, and a pass taken as false,
-        cost nothing.  On a map with one wall (or none named) it is not used.
+        one (lock-on scoring, without a start or at a relock).  Where the map's
+        ``side`` column names both walls, a hypothesis that explains a pass by an
+        indicator on the other wall pays ``log(e / (1 - e))`` (-2.9 at 0.05:
+        never a veto), ``e`` the pass's own error: the normal tail at a third of
+        the drift's t statistic (0.16 at 3, as if its standard error were three
+        times what the boxes' scatter says), and ``side_error`` once that tail
+        falls below it (at 0.05: a drift of 5 standard errors or more).  An
+        unknown side, and a pass taken as false, cost nothing.  On a map with one
+        wall (or none named) it is not used.
         None (or 0.5): the side is not used.  The rate at which a real
         detector's trajectories misread the wall is not measured: should it be
         higher, give it (the side then counts less), or None.  The side only
@@ -159,8 +161,11 @@ class TunnelPositioner(BaseEstimator):
     side_margin : float, default=0.0
         A lock that the side is needed for (without it the lead is below
         ``lock_margin``) also needs this lead without it: at 0 the side settles
-        the place the spacing of the passes already ranks first, and never lifts
-        a place the spacing puts behind another.
+        the place the spacing of the passes already ranks first (or level with
+        others), and never lifts a place the spacing puts behind another.  A
+        negative value lets the side lift a place the spacing puts behind by up
+        to ``-side_margin`` (``-inf``: the side decides alone); a positive one
+        asks the spacing for a lead of its own.
     side_passes : int, default=4
         Fewest passes seen (false ones included) before a lock that the side is
         needed for: a wrong stretch matches the walls of three passes by chance
@@ -249,7 +254,7 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
-        side_error=0.05,
+        side_error=SIDE_ERROR,
         side_margin=0.0,
         side_passes=4,
     ):
