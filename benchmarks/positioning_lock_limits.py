@@ -41,6 +41,16 @@ The tours are those of ``docs/figures/positioning_accuracy.py --lock`` (2.4 km s
   tours start 300-3,000 m in), the passes and wrong locks counted from the relock
   (never: no relock, or dropped and not found again).  ``--evaluation`` allows
   the evaluation seeds, to be run once when every setting is chosen.
+
+Why a lock that needs the side waits (``sides --side random --failures``): with
+``--side-margin -inf --side-passes 2`` (the side term without the rules) more
+tours lock at the third pass (59 of the 200 evaluation tours; 75 of 200 on the
+evenly spaced map, 58 with the rules), but on the 500 tuning tours (5000-5299,
+6000-6199 ``--harder``) one locked on to a wrong place at the third pass (seed
+6071, 581 m written wrong until the gate found it out): its stretch explained
+every pass, the false alarm's wall matching by chance, and the spacing ranked it
+first too (a lead of 8.0, short of 9), so ``side_margin=0`` alone does not stop
+it; ``side_passes=4`` does (the fourth pass contradicted it).
 """
 
 import os
