@@ -5,18 +5,16 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-import pandas as pd
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.positioning._defaults import SIDE_ERROR
-from tunnelsense.positioning._filter import forward, rts_smooth
 from tunnelsense.positioning._fixes import detection_table
+from tunnelsense.positioning._offline import smooth_tour
 from tunnelsense.positioning._side import side_code
 from tunnelsense.positioning._stream import PositionStream
 from tunnelsense.positioning._tables import (
-    ESTIMATE_COLUMNS,
     check_indicator_map,
     check_odometry,
 )
@@ -380,47 +378,12 @@ class TunnelPositioner(BaseEstimator):
             stream._finish(f)  # noqa: SLF001
         positions = stream.close()
         if self.smooth:
-            positions = self._smooth(odometry, stream)
+            positions = smooth_tour(self, odometry, stream.fix_list, stream.relocked)
         if not return_fixes:
             return positions
         fixes = stream.fixes
         fixes.attrs["lock_status"] = stream.lock_status()
         return positions, fixes
-
-    def _smooth(self, odometry, stream):
-        """The RTS smoother over the whole tour, with every fix the stream used."""
-        t = odometry["stamp"].to_numpy()
-        v = odometry["speed"].to_numpy()
-        dt = np.diff(t)
-        inc = v[:-1] * dt
-        q_s = (float(self.speed_noise) * dt) ** 2
-        q_c = (float(self.scale_drift) ** 2 * dt if self.estimate_scale
-               else np.zeros_like(dt))
-        sc2 = float(self.scale_sigma) ** 2 if self.estimate_scale else 0.0
-        fixes = {}
-        for k, u, z, r in stream.fix_list:
-            fixes.setdefault(k, []).append((u, z, r))
-        known = self.initial_chainage is not None and not stream.relocked
-        if known:
-            x0 = [float(self.initial_chainage), float(self.initial_scale)]
-            P0 = np.diag([float(self.initial_sigma) ** 2, sc2])
-        else:  # diffuse: every frame placed by the fixes
-            lo, hi = self.indicator_chainage_[0], self.indicator_chainage_[-1]
-            x0 = [(lo + hi) / 2, float(self.initial_scale)]
-            P0 = np.diag([(10.0 * max(hi - lo, 1000.0)) ** 2, sc2])
-        prior, post, prior_cov, post_cov = forward(x0, P0, inc, q_s, q_c, fixes)
-        x, cov = rts_smooth(inc, prior, post, prior_cov, post_cov)
-        n = len(t)
-        locked = known or bool(fixes)
-        nan = np.full(n, np.nan)
-        return pd.DataFrame({
-            "frame": odometry["frame"].to_numpy(np.int64), "stamp": t,
-            "chainage": x[:, 0] if locked else nan,
-            "sigma": np.sqrt(np.maximum(cov[:, 0, 0], 0.0)) if locked else nan,
-            "locked": np.full(n, locked),
-            "scale": x[:, 1] if locked else nan,
-            "scale_sigma": np.sqrt(np.maximum(cov[:, 1, 1], 0.0)) if locked else nan,
-        }, columns=list(ESTIMATE_COLUMNS))
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
