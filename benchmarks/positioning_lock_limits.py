@@ -252,7 +252,8 @@ def sides(seeds, scale_range, failures, side, periodic=False, **kw):
         wrong = float(np.diff(s, prepend=s[0])[bad].sum()) if bad.any() else None
         ok = after & ~bad
         runs.append((seed, passes, wrong,
-                     float(np.abs(est["chainage"].to_numpy() - s)[ok].max())))
+                     float(np.abs(est["chainage"].to_numpy() - s)[ok].max())
+                     if ok.any() else 0.0))
     done = [r for r in runs if r is not None]
     passes = [r[1] for r in done]
     wrong = [(r[0], round(r[2])) for r in done if r[2] is not None]
