@@ -3,6 +3,7 @@ lock-on (its wall and how surely), at a relock too, and the positioner's rules o
 when the side may settle a lock."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from tunnelsense.datasets import (
@@ -53,6 +54,34 @@ def test_each_pass_gives_its_wall_and_how_surely(given, global_random_seed):
     assert len(known) >= 3
     for side, t in known:
         assert np.isfinite(t) and abs(t) >= 3.0 and np.sign(t) == side
+
+
+def test_a_relock_uses_the_side_of_the_passes_it_replays(given, global_random_seed):
+    """Told the tour starts at 0 when it starts 1 km in, on a map with both walls:
+    the passes the gate rejected are replayed into a new lock-on with the walls
+    they were seen on (they came while the position was taken as known), and the
+    position is found again; on one wall nothing about the side is used."""
+    positions, odometry, indicators, det = _tour(global_random_seed, "random")
+    est, fixes = TunnelPositioner().fit(indicators).predict(det, odometry,
+                                                             return_fixes=True)
+    assert "locked on to the map" in fixes.attrs["lock_status"]
+    # the first passes the new lock-on got: those the gate rejected in a row
+    assert len(given) >= 3
+    walls = indicators.set_index("id")["side"]
+    truth = positions.set_index("frame")["chainage"]
+    chainage = indicators.set_index("id")["chainage"]
+    for side, _, frame in given[:3]:
+        # the indicator truly passed at that frame, and its wall
+        nearest = (chainage - truth[frame]).abs().idxmin()
+        assert side == (1 if walls[nearest] == "right" else -1)
+    relock = int(fixes.attrs["lock_status"].rsplit(" ", 1)[1])
+    after = est["frame"].to_numpy() >= relock
+    err = np.abs(est["chainage"].to_numpy() - positions["chainage"].to_numpy())
+    assert est["locked"].to_numpy()[after].all() and err[after].max() < 1.0
+    one_wall = indicators.assign(side="left")
+    runs = [TunnelPositioner(side_error=e).fit(one_wall).predict(det, odometry)
+            for e in (None, 0.05)]
+    pd.testing.assert_frame_equal(*runs)
 
 
 def test_side_passes_and_side_margin_reach_the_lock_on(global_random_seed):

@@ -137,7 +137,7 @@ class _TrackInput:
             self._log.append(row)
             return
         row["_var"], row["_noise2"] = var, noise2
-        if self._lockon is not None and self._side_used:
+        if self._side_used:
             # the wall it was seen on: a likelihood factor of the lock-on, now or
             # at a relock (a pass the gate rejects may be replayed into one)
             t = side_statistic(hs[keep], np.asarray(xs, np.float64)[keep])
