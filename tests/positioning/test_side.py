@@ -205,7 +205,8 @@ def test_cli_side_error(tmp_path, capsys):
     for bad in ("0.6", "0", "x"):
         with pytest.raises(SystemExit):
             main([*base, str(tmp_path / "x.csv"), "--side-error", bad])
-        assert "--side-error" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert "--side-error" in err and "probability above 0 and at most 0.5" in err
 
 
 def _twin_stretches(eps):

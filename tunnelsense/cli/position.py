@@ -10,6 +10,7 @@ from pathlib import Path
 
 from tunnelsense.cli import _common as common
 from tunnelsense.cli._extras import require_extra
+from tunnelsense.positioning._defaults import SIDE_ERROR
 
 __all__ = ["register", "register_top"]
 
@@ -78,8 +79,11 @@ def _side_error(text):
     """``--side-error``: a probability in (0, 0.5], or ``off``."""
     if text.strip().lower() in ("off", "none"):
         return None
-    value = _positive(text)
-    if value > 0.5:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= 0.5:  # NaN too
         raise argparse.ArgumentTypeError(
             f"expected a probability above 0 and at most 0.5, or 'off'; got {text!r}")
     return value
@@ -164,12 +168,13 @@ def register_top(sub) -> None:
                    "to about 1 %%). Default: not known")
     p.add_argument("--sign-height", type=_positive, metavar="M", help="height of the "
                    "indicators (m), with --focal-length")
-    p.add_argument("--side-error", type=_side_error, default=0.05, metavar="E",
-                   help="with --start-chainage unknown and a map whose side column "
-                   "names both walls, the wall each trajectory is seen on (its box "
-                   "drifts towards it as it grows) helps to lock on: E is the "
-                   "probability that it is read as the other wall (above 0, at most "
-                   "0.5; default 0.05); 'off': the side is not used"),
+    p.add_argument("--side-error", type=_side_error, default=SIDE_ERROR, metavar="E",
+                   help="while locking on (--start-chainage unknown, or after a "
+                   "wrong start is dropped) on a map whose side column names both "
+                   "walls, the wall each trajectory is seen on (its box drifts "
+                   "towards it as it grows) helps: E is the probability that it is "
+                   "read as the other wall (above 0, at most 0.5; default "
+                   f"{SIDE_ERROR}); 'off': the side is not used")
     p.add_argument("--jobs", type=int, default=common.CPUS, help="reader threads that "
                    "decode frames ahead of the detector (with --model; default: the "
                    "number of CPUs)")

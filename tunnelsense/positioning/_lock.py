@@ -55,12 +55,14 @@ from collections import deque
 
 import numpy as np
 
-from tunnelsense.positioning._side import side_error_of
+from tunnelsense.positioning._defaults import SIDE_ERROR
+from tunnelsense.positioning._lock_decide import _LockDecision
+from tunnelsense.positioning._side import side_error_of, sides_used
 
 __all__ = ["LockOn"]
 
 
-class LockOn:
+class LockOn(_LockDecision):
     """Hypotheses over the map, updated pass by pass (see the module's docstring).
 
     Parameters
@@ -119,7 +121,7 @@ class LockOn:
     def __init__(self, chainage, *, scale, scale_sigma, fix_sigma, gate, miss_rate,
                  false_pass_rate, margin, min_passes, max_anchors=3, memory=32,
                  start=None, clearance=60.0, per_indicator=8, sides=None,
-                 side_error=0.05, side_margin=0.0, side_passes=4):
+                 side_error=SIDE_ERROR, side_margin=0.0, side_passes=4):
         self.map = np.asarray(chainage, np.float64)
         self.scale, self.scale_sigma = float(scale), float(scale_sigma)
         self.fix_var = float(fix_sigma) ** 2
@@ -133,18 +135,17 @@ class LockOn:
         self.start = None if start is None else float(start)
         self.clearance = float(clearance)
         self.per_indicator = int(per_indicator)
-        sides = None if sides is None else np.asarray(sides, np.int64)
-        if sides is not None and not ((sides < 0).any() and (sides > 0).any()):
-            sides = None  # one wall: the side separates no place
-        self.sides = sides
-        e = 0.5 if side_error is None else float(side_error)
+        # one wall (or side_error None, 0.5): the side separates no place
+        self.sides = sides_used(sides, side_error)
+        e = 0.5 if self.sides is None else float(side_error)
         self.side_error = e
-        self.side_cost = math.log(e / (1.0 - e)) if 0.0 < e < 0.5 else 0.0
-        if not self.side_cost:
-            self.sides = None
+        self.side_cost = math.log(e / (1.0 - e)) if self.sides is not None else 0.0
         self.side_margin = float(side_margin)
         self.side_passes = int(side_passes)
         self.n_passes = 0
+        # why the last decision took no lock the side terms gave: "side_margin",
+        # "side_passes" or None
+        self.side_withheld = None
         self._last_dist = None
         self._due = math.inf  # odometry distance before which silence() changes nothing
         self._h = {k: np.empty(0) for k in ("s", "c", "p00", "p01", "p11", "score",
@@ -316,84 +317,6 @@ class LockOn:
         self._last, self._hits = self._last[keep], self._hits[keep]
         self._assign = deque(((t, a[keep]) for t, a in self._assign),
                              maxlen=self._assign.maxlen)
-
-    def _elsewhere(self, best):
-        """Hypotheses that put the vehicle somewhere else than ``best`` does: more
-        than ``gate`` standard deviations (of the two estimates) away."""
-        h = self._h
-        d = np.abs(h["s"] - h["s"][best])
-        return d * d > self.gate2 * (h["p00"] + h["p00"][best])
-
-    def ranking(self, missed=None):
-        """``(best, margin)``: the best hypothesis and its lead over any hypothesis
-        that puts the vehicle at another place (inf when there is none);
-        ``missed``: misses added to each hypothesis's (not kept).
-        """
-        score = self._h["score"]
-        if missed is not None:
-            score = score + missed * self.log_miss
-        if not len(score):
-            return None, 0.0
-        best = int(np.argmax(score))
-        return best, self._lead(score, best)
-
-    def _lead(self, score, best):
-        """Lead of hypothesis ``best``'s ``score`` over any elsewhere (inf: none)."""
-        rival = score[self._elsewhere(best)]
-        return float(score[best] - rival.max()) if len(rival) else math.inf
-
-    def lead_without_side(self, best, missed=None):
-        """The lead of hypothesis ``best`` over any elsewhere, the side terms left
-        out (``margin`` of :meth:`ranking` when the side is not used)."""
-        score = self._h["score"] - self._h["side"]
-        if missed is not None:
-            score = score + missed * self.log_miss
-        return self._lead(score, best)
-
-    def n_explaining(self):
-        """How many places of the map explain the passes within ``margin`` of the best."""
-        score = self._h["score"]
-        if not len(score):
-            return 0
-        near = np.flatnonzero(score >= score.max() - self.margin)
-        places = 0
-        while len(near):
-            places += 1
-            near = near[self._elsewhere(near[np.argmax(score[near])])[near]]
-        return places
-
-    def lock(self, missed=None, min_passes=None):
-        """The lock, when one hypothesis explains the passes clearly best; else None.
-
-        ``extra``: terms added to the scores for this decision, and ``min_passes``
-        the passes the best must explain then (:meth:`silence`).
-
-        Returns
-        -------
-        lock : dict or None
-            ``state`` ``(s, c)`` and ``cov`` (2x2) at the last pass, ``indicator``
-            (index of the last indicator explained), ``passes``: ``(tag, index)``
-            of each remembered pass (index -1: not explained), ``margin``.
-        """
-        best, margin = self.ranking(missed)
-        least = self.min_passes if min_passes is None else min_passes
-        if best is None or self._hits[best] < least or margin < self.margin:
-            return None
-        if self.sides is not None:
-            plain = self.lead_without_side(best, missed)
-            # (to rounding: on an evenly spaced map the places tie)
-            if plain < self.margin and (plain < self.side_margin - 1e-6
-                                        or self.n_passes < self.side_passes):
-                return None  # the side is needed, and may not settle it
-        h = self._h
-        return {
-            "state": np.array([h["s"][best], h["c"][best]]),
-            "cov": np.array([[h["p00"][best], h["p01"][best]],
-                             [h["p01"][best], h["p11"][best]]]),
-            "indicator": int(self._last[best]),
-            "passes": [(t, int(a[best])) for t, a in self._assign],
-            "margin": margin,
-        }
 
 
 def unseen_before(chainage, driven, scale, scale_sigma, clearance):

@@ -5,17 +5,16 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-import pandas as pd
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted
 
 from tunnelsense.exceptions import InputFormatError
-from tunnelsense.positioning._filter import forward, rts_smooth
+from tunnelsense.positioning._defaults import SIDE_ERROR
 from tunnelsense.positioning._fixes import detection_table
+from tunnelsense.positioning._offline import smooth_tour
 from tunnelsense.positioning._side import side_code
 from tunnelsense.positioning._stream import PositionStream
 from tunnelsense.positioning._tables import (
-    ESTIMATE_COLUMNS,
     check_indicator_map,
     check_odometry,
 )
@@ -144,14 +143,15 @@ class TunnelPositioner(BaseEstimator):
     side_error : float or None, default=0.05
         Probability that the wall a trajectory is seen on
         (:func:`observed_side`, from the boxes' drift as they grow) is the other
-        one, e.g. 0.05 (lock-on scoring).  Where the map's ``side`` column names
-        both walls, a hypothesis that explains a pass by an indicator on the other
-        wall pays ``log(e / (1 - e))`` (-2.9 at 0.05: never a veto), ``e`` the
-        pass's own error: ``side_error`` for a drift read surely, more for a
-        drift of 3 to 5 standard errors (a normal tail at a third of the drift's
-        t statistic: 0.16 at 3, as if its standard error were three times what
-        the boxes' scatter says).  An unknown side, and a pass taken as false,
-        cost nothing.  On a map with one wall (or none named) it is not used.
+        one (lock-on scoring, without a start or at a relock).  Where the map's
+        ``side`` column names both walls, a hypothesis that explains a pass by an
+        indicator on the other wall pays ``log(e / (1 - e))`` (-2.9 at 0.05:
+        never a veto), ``e`` the pass's own error: the normal tail at a third of
+        the drift's t statistic (0.16 at 3, as if its standard error were three
+        times what the boxes' scatter says), and ``side_error`` once that tail
+        falls below it (at 0.05: a drift of 5 standard errors or more).  An
+        unknown side, and a pass taken as false, cost nothing.  On a map with one
+        wall (or none named) it is not used.
         None (or 0.5): the side is not used.  The rate at which a real
         detector's trajectories misread the wall is not measured: should it be
         higher, give it (the side then counts less), or None.  The side only
@@ -159,8 +159,11 @@ class TunnelPositioner(BaseEstimator):
     side_margin : float, default=0.0
         A lock that the side is needed for (without it the lead is below
         ``lock_margin``) also needs this lead without it: at 0 the side settles
-        the place the spacing of the passes already ranks first, and never lifts
-        a place the spacing puts behind another.
+        the place the spacing of the passes already ranks first (or level with
+        others), and never lifts a place the spacing puts behind another.  A
+        negative value lets the side lift a place the spacing puts behind by up
+        to ``-side_margin`` (``-inf``: the side decides alone); a positive one
+        asks the spacing for a lead of its own.
     side_passes : int, default=4
         Fewest passes seen (false ones included) before a lock that the side is
         needed for: a wrong stretch matches the walls of three passes by chance
@@ -249,7 +252,7 @@ class TunnelPositioner(BaseEstimator):
         miss_rate=0.4,
         false_pass_rate=0.05,
         relock_after=3,
-        side_error=0.05,
+        side_error=SIDE_ERROR,
         side_margin=0.0,
         side_passes=4,
     ):
@@ -375,47 +378,12 @@ class TunnelPositioner(BaseEstimator):
             stream._finish(f)  # noqa: SLF001
         positions = stream.close()
         if self.smooth:
-            positions = self._smooth(odometry, stream)
+            positions = smooth_tour(self, odometry, stream.fix_list, stream.relocked)
         if not return_fixes:
             return positions
         fixes = stream.fixes
         fixes.attrs["lock_status"] = stream.lock_status()
         return positions, fixes
-
-    def _smooth(self, odometry, stream):
-        """The RTS smoother over the whole tour, with every fix the stream used."""
-        t = odometry["stamp"].to_numpy()
-        v = odometry["speed"].to_numpy()
-        dt = np.diff(t)
-        inc = v[:-1] * dt
-        q_s = (float(self.speed_noise) * dt) ** 2
-        q_c = (float(self.scale_drift) ** 2 * dt if self.estimate_scale
-               else np.zeros_like(dt))
-        sc2 = float(self.scale_sigma) ** 2 if self.estimate_scale else 0.0
-        fixes = {}
-        for k, u, z, r in stream.fix_list:
-            fixes.setdefault(k, []).append((u, z, r))
-        known = self.initial_chainage is not None and not stream.relocked
-        if known:
-            x0 = [float(self.initial_chainage), float(self.initial_scale)]
-            P0 = np.diag([float(self.initial_sigma) ** 2, sc2])
-        else:  # diffuse: every frame placed by the fixes
-            lo, hi = self.indicator_chainage_[0], self.indicator_chainage_[-1]
-            x0 = [(lo + hi) / 2, float(self.initial_scale)]
-            P0 = np.diag([(10.0 * max(hi - lo, 1000.0)) ** 2, sc2])
-        prior, post, prior_cov, post_cov = forward(x0, P0, inc, q_s, q_c, fixes)
-        x, cov = rts_smooth(inc, prior, post, prior_cov, post_cov)
-        n = len(t)
-        locked = known or bool(fixes)
-        nan = np.full(n, np.nan)
-        return pd.DataFrame({
-            "frame": odometry["frame"].to_numpy(np.int64), "stamp": t,
-            "chainage": x[:, 0] if locked else nan,
-            "sigma": np.sqrt(np.maximum(cov[:, 0, 0], 0.0)) if locked else nan,
-            "locked": np.full(n, locked),
-            "scale": x[:, 1] if locked else nan,
-            "scale_sigma": np.sqrt(np.maximum(cov[:, 1, 1], 0.0)) if locked else nan,
-        }, columns=list(ESTIMATE_COLUMNS))
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

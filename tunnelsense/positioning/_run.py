@@ -9,6 +9,7 @@ import numpy as np
 
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.io._output import atomic_write, check_output, input_files
+from tunnelsense.positioning._defaults import SIDE_ERROR
 from tunnelsense.positioning._evaluate import position_errors
 from tunnelsense.positioning._online import locate_online
 from tunnelsense.positioning._positioner import TunnelPositioner
@@ -56,7 +57,7 @@ def tour_tables(tour, odometry=None, indicator_map=None):
 def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, start_chainage=0.0,
                   start_sigma=1.0, odometry_scale=1.0, odometry_scale_sigma=0.05,
-                  focal_length_px=None, sign_height_m=None, side_error=0.05,
+                  focal_length_px=None, sign_height_m=None, side_error=SIDE_ERROR,
                   overwrite=False, progress=None, inputs=(), n_threads=0, colour=None):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
@@ -97,8 +98,9 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         box growth then measures the odometry's scale, before a second sign is
         passed (see :class:`TunnelPositioner`).  None: not known.
     side_error : float or None, default=0.05
-        Without a start, where the map's ``side`` column names both walls, the
-        wall each trajectory is seen on helps to lock on: the probability that it
+        While locking on (without a start, or after a wrong start is dropped),
+        where the map's ``side`` column names both walls, the wall each
+        trajectory is seen on helps: the probability that it
         is read as the other wall (see :class:`TunnelPositioner`).  None: the
         side is not used.
     overwrite : bool, default=False

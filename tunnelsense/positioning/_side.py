@@ -16,10 +16,22 @@ import math
 
 import numpy as np
 
+from tunnelsense.positioning._defaults import SIDE_MIN_T
+
 __all__ = ["observed_side", "side_code", "side_error_of", "side_statistic"]
 
 #: Codes of a side (``side_code``): unknown 0, left -1, right +1.
 _CODES = {"left": -1, "right": 1}
+
+
+def sides_used(sides, side_error):
+    """The walls of the map's indicators (-1, +1; 0 unknown) when the side of a
+    pass can tell places apart: both walls named and ``0 < side_error < 0.5``;
+    else None (one wall, or none named: the side separates no place)."""
+    if sides is None or side_error is None or not 0.0 < float(side_error) < 0.5:
+        return None
+    sides = np.asarray(sides, np.int64)
+    return sides if (sides < 0).any() and (sides > 0).any() else None
 
 
 def side_code(values) -> np.ndarray:
@@ -37,7 +49,8 @@ def side_code(values) -> np.ndarray:
                        for v in values], np.int64)
 
 
-def observed_side(height, centre, *, min_boxes=8, min_t=3.0, min_noise_px=0.5):
+def observed_side(height, centre, *, min_boxes=8, min_t=SIDE_MIN_T,
+                  min_noise_px=0.5):
     """The wall a sign stands on, from how its box drifts as it grows.
 
     Fits the box's horizontal centre ``x = a + b h + c / h`` over its height ``h``
@@ -153,7 +166,8 @@ def side_error_of(t, side_error, inflation=3.0):
     independent from frame to frame, which a real detector's need not be (a box
     that lags as a sign brightens); a drift of three standard errors, the least
     :func:`~tunnelsense.positioning.observed_side` reads, then counts for an error
-    of 0.16, one of 5 or more for ``side_error`` (0.05).  An infinite ``t`` (a
+    of 0.16; once the tail falls below ``side_error`` it is ``side_error`` (at
+    0.05: a drift of 5 standard errors or more).  An infinite ``t`` (a
     side given as sure) gives ``side_error``.
 
     Examples

@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._side import sides_used
 from tunnelsense.positioning._stream_lock import _LockingOn
 from tunnelsense.positioning._stream_state import (
     _NAN5,
@@ -77,6 +78,8 @@ class PositionStream(_TrackInput, _LockingOn, _LaggedRelease):
         self._map = np.asarray(p.indicator_chainage_, np.float64)
         self._ids = np.asarray(p.indicator_ids_, np.int64)
         self._sides = np.asarray(p.indicator_side_, np.int64)
+        # both walls named: each pass's side is read (for the lock-on, or a relock)
+        self._side_used = sides_used(self._sides, p.side_error) is not None
         W = self._W = max(int(p.window), 2)
         self._fr = np.zeros(W, np.int64)
         self._st, self._d, self._u = np.zeros(W), np.zeros(W), np.zeros(W)

@@ -41,6 +41,14 @@ class _LockingOn:
         places = lk.n_explaining() if lk is not None else 0
         if lk is None or lk.n_passes == 0:
             return "not locked on: no indicator pass"
+        if lk.side_withheld == "side_margin":
+            return (f"not locked on: after {lk.n_passes} passes the side of the road "
+                    "singles out a place, but the spacing of the passes alone does not "
+                    "rank it first (side_margin)")
+        if lk.side_withheld == "side_passes":
+            return (f"not locked on: after {lk.n_passes} passes the side of the road "
+                    f"singles out a place; a lock that needs it waits for "
+                    f"{lk.side_passes} passes (side_passes)")
         if places > 1:
             return (f"not locked on: after {lk.n_passes} passes, {places} places of the "
                     "map explain them equally (a map with evenly spaced indicators "

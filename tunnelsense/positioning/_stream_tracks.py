@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from tunnelsense.exceptions import InputFormatError
+from tunnelsense.positioning._defaults import SIDE_MIN_T
 from tunnelsense.positioning._fixes import (
     _estimate_pass,
     detection_table,
@@ -21,9 +22,6 @@ __all__ = []
 #: A trajectory with this many degrees of freedom (boxes beyond the line's two
 #: parameters) tells the detector's box-height noise (its estimate within a third).
 _NOISE_DOF = 20
-
-#: Least drift (in standard errors) that reads a side: :func:`observed_side`'s.
-_SIDE_MIN_T = 3.0
 
 
 class _TrackInput:
@@ -139,11 +137,11 @@ class _TrackInput:
             self._log.append(row)
             return
         row["_var"], row["_noise2"] = var, noise2
-        lk = self._lockon
-        if lk is not None and lk.sides is not None:
-            # the wall it was seen on: a likelihood factor of the lock-on
+        if self._side_used:
+            # the wall it was seen on: a likelihood factor of the lock-on, now or
+            # at a relock (a pass the gate rejects may be replayed into one)
             t = side_statistic(hs[keep], np.asarray(xs, np.float64)[keep])
-            if abs(t) >= _SIDE_MIN_T:  # NaN: unknown
+            if abs(t) >= SIDE_MIN_T:  # NaN: unknown
                 row["_side"], row["_side_t"] = (1 if t > 0 else -1), t
         self._apply(dist, row)
 
