@@ -247,3 +247,16 @@ def test_min_approach_is_validated():
     for bad in (0.0, 1.0, -0.2, "0.3"):
         with pytest.raises((ValueError, TypeError), match="min_approach"):
             PCCVerifier(min_approach=bad).fit(X)
+
+
+def test_motion_fit_counts_time_in_frame_numbers():
+    """Frames a recorder lost leave gaps in the frame numbers: the motion in time
+    still fits when the numbers are the times; numbered as if consecutive, the
+    same positions jump."""
+    from tunnelsense.tunnel._pcc_stream import motion_fit_r
+
+    t = np.array([1, 2, 3, 6, 7, 8, 12, 13, 14, 15], float)
+    z = 40.0 - 0.8 * t  # metres: the camera approaches at constant speed
+    x, y = 320 - 2100 / z, 240 - 700 / z  # image position ~ 1 / Z
+    assert motion_fit_r(t, x, y) > 0.999
+    assert motion_fit_r(np.arange(10.0), x, y) < motion_fit_r(t, x, y) - 0.005
