@@ -56,6 +56,19 @@ def test_dropped_frames_leave_gaps_in_the_frame_numbers(plain):
     assert tour.frames[0].payload["frame_rate"] == 30.0
 
 
+def test_sequential_numbers_lose_the_time_of_lost_frames(plain):
+    kw = dict(dropped_frames=0.1, **SCENE)
+    counter = make_tunnel_tour(N, random_state=4, **kw)
+    tour = make_tunnel_tour(N, random_state=4, frame_numbers="sequential", **kw)
+    assert tour.info["frame_numbers"] == "sequential"
+    assert [r.frame for r in tour.frames] == list(range(1, len(counter) + 1))
+    for a, b in zip(tour.frames, counter.frames, strict=True):
+        assert np.array_equal(a.image, b.image)
+        ga = tour.gt[tour.gt.frame == a.frame].drop(columns="frame")
+        gb = counter.gt[counter.gt.frame == b.frame].drop(columns="frame")
+        assert ga.reset_index(drop=True).equals(gb.reset_index(drop=True))
+
+
 def test_defective_pixels_and_dead_column_are_fixed_in_every_frame(plain):
     tour = make_tunnel_tour(N, random_state=4, defect_pixels=0.002, dead_columns=1,
                             **SCENE)
@@ -77,7 +90,7 @@ def test_defective_pixels_and_dead_column_are_fixed_in_every_frame(plain):
 
 def test_default_tour_names_no_artefact(plain):
     for key in ("nuc_interval_s", "dropped_frames", "defect_pixels", "dead_columns",
-                "frames_dropped", "nuc_frozen_frames"):
+                "frames_dropped", "nuc_frozen_frames", "frame_numbers"):
         assert key not in plain.info
 
 
@@ -89,6 +102,7 @@ def test_default_tour_names_no_artefact(plain):
     (dict(defect_pixels=-0.1), "defect_pixels"),
     (dict(dead_columns=1.5), "dead_columns"),
     (dict(dead_columns=True), "dead_columns"),
+    (dict(frame_numbers="camera"), "frame_numbers"),
 ])
 def test_bad_artefact_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):

@@ -169,7 +169,10 @@ def make_tunnel_tour(
         seconds: identical frames, whose ground truth is that picture's);
         ``dropped_frames`` (0: the fraction of frames the recorder loses, each
         independently; the frames kept keep their numbers, the camera's frame
-        counter, so the tour's frame numbers have gaps); ``defect_pixels`` (0:
+        counter, so the tour's frame numbers have gaps; ``frame_numbers``
+        ("counter") set to "sequential" numbers them 1, 2, 3, ... as a recorder
+        counting what it writes does, and the time of a lost frame is lost);
+        ``defect_pixels`` (0:
         the fraction of pixels stuck at the same level in every frame, a third
         at 255, a third at 0, a third at a level of their own) and
         ``dead_columns`` (0: whole columns reading 0).  These sensor and

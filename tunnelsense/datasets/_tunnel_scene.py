@@ -50,6 +50,7 @@ _DEFAULTS = {
     "nuc_interval_s": None,  # flat-field shutter every (low, high) s (None: none)
     "nuc_freeze_s": (0.3, 0.5),  # how long each correction freezes the picture
     "dropped_frames": 0.0,  # fraction of frames the recorder loses (numbers gap)
+    "frame_numbers": "counter",  # the camera's counter, or "sequential" (no gaps)
     "defect_pixels": 0.0,  # fraction of pixels stuck (hot, dead, or at a level)
     "dead_columns": 0,  # columns reading 0
 }
@@ -296,6 +297,10 @@ def _resolve_params(scenario, overrides, seed=0):
         low = _check_range(key, value[0], 0.0, 3600.0, closed_lo=False)
         p[key] = (low, _check_range(key, value[1], low, 3600.0))
     p["dropped_frames"] = _check_range("dropped_frames", p["dropped_frames"], 0.0, 0.5)
+    if p["frame_numbers"] not in ("counter", "sequential"):
+        raise ValueError(
+            f"frame_numbers must be 'counter' or 'sequential'; got {p['frame_numbers']!r}"
+        )
     p["defect_pixels"] = _check_range("defect_pixels", p["defect_pixels"], 0.0, 0.1)
     columns = p["dead_columns"]
     if (isinstance(columns, bool) or not isinstance(columns, Integral)

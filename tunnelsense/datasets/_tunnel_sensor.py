@@ -10,7 +10,8 @@ was:
   before the shutter closed (repeated, identical frames);
 * **dropped frames**: the recorder loses frames; the camera's frame counter runs on,
   so the frames it writes carry numbers with gaps (the time between two frames is
-  their difference in numbers over the frame rate);
+  their difference in numbers over the frame rate), or, with a recorder that numbers
+  what it writes itself, consecutive numbers (the time of a lost frame is lost);
 * **defective pixels**: pixels stuck at full scale (hot), at zero (dead) or at a
   level of their own, and whole dead columns (a failed column amplifier), at the
   same place in every frame.
@@ -116,17 +117,25 @@ class Recording:
                                   p["nuc_freeze_s"])
         self.keep = dropped_frames(seed, n_frames, p["dropped_frames"])
         self.plain = bool((self.source == np.arange(n_frames)).all() and self.keep.all())
+        kept = np.flatnonzero(self.keep)
+        # the number each frame kept is written under: the camera's frame counter,
+        # or the recorder's own count (the time of a lost frame is lost with it)
+        self.numbers = (kept + 1 if p["frame_numbers"] == "counter"
+                        else np.arange(1, len(kept) + 1))
+        self.kept = kept
 
     def rows(self, per_frame):
         """The ground-truth rows of the frames kept, from the rows ``per_frame`` of
         each rendered frame (those of the picture shown, under its own number)."""
-        return [(f + 1, *row[1:]) for f in np.flatnonzero(self.keep).tolist()
+        return [(int(k), *row[1:])
+                for f, k in zip(self.kept.tolist(), self.numbers, strict=True)
                 for row in per_frame[self.source[f]]]
 
     def frames(self, name, images):
         """The frames kept, each under its own number (gaps where frames were lost)."""
-        return FrameSequence(FrameRecord(name, f + 1, images[self.source[f]])
-                             for f in np.flatnonzero(self.keep).tolist())
+        return FrameSequence(FrameRecord(name, int(k), images[self.source[f]])
+                             for f, k in zip(self.kept.tolist(), self.numbers,
+                                             strict=True))
 
     def info(self, p):
         """The artefacts' entries of the tour's ``info`` (none when off)."""
@@ -138,4 +147,6 @@ class Recording:
                 (self.source != np.arange(len(self.source))).sum())
         if p["dropped_frames"] > 0:
             out["frames_dropped"] = int(len(self.keep) - self.keep.sum())
+        if p["frame_numbers"] != "counter":
+            out["frame_numbers"] = p["frame_numbers"]
         return out
