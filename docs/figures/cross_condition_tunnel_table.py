@@ -51,6 +51,8 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   frames.
 * ``dropped-5%``: the ``plain`` tours with 5 % of the frames lost by the recorder,
   each independently; the frames kept keep their numbers (gaps).
+* ``dropped-5%-renumbered``: ``dropped-5%`` written by a recorder that numbers the
+  frames it keeps 1, 2, 3, ... (the time of a lost frame is lost).
 * ``defects``: the ``plain`` tours on a sensor with 0.5 % of its pixels stuck (hot,
   dead or at a level of their own) and one dead column.
 
@@ -120,6 +122,8 @@ CONDITIONS = {
                        nuc_freeze_s=(0.3, 0.5), **CAMERA_A),
     "dropped-5%": dict(scenario="light", dropped_frames=0.05, **CAMERA_A),
     "defects": dict(scenario="light", defect_pixels=0.005, dead_columns=1, **CAMERA_A),
+    "dropped-5%-renumbered": dict(scenario="light", dropped_frames=0.05,
+                                  frame_numbers="sequential", **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -128,7 +132,7 @@ CONDITIONS = {
 #: ``plain`` tours (from random streams of their own); such conditions take no seed
 #: offset of their own
 SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "plain",
-                 "defects": "plain"}
+                 "defects": "plain", "dropped-5%-renumbered": "plain"}
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
 #: training indicators, cluster rectangles the in-band region): the earlier default
