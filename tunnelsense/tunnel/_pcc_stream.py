@@ -226,10 +226,10 @@ def approach_fraction(h) -> float:
 
     An object of fixed size seen at range ``Z`` is ``f H / Z`` pixels tall, so
     ``1 - h_first / h_last = (Z_first - Z_last) / Z_first``: the fraction of the
-    first range the camera travelled towards it, whatever the focal length, the
-    resolution, the object's size or the frame rate.  A sign on the wall approached
-    from 50 m covers about 0.15 in a third of a second at 80 km/h; one first seen
-    at 15 m covers half its range in the same time.  A cluster that keeps its range
+    first range the camera travelled towards it (from the middle of the first third
+    to that of the last), whatever the focal length, the resolution, the object's
+    size or the frame rate.  In a third of a second at 80 km/h the camera covers
+    about 0.15 of a sign's range from 50 m, and half of it from 15 m.  A cluster that keeps its range
     (a vehicle ahead, a jitter in place) covers about 0, up or down by its
     rectangle's jitter.  Negative when the object recedes; 0 for fewer than two
     points or heights that are not positive.
