@@ -49,6 +49,7 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   the picture for 0.3-0.5 s every 4-8 s (real uncooled cameras: every 20-40 s or
   more; more often here so that every tour has several): repeated, identical
   frames.
+* ``heavy-nuc-freeze``: the ``heavy`` tours with the freezes of ``nuc-freeze``.
 * ``dropped-5%``: the ``plain`` tours with 5 % of the frames lost by the recorder,
   each independently; the frames kept keep their numbers (gaps).
 * ``dropped-5%-renumbered``: ``dropped-5%`` written by a recorder that numbers the
@@ -124,6 +125,8 @@ CONDITIONS = {
     "defects": dict(scenario="light", defect_pixels=0.005, dead_columns=1, **CAMERA_A),
     "dropped-5%-renumbered": dict(scenario="light", dropped_frames=0.05,
                                   frame_numbers="sequential", **CAMERA_A),
+    "heavy-nuc-freeze": dict(scenario="heavy", nuc_interval_s=(4.0, 8.0),
+                             nuc_freeze_s=(0.3, 0.5), **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -132,7 +135,8 @@ CONDITIONS = {
 #: ``plain`` tours (from random streams of their own); such conditions take no seed
 #: offset of their own
 SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "plain",
-                 "defects": "plain", "dropped-5%-renumbered": "plain"}
+                 "defects": "plain", "dropped-5%-renumbered": "plain",
+                 "heavy-nuc-freeze": "heavy"}
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
 #: training indicators, cluster rectangles the in-band region): the earlier default
