@@ -45,6 +45,17 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   the training tour's 0.45 m x 1.0 m).
 * ``fast``: camera A driving at 100-130 km/h (the tours of ``lag-12ms-fast``
   without the lag).
+* ``nuc-freeze``: the ``plain`` tours with the flat-field (NUC) shutter freezing
+  the picture for 0.3-0.5 s every 4-8 s (real uncooled cameras: every 20-40 s or
+  more; more often here so that every tour has several): repeated, identical
+  frames.
+* ``heavy-nuc-freeze``: the ``heavy`` tours with the freezes of ``nuc-freeze``.
+* ``dropped-5%``: the ``plain`` tours with 5 % of the frames lost by the recorder,
+  each independently; the frames kept keep their numbers (gaps).
+* ``dropped-5%-renumbered``: ``dropped-5%`` written by a recorder that numbers the
+  frames it keeps 1, 2, 3, ... (the time of a lost frame is lost).
+* ``defects``: the ``plain`` tours on a sensor with 0.5 % of its pixels stuck (hot,
+  dead or at a level of their own) and one dead column.
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -108,12 +119,24 @@ CONDITIONS = {
                           speed_kmh=(100.0, 130.0), **CAMERA_A),
     "signs-0.6x0.6": dict(scenario="light", indicator_size_m=(0.6, 0.6), **CAMERA_A),
     "fast": dict(scenario="light", speed_kmh=(100.0, 130.0), **CAMERA_A),
+    "nuc-freeze": dict(scenario="light", nuc_interval_s=(4.0, 8.0),
+                       nuc_freeze_s=(0.3, 0.5), **CAMERA_A),
+    "dropped-5%": dict(scenario="light", dropped_frames=0.05, **CAMERA_A),
+    "defects": dict(scenario="light", defect_pixels=0.005, dead_columns=1, **CAMERA_A),
+    "dropped-5%-renumbered": dict(scenario="light", dropped_frames=0.05,
+                                  frame_numbers="sequential", **CAMERA_A),
+    "heavy-nuc-freeze": dict(scenario="heavy", nuc_interval_s=(4.0, 8.0),
+                             nuc_freeze_s=(0.3, 0.5), **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
 #: traffic and noise): ``fast`` is ``lag-12ms-fast`` without the thermal lag (which
-#: draws nothing at random); such conditions take no seed offset of their own
-SAME_TOURS_AS = {"fast": "lag-12ms-fast"}
+#: draws nothing at random), the camera's and recorder's artefacts are drawn on the
+#: ``plain`` tours (from random streams of their own); such conditions take no seed
+#: offset of their own
+SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "plain",
+                 "defects": "plain", "dropped-5%-renumbered": "plain",
+                 "heavy-nuc-freeze": "heavy"}
 
 #: the grey-level band (keypoints in a band of grey levels learned from the
 #: training indicators, cluster rectangles the in-band region): the earlier default

@@ -128,6 +128,38 @@ def test_missing_frame_file(tour, tmp_path):
     (tmp_path / "s" / "img1" / "000002.png").unlink()
     with pytest.raises(FileNotFoundError, match=r"000002.png: frame file not found"):
         read_tour(tmp_path / "s")
+    # a recorder's lost frame: the frames kept keep their numbers
+    back = read_tour(tmp_path / "s", missing_frames="gap")
+    assert [r.frame for r in back.frames] == [1, 3, 4]
+    assert np.array_equal(back.frames[1].image, tour.frames[2].image)
+    with pytest.raises(ValueError, match="missing_frames must be"):
+        read_tour(tmp_path / "s", missing_frames="skip")
+
+
+def test_frames_with_gaps_round_trip(tour, tmp_path):
+    """A tour whose frame numbers have gaps (frames a recorder lost) is written as
+    the files of its numbers and read back with its gaps."""
+    kept = [tour.frames[i] for i in (0, 2, 3)]
+    gapped = Tour("seq-a", kept, tour.gt[tour.gt.frame != 2].reset_index(drop=True),
+                  25.0, {})
+    write_tour(gapped, tmp_path / "g")
+    assert sorted(p.name for p in (tmp_path / "g" / "img1").iterdir()) == [
+        "000001.png", "000003.png", "000004.png"]
+    with pytest.raises(FileNotFoundError, match="000002.png"):
+        read_tour(tmp_path / "g")
+    back = read_tour(tmp_path / "g", missing_frames="gap")
+    assert [r.frame for r in back.frames] == [1, 3, 4]
+    for a, b in zip(kept, back.frames, strict=True):
+        assert np.array_equal(a.image, b.image)
+    pd.testing.assert_frame_equal(back.gt, gapped.gt)
+    # rewriting without the gap removes no frame of its own, and the lost one stays lost
+    write_tour(back, tmp_path / "g")
+    assert len(list((tmp_path / "g" / "img1").iterdir())) == 3
+    # frames out of order or numbered below 1 cannot be written
+    for frames in ([kept[1], kept[0]], [tour.frames[0].__class__("seq-a", 0,
+                                                              tour.frames[0].image)]):
+        with pytest.raises(InputFormatError, match="increasing order from 1"):
+            write_tour(Tour("seq-a", frames, None, 25.0, {}), tmp_path / "bad")
 
 
 @pytest.mark.parametrize(

@@ -86,12 +86,45 @@ def test_gt_from_boxes_links_identities():
         np.array([[10, 10, 8, 20.0]]),
         np.array([[11, 10, 8, 20.0], [70, 10, 5, 10]]),
         np.array([[12, 10, 8, 20.0]]),
-        np.array([[13, 10, 8, 20.0]]),  # after a frame gap: a new identity
+        np.array([[13, 10, 8, 20.0]]),  # a frame lost: the same sign, moved on
         np.array([[10, 10, 8, 20.0]]),
     ]
     gt = gt_from_boxes(recs, y)
-    assert gt["id"].tolist() == [1, 1, 2, 1, 3, 1]
+    assert gt["id"].tolist() == [1, 1, 2, 1, 1, 1]
     assert gt["tour"].tolist() == ["t"] * 5 + ["u"]
+
+
+def _moving_sign(frames, shown=None):
+    """A sign 6 px wide moving 5 px a frame and growing 1 px taller a frame: its box
+    at each frame of ``frames`` (or at the frame ``shown[f]`` shows, for a frozen
+    picture)."""
+    shown = shown or {}
+    return [np.array([[100 + 5 * shown.get(f, f), 50, 6, 12 + shown.get(f, f)]])
+            for f in frames]
+
+
+def test_gt_from_boxes_counts_time_in_frame_numbers():
+    # frames lost: one sign whatever the gaps, up to a second of them
+    frames = [1, 2, 3, 5, 6, 9, 10, 11]
+    recs = [FrameRecord("t", f, IMG, {"frame_rate": 30.0}) for f in frames]
+    assert set(gt_from_boxes(recs, _moving_sign(frames))["id"]) == {1}
+    # numbered without the gaps, the sign jumps by more than its reach: two signs
+    recs = [FrameRecord("t", f, IMG, {"frame_rate": 30.0}) for f in range(1, 9)]
+    assert set(gt_from_boxes(recs, _moving_sign(frames))["id"]) == {1, 2}
+    # more than a second apart: another sign
+    frames = [1, 2, 3, 40]
+    recs = [FrameRecord("t", f, IMG, {"frame_rate": 30.0}) for f in frames]
+    assert gt_from_boxes(recs, _moving_sign(frames))["id"].tolist() == [1, 1, 1, 2]
+
+
+def test_gt_from_boxes_a_frozen_picture_keeps_its_identities():
+    # frames 4-9 repeat the picture of frame 3 (a flat-field freeze), then the
+    # sign is where it has moved meanwhile
+    frames = list(range(1, 14))
+    shown = {f: 3 for f in range(4, 10)}
+    recs = [FrameRecord("t", f, IMG) for f in frames]
+    gt = gt_from_boxes(recs, _moving_sign(frames, shown))
+    assert set(gt["id"]) == {1}
 
 
 def records_for_scoring():

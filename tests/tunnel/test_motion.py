@@ -198,3 +198,65 @@ def test_min_length_below_the_floor_is_kept_and_none_counts_frames():
     state = PCCVerifier().fit(X).start_stream()
     out = [o for r in X for o in state.push(r)] + state.close()
     assert out[0].payload["indicator"].all()
+
+
+def approach(n, first_height, last_height, first=1):
+    """A sign growing from ``first_height`` to ``last_height`` as the camera covers
+    its range: height ``f H / Z``, Z falling linearly in time; its centre moves
+    away from the vanishing point (100, 80) in proportion to its height."""
+    z = np.linspace(1.0 / first_height, 1.0 / last_height, n)
+    h = 1.0 / z
+    return [(first + k, [100 - 2 * h[k], 80 - 0.5 * h[k], h[k] / 2, h[k]], True)
+            for k in range(n)]
+
+
+def test_approach_fraction_is_the_range_covered():
+    from tunnelsense.tunnel._pcc_stream import approach_fraction
+
+    # heights f H / Z: from 50 m to 25 m the range is halved, whatever f H
+    for fh in (700.0, 350.0, 1000.0):
+        h = fh / np.linspace(50.0, 25.0, 12)
+        k = 4  # the medians of the first and last four
+        expected = 1 - np.median(h[:k]) / np.median(h[-k:])
+        assert approach_fraction(h) == pytest.approx(expected)
+        assert approach_fraction(h) == pytest.approx(approach_fraction(h / 2))
+    assert approach_fraction(np.full(9, 20.0)) == 0.0
+    assert approach_fraction(np.linspace(40, 20, 9)) < 0  # receding
+    assert approach_fraction([30.0]) == 0.0
+
+
+def test_min_approach_accepts_a_short_trajectory_that_approaches():
+    near = approach(8, 45.0, 100.0)  # a near sign at speed: 8 points, range more than halved
+    still = [(k + 1, [60 + (k % 2), 40 - (k % 3), 10, 20 + (k % 2)], True) for k in range(8)]
+    short_line = line(8, first=1, start=(300, 200))  # 8 points, a straight path, no growth
+    X = track_frames({1: near, 2: still, 3: short_line})
+    found = {}
+    for min_approach in (None, 0.3):
+        out = PCCVerifier(criterion="quadratic-motion", min_approach=min_approach).fit(X).predict(X)
+        found[min_approach] = {int(d[4]) for r in out for d in r.payload["detections"]}
+    assert found[None] == set()  # the paper's rule: 8 < min_length
+    assert found[0.3] == {1}
+    # never below the floor of 7 points, however much it approaches
+    X = track_frames({1: approach(6, 45.0, 120.0)})
+    out = PCCVerifier(min_approach=0.1).fit(X).predict(X)
+    assert not out[0].payload["indicator"].any()
+
+
+def test_min_approach_is_validated():
+    X = track_frames({1: line(12)})
+    for bad in (0.0, 1.0, -0.2, "0.3"):
+        with pytest.raises((ValueError, TypeError), match="min_approach"):
+            PCCVerifier(min_approach=bad).fit(X)
+
+
+def test_motion_fit_counts_time_in_frame_numbers():
+    """Frames a recorder lost leave gaps in the frame numbers: the motion in time
+    still fits when the numbers are the times; numbered as if consecutive, the
+    same positions jump."""
+    from tunnelsense.tunnel._pcc_stream import motion_fit_r
+
+    t = np.array([1, 2, 3, 6, 7, 8, 12, 13, 14, 15], float)
+    z = 40.0 - 0.8 * t  # metres: the camera approaches at constant speed
+    x, y = 320 - 2100 / z, 240 - 700 / z  # image position ~ 1 / Z
+    assert motion_fit_r(t, x, y) > 0.999
+    assert motion_fit_r(np.arange(10.0), x, y) < motion_fit_r(t, x, y) - 0.005

@@ -53,6 +53,7 @@ from tunnelsense.datasets._tunnel_scene import (
     _make_vehicles,
     _resolve_params,
 )
+from tunnelsense.datasets._tunnel_sensor import Recording, defect_map
 
 __all__ = ["TUNNEL_SCENARIOS", "make_tunnel_tour"]
 
@@ -161,7 +162,22 @@ def make_tunnel_tour(
         radiance of the instants before it weighted by ``exp(-age / tau)``, which
         smears a fast near object along its path; rendered as sub-frame samples,
         see :func:`_lag_samples`; the ground truth is the object at the frame's
-        instant).
+        instant); ``nuc_interval_s`` (None: the camera's flat-field correction
+        shutter closes every ``(low, high)`` seconds, the intervals drawn
+        uniformly, the first within the first interval, and the output repeats
+        the last picture before it closed for ``nuc_freeze_s`` ((0.3, 0.5))
+        seconds: identical frames, whose ground truth is that picture's);
+        ``dropped_frames`` (0: the fraction of frames the recorder loses, each
+        independently; the frames kept keep their numbers, the camera's frame
+        counter, so the tour's frame numbers have gaps; ``frame_numbers``
+        ("counter") set to "sequential" numbers them 1, 2, 3, ... as a recorder
+        counting what it writes does, and the time of a lost frame is lost);
+        ``defect_pixels`` (0:
+        the fraction of pixels stuck at the same level in every frame, a third
+        at 255, a third at 0, a third at a level of their own) and
+        ``dead_columns`` (0: whole columns reading 0).  These sensor and
+        recorder artefacts draw from random streams of their own and are
+        applied to the camera's output.
 
     Returns
     -------
@@ -320,6 +336,9 @@ def make_tunnel_tour(
 
     images = np.empty((n_frames, H, W), dtype=np.uint8)
     rows = []
+    defects = None
+    if p["defect_pixels"] > 0 or p["dead_columns"] > 0:
+        defects = defect_map(seed, (H, W), p["defect_pixels"], p["dead_columns"])
     for f in range(n_frames):
         img, drawn = scene(f)
         if lag is not None:  # the bolometer's output: radiance averaged over its past
@@ -340,14 +359,19 @@ def make_tunnel_tour(
         img += fpn
         if agc is not None:
             agc.apply(img)
+        if defects is not None:  # stuck pixels and dead columns read the same
+            img[defects[0], defects[1]] = defects[2]
+            img[:, defects[3]] = 0.0
         np.clip(img, 0, 255, out=img)
         np.rint(img, out=img)
         images[f] = img
-        rows.extend(_gt_rows(f + 1, drawn, W, H))
+        rows.append(_gt_rows(f + 1, drawn, W, H))
         if progress is not None:
             progress(f + 1, n_frames)
 
-    gt = pd.DataFrame(rows, columns=list(MOT_GT_COLUMNS))
+    # the camera's output (flat-field freezes) and what the recorder keeps
+    recording = Recording(seed, n_frames, fps, p)
+    gt = pd.DataFrame(recording.rows(rows), columns=list(MOT_GT_COLUMNS))
     gt = gt.astype(
         {
             "frame": "int64",
@@ -397,14 +421,20 @@ def make_tunnel_tour(
     if warming:
         info["ambient_warming"] = float(warming)
     for key, default in (("roll_deg", 0.0), ("vignetting", 1.0),
-                         ("indicator_side", "left"), ("thermal_time_constant_s", 0.0)):
+                         ("indicator_side", "left"), ("thermal_time_constant_s", 0.0),
+                         ("dropped_frames", 0.0), ("defect_pixels", 0.0),
+                         ("dead_columns", 0)):
         if p[key] != default:
             info[key] = p[key]
+    info.update(recording.info(p))
     if agc is not None:
         info["agc"] = True
         info["agc_gain_min"] = round(float(min(agc.gains)), 6)
         info["agc_gain_max"] = round(float(max(agc.gains)), 6)
-    tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    if recording.plain:
+        tour = Tour.from_array(name, images, gt, frame_rate=fps, info=info)
+    else:
+        tour = Tour(name, recording.frames(name, images), gt, fps, info)
     # where the camera was (positions, odometry, indicator map): no random draws here
     kin = TourKinematics(t, s_ego, speed, kappa, indicators, ind_ids, seed,
                          side=p["indicator_side"])

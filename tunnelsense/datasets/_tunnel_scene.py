@@ -47,6 +47,12 @@ _DEFAULTS = {
     "vignetting": 1.0,  # lens response at the image corners (1: none)
     "indicator_side": "left",  # the wall the signs stand on
     "thermal_time_constant_s": 0.0,  # microbolometer lag (0: none); 8-12 ms typical
+    "nuc_interval_s": None,  # flat-field shutter every (low, high) s (None: none)
+    "nuc_freeze_s": (0.3, 0.5),  # how long each correction freezes the picture
+    "dropped_frames": 0.0,  # fraction of frames the recorder loses (numbers gap)
+    "frame_numbers": "counter",  # the camera's counter, or "sequential" (no gaps)
+    "defect_pixels": 0.0,  # fraction of pixels stuck (hot, dead, or at a level)
+    "dead_columns": 0,  # columns reading 0
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -278,6 +284,32 @@ def _resolve_params(scenario, overrides, seed=0):
     p["thermal_time_constant_s"] = _check_range(
         "thermal_time_constant_s", p["thermal_time_constant_s"], 0.0, 0.1
     )
+    for key in ("nuc_interval_s", "nuc_freeze_s"):
+        value = p[key]
+        if value is None and key == "nuc_interval_s":
+            continue
+        if np.ndim(value) == 0:
+            value = (value, value)
+        if len(value) != 2:
+            raise ValueError(
+                f"{key} must be a number or a (low, high) pair of seconds; got {value!r}"
+            )
+        low = _check_range(key, value[0], 0.0, 3600.0, closed_lo=False)
+        p[key] = (low, _check_range(key, value[1], low, 3600.0))
+    p["dropped_frames"] = _check_range("dropped_frames", p["dropped_frames"], 0.0, 0.5)
+    if p["frame_numbers"] not in ("counter", "sequential"):
+        raise ValueError(
+            f"frame_numbers must be 'counter' or 'sequential'; got {p['frame_numbers']!r}"
+        )
+    p["defect_pixels"] = _check_range("defect_pixels", p["defect_pixels"], 0.0, 0.1)
+    columns = p["dead_columns"]
+    if (isinstance(columns, bool) or not isinstance(columns, Integral)
+            or not 0 <= columns <= p["image_shape"][1] // 4):
+        raise ValueError(
+            f"dead_columns must be an int in [0, {p['image_shape'][1] // 4}]; "
+            f"got {columns!r}"
+        )
+    p["dead_columns"] = int(columns)
     if p["indicator_side"] not in ("left", "right"):
         raise ValueError(
             f"indicator_side must be 'left' or 'right'; got {p['indicator_side']!r}"

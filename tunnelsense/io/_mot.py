@@ -165,8 +165,9 @@ def _image_dir(path, name) -> Path:
     return path / name
 
 
-def _sequence_files(path, image_dir, seq) -> list:
-    """``img1/000001.png ...``: every frame of ``seqLength`` present, and no more."""
+def _sequence_files(path, image_dir, seq, missing="raise") -> list:
+    """``img1/000001.png ...``: ``(number, file)`` of every frame of ``seqLength``
+    present (``missing="gap"``: of those present), and no more."""
     if not image_dir.is_dir():
         raise FileNotFoundError(f"{image_dir}: image folder not found (imDir)")
     ext = seq["imExt"]
@@ -175,11 +176,16 @@ def _sequence_files(path, image_dir, seq) -> list:
     files = []
     for i in range(1, n + 1):
         if i not in present:
+            if missing == "gap":
+                continue
             raise FileNotFoundError(
                 f"{image_dir / f'{i:06d}{ext}'}: frame file not found (seqinfo.ini "
-                f"says seqLength={n})"
+                f"says seqLength={n}; missing_frames='gap' reads the frames a "
+                "recorder kept, with gaps in their numbers)"
             )
-        files.append(present[i])
+        files.append((i, present[i]))
+    if not files:
+        raise FileNotFoundError(f"{image_dir}: no frame file numbered 1..{n}")
     beyond = sorted(k for k in present if k > n)
     if beyond:
         raise InputFormatError(
@@ -191,7 +197,7 @@ def _sequence_files(path, image_dir, seq) -> list:
     return files
 
 
-def read_tour(path, *, colour=None, ground_truth=True) -> Tour:
+def read_tour(path, *, colour=None, ground_truth=True, missing_frames="raise") -> Tour:
     """Read a MOTChallenge sequence folder as a :class:`~tunnelsense.Tour`.
 
     Frames are not decoded here: each :class:`~tunnelsense.FrameRecord` decodes its
@@ -210,11 +216,20 @@ def read_tour(path, *, colour=None, ground_truth=True) -> Tour:
     ground_truth : bool, default=True
         Read and check ``gt/gt.txt``.  False (detection, which never uses it): the
         tour's ``gt`` is None, and the file is not read.
+    missing_frames : {"raise", "gap"}, default="raise"
+        What a number in 1..``seqLength`` without its frame file means: an
+        incomplete copy (an error), or, with ``"gap"``, a frame the recorder lost
+        while the camera's frame counter ran on: the tour holds the frames present,
+        each keeping its file's number, so the stages that follow trajectories in
+        time (the linker's prediction, the motion check's fit in time) see the
+        time between two frames as their difference in numbers over the frame
+        rate.
 
     Returns
     -------
     tour : Tour
-        Frames numbered from 1, ground truth from ``gt/gt.txt`` (empty when there is
+        Frames numbered from 1 (with gaps where frame files are missing and
+        ``missing_frames="gap"``), ground truth from ``gt/gt.txt`` (empty when there is
         none), frame rate, and the other ``[Sequence]`` keys in ``tour.info``.
 
     Raises
@@ -232,11 +247,14 @@ def read_tour(path, *, colour=None, ground_truth=True) -> Tour:
         raise FileNotFoundError(f"{path}: tour folder not found")
     seq = _read_seqinfo(path / "seqinfo.ini")
     shape = (seq["imHeight"], seq["imWidth"])
-    files = _sequence_files(path, _image_dir(path, seq["imDir"]), seq)
-    _check_sizes(files, shape)
+    if missing_frames not in ("raise", "gap"):
+        raise ValueError(
+            f"missing_frames must be 'raise' or 'gap'; got {missing_frames!r}"
+        )
+    files = _sequence_files(path, _image_dir(path, seq["imDir"]), seq, missing_frames)
+    _check_sizes([f for _, f in files], shape)
     frames = FrameSequence(
-        FrameRecord(seq["name"], i, ImageFile(f, shape, colour))
-        for i, f in enumerate(files, 1)
+        FrameRecord(seq["name"], i, ImageFile(f, shape, colour)) for i, f in files
     )
     gt_path = path / "gt" / "gt.txt"
     if not ground_truth:
@@ -258,7 +276,10 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
     Parameters
     ----------
     tour : Tour
-        Its frames must be numbered 1..n in order.
+        Its frames must be numbered in increasing order from 1 or later; a gap in
+        the numbers (frames a recorder lost) stays a gap: each frame is written
+        as the file of its number, and ``seqLength`` is the last number
+        (:func:`read_tour` with ``missing_frames="gap"`` reads it back).
     path : str or Path
         The folder to write (created; existing files of the same names are replaced).
     progress : callable or None, default=None
@@ -270,29 +291,33 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
     """
     path = Path(path)
     numbers = [r.frame for r in tour.frames]
-    if numbers != list(range(1, len(numbers) + 1)):
+    if not numbers or numbers[0] < 1 or any(
+        b <= a for a, b in zip(numbers, numbers[1:], strict=False)
+    ):
         raise InputFormatError(
-            "tour.frames must be numbered 1..n in order to be written as a "
-            "MOTChallenge sequence"
+            "tour.frames must be numbered in increasing order from 1 or later to be "
+            "written as a MOTChallenge sequence"
         )
     height, width = tour.image_shape
     image_dir = path / "img1"
     image_dir.mkdir(parents=True, exist_ok=True)
     for i, record in enumerate(tour.frames, 1):
+        number = record.frame
         image = record.image
         if image.shape != (height, width):
             raise InputFormatError(
                 f"frame {record.frame} of tour {tour.name!r} is {image.shape[1]}x"
                 f"{image.shape[0]} px, expected {width}x{height} px"
             )
-        target = image_dir / f"{i:06d}.png"
+        target = image_dir / f"{number:06d}.png"
         if not cv2.imwrite(str(target), image):
             raise OSError(f"{target}: OpenCV could not write the frame")
         if progress is not None:
             progress(i, len(tour.frames))
-    for stale in image_dir.glob("*.png"):  # frames of an earlier, longer tour
+    written = set(numbers)
+    for stale in image_dir.glob("*.png"):  # frames of an earlier tour
         if stale.stem.isascii() and stale.stem.isdigit() and (
-            int(stale.stem) > len(tour.frames)
+            int(stale.stem) not in written
         ):
             stale.unlink()
     parser = configparser.ConfigParser(interpolation=None)
@@ -301,7 +326,7 @@ def write_tour(tour: Tour, path, *, progress=None) -> Path:
         "name": tour.name,
         "imDir": "img1",
         "frameRate": f"{tour.frame_rate:g}",
-        "seqLength": str(len(tour.frames)),
+        "seqLength": str(numbers[-1]),
         "imWidth": str(width),
         "imHeight": str(height),
         "imExt": ".png",

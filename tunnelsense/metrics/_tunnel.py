@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from tunnelsense._payload import inside_boxes
+from tunnelsense._payload import FRAME_RATE, inside_boxes
 
 __all__ = [
     "HYPOTHESIS_COLUMNS",
@@ -140,6 +140,13 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     that has a predecessor when it overlaps that box moved on at its last change
     (position and size: constant velocity), grown the same way; the rule holds
     whatever the frame rate while the motion changes smoothly from frame to frame.
+    Frame numbers count time: across a gap of ``g`` frame numbers (frames a
+    recorder lost) the previous box is moved on ``g`` frames and grown ``g`` times
+    as much, up to a gap of a second (``payload["frame_rate"]`` frames, 30 without
+    it); a frame whose boxes are exactly those of the previous one is the same
+    picture again (a camera's flat-field freeze): its boxes keep their identities,
+    and the next new picture is linked across the time since that picture was
+    first shown.
 
     Parameters
     ----------
@@ -161,24 +168,35 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
     for group in tour_groups(records):
         next_id = 1
         prev_frame, prev_boxes, prev_ids = None, np.empty((0, 4)), []
-        before = {}  # id -> its box in the frame before the previous one
+        before = {}  # id -> (its box, frame) in the picture before the previous one
         for i in group.tolist():
             r, b = records[i], y[i]
+            if (prev_frame is not None and len(b) and b.shape == prev_boxes.shape
+                    and np.array_equal(b, prev_boxes)):
+                # the same picture again (a camera's flat-field freeze): the same
+                # indicators, and no new position
+                rows.extend((r.tour, r.frame, pid, *box.tolist())
+                            for box, pid in zip(b, prev_ids, strict=True))
+                continue
             ids = []
             used = set()
-            consecutive = prev_frame is not None and r.frame - prev_frame == 1
+            gap = None if prev_frame is None else r.frame - prev_frame
+            rate = r.payload.get(FRAME_RATE) or 30.0
+            linkable = gap is not None and 1 <= gap <= max(rate, 1.0)
             for box in b:
                 link = None
-                if consecutive:
+                if linkable:
                     for pb, pid in zip(prev_boxes, prev_ids, strict=True):
                         if pid in used:
                             continue
                         # grow the previous box by half its size on every side: an
                         # indicator moves less than that between consecutive frames,
                         # also while it is clipped by the frame's edge
-                        if _meets_grown(box, pb, grow) or (
+                        if _meets_grown(box, pb, grow * gap) or (
                             pid in before
-                            and _meets_grown(box, 2 * pb - before[pid], grow)
+                            and _meets_grown(box, _moved_on(pb, *before[pid],
+                                                            prev_frame, gap),
+                                             grow * gap)
                         ):
                             link = pid
                             break
@@ -189,13 +207,22 @@ def gt_from_boxes(records, y) -> pd.DataFrame:
                 ids.append(link)
                 rows.append((r.tour, r.frame, link, *box.tolist()))
             before = (
-                {pid: pb for pb, pid in zip(prev_boxes, prev_ids, strict=True)}
-                if consecutive else {}
+                {pid: (pb, prev_frame)
+                 for pb, pid in zip(prev_boxes, prev_ids, strict=True)}
+                if linkable else {}
             )
             prev_frame, prev_boxes, prev_ids = r.frame, b, ids
     return pd.DataFrame(rows, columns=list(_GT_COLUMNS)).astype(
         {"frame": np.int64, "id": np.int64}
     )
+
+
+def _moved_on(pb, bb, bb_frame, pb_frame, gap):
+    """Box ``pb`` (at ``pb_frame``) moved on ``gap`` frames at the velocity of its
+    last change, from ``bb`` at ``bb_frame`` (constant velocity)."""
+    if gap == 1 and pb_frame - bb_frame == 1:
+        return 2 * pb - bb
+    return pb + (pb - bb) * (gap / (pb_frame - bb_frame))
 
 
 def _meets_grown(box, pb, grow):

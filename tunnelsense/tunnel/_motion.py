@@ -5,7 +5,8 @@ away from the vanishing point; vehicles ahead and their warm road patches stay n
 still or wander.  Each trajectory is fitted with a straight line ``y = a0 + a1 x`` and
 the Pearson correlation coefficient ``r`` of the fit (eq. 5) decides.  A keypoint
 cluster is an indicator iff its appearance label is positive, its trajectory is at
-least ``min_length`` long, ``|r| >= min_r`` (and, optionally, it travels at least
+least ``min_length`` long (or, optionally, shorter but showing an approach of
+``min_approach``), ``|r| >= min_r`` (and, optionally, it travels at least
 ``min_travel`` times its own size); a trajectory is positive when more
 than ``vote`` (80 %) of the decisions it connects are positive.  The math and the
 stream state are in :mod:`tunnelsense.tunnel._pcc_stream`.
@@ -89,7 +90,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         Fewest clusters of an indicator's trajectory, in frames at ``frame_rate``:
         a third of a second at 30 fps.  An indicator stays in view for well over a
         second at motorway speed, while a chance alignment of a few jittering
-        positions gives a high ``|r|`` only on short trajectories.
+        positions gives a high ``|r|`` only on short trajectories.  See
+        ``min_approach`` for shorter trajectories of a near, fast approach.
     vote : float, default=0.8
         A trajectory is positive when more than this fraction of its clusters are
         indicators (the paper's 80 %).
@@ -102,6 +104,22 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         place in the image (the far end of a curving row of lamps, which the view
         follows) only jitters, however well the jitter fits a path.  A ratio of
         lengths in the image, so it holds at any resolution and focal length.
+    min_approach : float or None, default=None
+        Least fraction of its range the camera covers towards the object of a
+        trajectory shorter than ``min_length`` (after scaling to the tour's frame
+        rate) for it to count as long enough:
+        :func:`~tunnelsense.tunnel._pcc_stream.approach_fraction`, ``1 - h_first /
+        h_last`` of its rectangle heights (medians of its first and last thirds),
+        which is ``(Z_first - Z_last) / Z_first`` for an object of fixed size at
+        range ``Z``.  Such a trajectory still needs at least 7 points (or
+        ``min_length`` when smaller): on fewer a chance alignment of jittering
+        positions passes the straightness test too easily.  What tells a sign
+        from a chance alignment is how far the camera approached it, not how many
+        frames it took: a sign first seen near, at high speed, leaves the image
+        within fewer than ``min_length`` frames while its rectangle doubles.  A unit
+        of the data (a ratio of heights), the same at any focal length, resolution,
+        sign size and frame rate.  ``None``, the paper's rule, accepts no
+        trajectory shorter than ``min_length``.
     criterion : {"pearson", "principal", "quadratic", "quadratic-motion"}, \
             default="pearson"
         The path measure compared with ``min_r``: ``"pearson"`` is ``|r|`` of
@@ -160,12 +178,14 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "vote": [Interval(numbers.Real, 0, 1, closed="left")],
         "criterion": [StrOptions({"pearson", "principal", "quadratic", "quadratic-motion"})],
         "min_travel": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_approach": [Interval(numbers.Real, 0, 1, closed="neither"), None],
         "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
-                 min_travel=0.0, frame_rate=30.0):
+                 min_travel=0.0, min_approach=None, frame_rate=30.0):
         self.frame_rate = frame_rate
+        self.min_approach = min_approach
         self.min_travel = min_travel
         self.min_r = min_r
         self.min_length = min_length

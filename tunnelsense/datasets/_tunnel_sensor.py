@@ -1,0 +1,152 @@
+"""Artefacts of a real FIR camera and its recorder, for the tunnel simulator.
+
+Each is off by default and draws from a random stream of its own (a child of the
+tour's seed), so turning one on leaves every other draw, and a default tour, as it
+was:
+
+* the **flat-field correction** (NUC) shutter: every few tens of seconds an
+  uncooled camera closes a shutter in front of the sensor for a fraction of a second
+  to recalibrate its pixels' offsets, and its output repeats the last picture
+  before the shutter closed (repeated, identical frames);
+* **dropped frames**: the recorder loses frames; the camera's frame counter runs on,
+  so the frames it writes carry numbers with gaps (the time between two frames is
+  their difference in numbers over the frame rate), or, with a recorder that numbers
+  what it writes itself, consecutive numbers (the time of a lost frame is lost);
+* **defective pixels**: pixels stuck at full scale (hot), at zero (dead) or at a
+  level of their own, and whole dead columns (a failed column amplifier), at the
+  same place in every frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tunnelsense._records import FrameRecord, FrameSequence
+
+__all__ = ["Recording", "defect_map", "dropped_frames", "nuc_freezes"]
+
+#: spawn keys of the artefacts' random streams (children of the tour's seed)
+_NUC_STREAM, _DROP_STREAM, _DEFECT_STREAM = 7301, 7302, 7303
+
+
+def _stream(seed, key):
+    return np.random.default_rng([int(seed), key])
+
+
+def nuc_freezes(seed, n_frames, fps, interval_s, freeze_s):
+    """Which frame each output frame shows: ``source[f]`` is ``f``, or, while the
+    shutter is closed, the last frame before it closed.
+
+    The first correction comes at a time drawn uniformly in ``[0, interval)`` and
+    each next one an interval later, the intervals drawn uniformly in
+    ``interval_s`` and the freezes' durations in ``freeze_s`` (seconds; each at
+    least one frame).
+
+    Examples
+    --------
+    >>> src = nuc_freezes(0, 300, 30.0, (2.0, 3.0), (0.3, 0.5))
+    >>> frozen = np.flatnonzero(src != np.arange(300))
+    >>> bool(len(frozen) > 0), bool((src[frozen] < frozen).all())
+    (True, True)
+    """
+    source = np.arange(n_frames)
+    if interval_s is None:
+        return source
+    rng = _stream(seed, _NUC_STREAM)
+    lo, hi = interval_s
+    t = rng.uniform(0.0, rng.uniform(lo, hi))
+    while True:
+        start = int(math.ceil(t * fps))
+        if start >= n_frames:
+            break
+        n = max(int(round(rng.uniform(*freeze_s) * fps)), 1)
+        if start > 0:
+            source[start : start + n] = start - 1
+        t += rng.uniform(lo, hi)
+    return source
+
+
+def dropped_frames(seed, n_frames, fraction):
+    """A mask of the frames the recorder keeps: each lost with probability
+    ``fraction``, independently (the first frame is always kept).
+
+    Examples
+    --------
+    >>> keep = dropped_frames(0, 1000, 0.05)
+    >>> bool(keep[0]), 900 < int(keep.sum()) < 990
+    (True, True)
+    """
+    keep = np.ones(n_frames, bool)
+    if fraction <= 0:
+        return keep
+    keep[1:] = _stream(seed, _DROP_STREAM).random(n_frames - 1) >= fraction
+    return keep
+
+
+def defect_map(seed, shape, fraction, n_columns):
+    """The sensor's defective pixels: ``(rows, cols, levels)`` of stuck pixels (a
+    third hot at 255, a third dead at 0, a third stuck at a level drawn uniformly
+    in 0-255) and the indices of dead columns (reading 0).
+
+    Examples
+    --------
+    >>> rows, cols, levels, dead = defect_map(0, (48, 64), 0.01, 1)
+    >>> len(rows), len(dead), bool(set(levels.tolist()) >= {0.0, 255.0})
+    (31, 1, True)
+    """
+    H, W = shape
+    rng = _stream(seed, _DEFECT_STREAM)
+    k = int(round(fraction * H * W))
+    flat = rng.choice(H * W, size=k, replace=False) if k else np.zeros(0, np.int64)
+    kind = rng.integers(0, 3, size=k)
+    levels = np.where(kind == 0, 255.0, np.where(kind == 1, 0.0,
+                                                 np.floor(rng.uniform(0, 256, k))))
+    dead = np.sort(rng.choice(W, size=int(n_columns), replace=False))
+    return flat // W, flat % W, levels.astype(np.float32), dead
+
+
+class Recording:
+    """What reaches the recording of a tour of ``n_frames`` rendered frames: which
+    rendered frame each output frame shows (the flat-field freezes) and which output
+    frames the recorder keeps."""
+
+    def __init__(self, seed, n_frames, fps, p):
+        self.source = nuc_freezes(seed, n_frames, fps, p["nuc_interval_s"],
+                                  p["nuc_freeze_s"])
+        self.keep = dropped_frames(seed, n_frames, p["dropped_frames"])
+        self.plain = bool((self.source == np.arange(n_frames)).all() and self.keep.all())
+        kept = np.flatnonzero(self.keep)
+        # the number each frame kept is written under: the camera's frame counter,
+        # or the recorder's own count (the time of a lost frame is lost with it)
+        self.numbers = (kept + 1 if p["frame_numbers"] == "counter"
+                        else np.arange(1, len(kept) + 1))
+        self.kept = kept
+
+    def rows(self, per_frame):
+        """The ground-truth rows of the frames kept, from the rows ``per_frame`` of
+        each rendered frame (those of the picture shown, under its own number)."""
+        return [(int(k), *row[1:])
+                for f, k in zip(self.kept.tolist(), self.numbers, strict=True)
+                for row in per_frame[self.source[f]]]
+
+    def frames(self, name, images):
+        """The frames kept, each under its own number (gaps where frames were lost)."""
+        return FrameSequence(FrameRecord(name, int(k), images[self.source[f]])
+                             for f, k in zip(self.kept.tolist(), self.numbers,
+                                             strict=True))
+
+    def info(self, p):
+        """The artefacts' entries of the tour's ``info`` (none when off)."""
+        out = {}
+        if p["nuc_interval_s"] is not None:
+            out["nuc_interval_s"] = "{:g},{:g}".format(*p["nuc_interval_s"])
+            out["nuc_freeze_s"] = "{:g},{:g}".format(*p["nuc_freeze_s"])
+            out["nuc_frozen_frames"] = int(
+                (self.source != np.arange(len(self.source))).sum())
+        if p["dropped_frames"] > 0:
+            out["frames_dropped"] = int(len(self.keep) - self.keep.sum())
+        if p["frame_numbers"] != "counter":
+            out["frame_numbers"] = p["frame_numbers"]
+        return out
