@@ -181,6 +181,11 @@ def test_pipeline_defaults_and_paper_settings():
     assert p["verifier__augment_contrast"] == (0.45, 1.0)
     assert p["verifier__augment_draw"] == "reciprocal"
     assert p["motion__min_travel"] == 0.25
+    # a shorter trajectory that shows the approach: 0.3 of the range covered; the
+    # paper's preset keeps the rule of min_length points
+    assert p["motion__min_approach"] == 0.3
+    paper = make_indicator_pipeline(preset="paper").get_params()
+    assert paper["motion__min_approach"] is None
     grey = make_indicator_pipeline(**GREY).get_params()
     assert (grey["keypoints__radiometry"], grey["clusters__box"]) == ("raw", "region")
     assert grey["verifier__augment_contrast"] is None

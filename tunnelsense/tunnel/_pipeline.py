@@ -89,6 +89,12 @@ PIPELINE_DEFAULTS = {
     # image and its rectangle's jitter can line up into a "path" (a tenth of its
     # height)
     "motion__min_travel": 0.25,
+    # what a trajectory must show is an approach, not a count of frames: one
+    # shorter than min_length (7 points at least) counts when the camera covered
+    # 0.3 of its range to the object (its box grew by a factor 1 / 0.7), a ratio
+    # of heights whatever the speed, lens, resolution or sign size; a near sign
+    # seen from a fast car gives fewer frames than min_length
+    "motion__min_approach": 0.3,
 }
 
 #: The paper's detector (Wang et al. 2013, sections 3.1-3.7), for
@@ -112,6 +118,7 @@ PAPER_SETTINGS = {
     "tracks__max_gap": 3,
     "motion__criterion": "pearson",
     "motion__min_travel": 0.0,
+    "motion__min_approach": None,
 }
 
 #: Step names of :func:`make_indicator_pipeline`, in order.
@@ -139,7 +146,9 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     quadratic path criterion of the motion check, or the motion's fit in time where
     larger (``motion__criterion="quadratic-motion"``)
     and a trajectory that travels at least a quarter of its own height
-    (``motion__min_travel=0.25``),
+    (``motion__min_travel=0.25``), a shorter trajectory (7 points or more)
+    accepted when the camera covered 0.3 of its range to it
+    (``motion__min_approach=0.3``, a near sign seen from a fast car),
     which keep the detector working on another camera and in a curving tunnel
     (``docs/validation.md``); frames of another size with the training frames'
     aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
