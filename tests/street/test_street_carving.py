@@ -265,3 +265,28 @@ def test_gap_parameters_are_checked(name, value):
     run = _low_pair(0.15)
     with pytest.raises(ValueError, match=name):
         ScanClusterer(**{name: value}).fit(run.scans)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_lowest_marks_are_raised_section_and_under_gap_scan_by_scan(seed):
+    from tunnelsense.street._sections import lowest_marks
+
+    rng = np.random.default_rng(seed)
+    n_scans = 12
+    sizes = rng.integers(0, 9, n_scans)
+    scan = np.repeat(np.arange(n_scans), sizes)
+    # beams in order within a scan, some missing (no return in the region)
+    beams = np.concatenate([np.sort(rng.choice(12, k, replace=False)) for k in sizes])
+    points = np.column_stack([rng.uniform(4.0, 6.0, len(scan)),
+                              rng.uniform(0.0, 0.6, len(scan))])
+    under = np.column_stack([rng.uniform(4.0, 6.5, len(scan)),
+                             rng.uniform(0.0, 0.6, len(scan))])
+    under[rng.random(len(scan)) < 0.2] = np.nan
+    section = rng.random(len(scan)) < 0.6
+    raised, gap = lowest_marks(points, beams, scan, under, section, n_scans, 0.2, 0.1)
+    for s in range(n_scans):
+        at = scan == s
+        assert raised[s] == raised_section(points[at], beams[at], section[at], 0.2,
+                                           0.1, absent=True)
+        assert gap[s] == under_gap(points[at], beams[at], under[at], section[at], 0.1)
+    assert raised.any() and gap.any() and not raised.all()
