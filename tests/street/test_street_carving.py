@@ -193,8 +193,17 @@ def test_long_runs_keep_stretches_not_single_scans():
     assert not long_runs(np.zeros(0, bool), np.zeros(0), 0.5).any()
 
 
-@pytest.mark.parametrize("bottom", [0.0, 0.15])
-def test_a_hedge_standing_on_the_ground_is_no_vehicle_but_low_cars_are(bottom):
+def test_long_runs_can_ask_for_a_count_of_scans():
+    # at a low scan rate two scans through a gap in foliage span 0.9 m
+    mask = np.array([1, 1, 0, 1, 1, 1, 0, 1], dtype=bool)
+    metres = np.full(8, 0.44)
+    assert long_runs(mask, metres, 0.5).tolist() == [
+        True, True, False, True, True, True, False, False]
+    assert long_runs(mask, metres, 0.5, min_count=3).tolist() == [
+        False, False, False, True, True, True, False, False]
+
+
+def test_a_hedge_standing_on_the_ground_is_no_vehicle_but_low_cars_are():
     # a thick hedge (its top roof-wide, 1.1 m) on the footway just behind two cars
     # whose bodies come down to 0.15 m: single linkage joins the cars' roofs to the
     # hedge's face in every scan, one 19 m object
@@ -212,13 +221,21 @@ def test_a_hedge_standing_on_the_ground_is_no_vehicle_but_low_cars_are(bottom):
     # with a roof counted as a vehicle's mark, the hedge and the cars are one "van"
     assert before["tp"] == 0 and before["fp"] == 1
     assert after["tp"] == 2 and after["fp"] == 0
-    # the same two cars nose to tail without the hedge, left unsplit, are one
-    # 9 m object without a body raised 0.2 m: the beams passing under their
-    # bodies to the road keep it a vehicle
+
+
+def _low_pair(bottom, rate=75.0, speed=11.0):
+    """Two cars nose to tail, their bodies ``bottom`` above the road."""
     pair = [dict(s0=4.0, s1=8.4, depth=4.7, top=sedan, bottom=bottom),
             dict(s0=8.45, s1=12.85, depth=4.7, top=sedan, bottom=bottom)]
-    run = make_run(pair, ["parked", "parked"], n_scans=int(14.0 / speed * 75),
-                   speed=speed, mount_height=2.4)
+    return make_run(pair, ["parked", "parked"], n_scans=int(14.0 / speed * rate),
+                    speed=speed, rate=rate, mount_height=2.4)
+
+
+@pytest.mark.parametrize("bottom", [0.0, 0.15])
+def test_two_low_cars_left_unsplit_stay_a_vehicle_by_the_gap_under_them(bottom):
+    # the two cars, left unsplit, are one 9 m object without a body raised 0.2 m:
+    # the beams passing under their bodies to the road keep it a vehicle
+    run = _low_pair(bottom)
     det = ScanClusterer(split_merged=False).fit(run.scans).detect(run.scans)
     parked = det[det.label == "parked"]
     if bottom > 0:
@@ -226,3 +243,50 @@ def test_a_hedge_standing_on_the_ground_is_no_vehicle_but_low_cars_are(bottom):
     else:  # the gap is what tells: the same boxes standing on the road are a wall
         assert len(parked) == 0
 
+
+@pytest.mark.parametrize("rate", [25.0, 50.0])
+def test_the_gap_under_low_cars_counts_at_other_scan_rates(rate):
+    # at 25 Hz a scan covers 0.44 m, at 50 Hz 0.22 m: min_gap_length and
+    # min_gap_scans both hold over the 9 m under the pair
+    run = _low_pair(0.15, rate=rate)
+    est = ScanClusterer(split_merged=False).fit(run.scans)
+    parked = est.detect(run.scans).query("label == 'parked'")
+    assert len(parked) == 1 and parked.length.iloc[0] > 8.0
+    # asking for more scans than the pair spans leaves no mark: a wall
+    n_scans = int(9.0 / 11.0 * rate) + 2
+    walled = est.set_params(min_gap_scans=n_scans).detect(run.scans)
+    assert not (walled.label == "parked").any()
+
+
+@pytest.mark.parametrize(("name", "value"), [("min_gap_length", -0.1),
+                                             ("min_gap_scans", 0),
+                                             ("min_gap_scans", 1.5)])
+def test_gap_parameters_are_checked(name, value):
+    run = _low_pair(0.15)
+    with pytest.raises(ValueError, match=name):
+        ScanClusterer(**{name: value}).fit(run.scans)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_lowest_marks_are_raised_section_and_under_gap_scan_by_scan(seed):
+    from tunnelsense.street._sections import lowest_marks
+
+    rng = np.random.default_rng(seed)
+    n_scans = 12
+    sizes = rng.integers(0, 9, n_scans)
+    scan = np.repeat(np.arange(n_scans), sizes)
+    # beams in order within a scan, some missing (no return in the region)
+    beams = np.concatenate([np.sort(rng.choice(12, k, replace=False)) for k in sizes])
+    points = np.column_stack([rng.uniform(4.0, 6.0, len(scan)),
+                              rng.uniform(0.0, 0.6, len(scan))])
+    under = np.column_stack([rng.uniform(4.0, 6.5, len(scan)),
+                             rng.uniform(0.0, 0.6, len(scan))])
+    under[rng.random(len(scan)) < 0.2] = np.nan
+    section = rng.random(len(scan)) < 0.6
+    raised, gap = lowest_marks(points, beams, scan, under, section, n_scans, 0.2, 0.1)
+    for s in range(n_scans):
+        at = scan == s
+        assert raised[s] == raised_section(points[at], beams[at], section[at], 0.2,
+                                           0.1, absent=True)
+        assert gap[s] == under_gap(points[at], beams[at], under[at], section[at], 0.1)
+    assert raised.any() and gap.any() and not raised.all()

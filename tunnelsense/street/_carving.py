@@ -177,13 +177,15 @@ def under_gap(points, beams, under, section, tolerance):
 
     The beam next below the section's lowest point returns more than
     ``tolerance`` farther *and* more than ``tolerance`` lower than that point: it
-    went through the space under the body (a car's ground clearance, however
-    small) and fell to the road or footway beyond the body's near side.  On a
-    face standing on the ground (a wall, a hedge) the next beam down ends on the
-    same face, one beam spacing lower, or on the ground in front of it; beams
-    reaching into foliage end a little farther but not lower.  Unlike
-    :func:`raised_section` no clearance is required: the gap under the body is
-    measured in beam spacings (``tolerance``), not in metres above the road.
+    went through the space under the body (a car's ground clearance) and fell to
+    the road or footway beyond the body's near side.  On a face standing on the
+    ground (a wall, a hedge) the next beam down ends on the same face, one beam
+    spacing lower, or on the ground in front of it; beams reaching into foliage
+    end a little farther but not lower.  Unlike :func:`raised_section` no
+    clearance in metres is set, but the beam must land more than ``tolerance``
+    below the lowest point: the clearance must exceed about ``tolerance`` (two
+    beam spacings at the face's depth: about 0.11 m at 0.5 deg and 6.5 m, 0.23 m
+    at 1 deg).
 
     Parameters
     ----------
@@ -227,15 +229,21 @@ def under_gap(points, beams, under, section, tolerance):
                     & (below[1] < points[low, 1] - tolerance))
 
 
-def long_runs(mask, metres, min_length):
-    """``mask`` kept only in runs of consecutive True at least ``min_length`` long.
+def long_runs(mask, metres, min_length, min_count=1):
+    """``mask`` kept only in runs of consecutive True at least ``min_length`` long
+    and of at least ``min_count`` scans.
 
     Parameters
     ----------
     mask : ndarray of shape (n,) of bool
+        Per scan, whether it shows the mark (consecutive entries are consecutive
+        scans).
     metres : ndarray of shape (n,)
         Length (m) along the street of every scan.
     min_length : float
+        Shortest run kept (m along the street: the sum of its scans' ``metres``).
+    min_count : int, default=1
+        Fewest scans in a run kept, whatever their lengths.
 
     Returns
     -------
@@ -247,13 +255,16 @@ def long_runs(mask, metres, min_length):
     >>> from tunnelsense.street._carving import long_runs
     >>> long_runs(np.array([1, 0, 1, 1, 1, 0], bool), np.full(6, 0.2), 0.5).tolist()
     [False, False, True, True, True, False]
+    >>> long_runs(np.array([1, 1, 0, 1, 1, 1], bool), np.full(6, 0.45), 0.5,
+    ...           min_count=3).tolist()
+    [False, False, False, True, True, True]
     """
     mask = np.asarray(mask, dtype=bool)
     out = np.zeros(len(mask), dtype=bool)
     edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1),
                     strict=True):
-        if float(np.sum(metres[a:b])) >= min_length:
+        if b - a >= min_count and float(np.sum(metres[a:b])) >= min_length:
             out[a:b] = True
     return out
 

@@ -283,10 +283,12 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         ``min_raised_fraction`` of the face's length, it shows the space under a
         body: its lowest point in a scan stands above ``min_clearance`` with the
         beam just below it passing farther or leaving no point in the region of
-        interest (a body raised between wheels), or, over a stretch of at least
-        0.5 m, the beam just below its lowest point returns more than two beam
-        spacings farther *and* lower (it passed under the body to the ground,
-        whatever the ground clearance: a car whose body comes down to 0.15 m).  A
+        interest (a body raised between wheels), or, over ``min_gap_length``
+        metres and ``min_gap_scans`` consecutive scans, the beam just below its
+        lowest point returns more than two beam spacings farther *and* lower (it
+        passed under the body to the ground: a car whose body comes down to
+        0.15 m, so long as its clearance exceeds those two beam spacings at the
+        face's depth, about 0.11 m at 0.5 deg and 6.5 m, 0.23 m at 1 deg).  A
         face standing on the ground (a wall, a hedge on the footway) ends the next
         beam down on itself or on the ground in front of it; beams into a hedge's
         foliage end farther but not lower, and through its gaps in a scan or two.
@@ -296,6 +298,15 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         front of it is taken for a van.  A face with a gap at the bottom (a
         fence on posts, a railing, a hedge bare at its foot) shows that space and
         is not set aside.
+    min_gap_length : float, default=0.5
+        Shortest stretch (m along the street) of consecutive scans whose beams
+        pass under a face to the ground that counts as the space under a body
+        (``flat_by_ground``): the space between a car's wheels is over 2 m long.
+    min_gap_scans : int, default=3
+        Fewest consecutive scans in such a stretch, whatever their spacing: a beam
+        through a gap in foliage lasts a scan or two, which at a low scan rate or a
+        high speed may span ``min_gap_length`` (at 25 Hz and 40 km/h a scan covers
+        0.44 m).
 
     Attributes
     ----------
@@ -368,6 +379,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         "carve_protrusions": ["boolean"],
         "seen_evidence": ["boolean"],
         "flat_by_ground": ["boolean"],
+        "min_gap_length": [Interval(numbers.Real, 0, None, closed="left")],
+        "min_gap_scans": [Interval(numbers.Integral, 1, None, closed="left")],
     }
 
     def __init__(
@@ -412,6 +425,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         carve_protrusions=True,
         seen_evidence=False,
         flat_by_ground=True,
+        min_gap_length=0.5,
+        min_gap_scans=3,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -453,6 +468,8 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.carve_protrusions = carve_protrusions
         self.seen_evidence = seen_evidence
         self.flat_by_ground = flat_by_ground
+        self.min_gap_length = min_gap_length
+        self.min_gap_scans = min_gap_scans
 
     def _class_params(self):
         """The keywords of :func:`~tunnelsense.street.vehicle_class`."""

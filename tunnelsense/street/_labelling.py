@@ -21,7 +21,6 @@ from tunnelsense.street._carving import (
     protrusions,
     raised_section,
     scan_near_side,
-    under_gap,
     widen,
 )
 from tunnelsense.street._classes import ROOF_FLAG, WALL_FLAG, class_features
@@ -33,6 +32,7 @@ from tunnelsense.street._objects import (
     ObjectProfiles,
     depth_region,
 )
+from tunnelsense.street._sections import lowest_marks
 from tunnelsense.street._splitting import split_objects
 from tunnelsense.street._vehicles import (
     end_match,
@@ -49,10 +49,6 @@ __all__ = []
 WALL_QUANTILE = 75.0
 #: Evidence bits a flat face lacks: a roof, a body raised between wheels or hanging.
 NOT_FLAT = ROOF_FLAG | RAISED_FLAG | SUSPENDED_FLAG
-#: Shortest stretch (m) of consecutive scans whose beams pass under a face to the
-#: ground that counts as the space under a body: a car's between its wheels is
-#: over 2 m long; a beam through a gap in foliage lasts a scan or two.
-GAP_RUN = 0.5
 
 
 class _Labelling:
@@ -175,20 +171,26 @@ class _Labelling:
         stands above ``min_clearance`` with the beam below it passing farther or
         returning nothing in the region of interest (it reached the road under it;
         :func:`~tunnelsense.street._carving.raised_section`), or, over a stretch of
-        at least ``GAP_RUN`` metres, the beam below it passes under it to the
-        ground, whatever its clearance
-        (:func:`~tunnelsense.street._carving.under_gap`)."""
-        tol = float(self.resolution(face))
-        raised = np.zeros(last - first + 1, dtype=bool)
-        gap = np.zeros(last - first + 1, dtype=bool)
-        for p in range(first, last + 1):
-            points, beams, local = self.payload[p]
-            want = mine[pos == p] + self.cluster_base - self.first_cluster[p]
-            section = np.isin(local, want)
-            raised[p - first] = raised_section(points, beams, section,
-                                               self.est.min_clearance, tol, absent=True)
-            gap[p - first] = under_gap(points, beams, self.under[p], section, tol)
-        gap = long_runs(gap, np.diff(self.cum[first:last + 2]), GAP_RUN)
+        at least ``min_gap_length`` metres and ``min_gap_scans`` scans, the beam
+        below it passes under it to the ground
+        (:func:`~tunnelsense.street._carving.under_gap`); all scans at once
+        (:func:`~tunnelsense.street._sections.lowest_marks`)."""
+        est = self.est
+        scans = range(first, last + 1)
+        sizes = np.array([len(self.payload[p][1]) for p in scans], dtype=np.int64)
+        points = np.concatenate([self.payload[p][0] for p in scans])
+        beams = np.concatenate([self.payload[p][1] for p in scans])
+        local = np.concatenate([self.payload[p][2] for p in scans])
+        under = np.concatenate([self.under[p] for p in scans])
+        scan = np.repeat(np.arange(last - first + 1), sizes)
+        # window cluster numbers (a scan's clusters are numbered from its first)
+        cluster = local + (self.first_cluster[first:last + 1]
+                           - self.cluster_base)[scan]
+        raised, gap = lowest_marks(points, beams, scan, under,
+                                   np.isin(cluster, mine), last - first + 1,
+                                   est.min_clearance, float(self.resolution(face)))
+        gap = long_runs(gap, np.diff(self.cum[first:last + 2]), est.min_gap_length,
+                        est.min_gap_scans)
         return (raised | gap).astype(np.int64)
 
     def _carve(self, mine, pos, first, last, whole=False):

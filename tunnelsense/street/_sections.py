@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["passed_under", "section_evidence"]
+__all__ = ["lowest_marks", "passed_under", "section_evidence"]
 
 #: How much farther (m) the beam below a raised body must return than the body.
 _UNDER_MARGIN = 0.1
@@ -182,3 +182,77 @@ def passed_under(height, cluster, below_passes, *, n_clusters, min_clearance=0.2
     passes = np.asarray(below_passes, dtype=bool)[lowest]
     passed[cluster[lowest]] = passes & (height[lowest] >= min_clearance)
     return passed
+
+
+def lowest_marks(points, beams, scan, under, section, n_scans, min_clearance,
+                 tolerance):
+    """Per scan, what the beam below a cross-section's lowest point shows.
+
+    The many-scan form of :func:`~tunnelsense.street._carving.raised_section`
+    (with ``absent=True``) and :func:`~tunnelsense.street._carving.under_gap`: in
+    every scan the section's lowest point is its point of smallest beam number
+    (the first of them).  ``raised``: that point stands at least
+    ``min_clearance`` high and the first point of the next beam down in the region
+    of interest lies more than ``tolerance`` farther, or there is none.  ``gap``:
+    where the next beam down ends (``under``) lies more than ``tolerance`` farther
+    *and* lower than that point.  A scan without section points is neither.
+
+    Parameters
+    ----------
+    points : ndarray of shape (n, 2)
+        ``(depth, height)`` of the scans' region-of-interest points, scan after scan,
+        each scan's in beam order.
+    beams : ndarray of shape (n,) of int
+        Their beam numbers.
+    scan : ndarray of shape (n,) of int
+        Their scans (``0 .. n_scans - 1``, non-decreasing).
+    under : ndarray of shape (n, 2)
+        ``(depth, height)`` where the next beam down from every point ends (NaN:
+        no return).
+    section : ndarray of shape (n,) of bool
+        Which points belong to the cross-section.
+    n_scans : int
+    min_clearance, tolerance : float
+
+    Returns
+    -------
+    raised, gap : ndarray of shape (n_scans,) of bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._sections import lowest_marks
+    >>> pts = np.array([[5.0, 0.15], [5.0, 0.2], [6.1, 0.5], [7.3, 1.4]])
+    >>> under = np.array([[5.4, 0.0], [5.0, 0.15], [7.3, 0.1], [6.1, 0.5]])
+    >>> raised, gap = lowest_marks(pts, np.array([0, 1, 0, 1]), np.array([0, 0, 1, 1]),
+    ...                            under, np.array([1, 1, 1, 0], bool), 2, 0.2, 0.1)
+    >>> raised.tolist(), gap.tolist()
+    ([False, True], [True, True])
+    """
+    points = np.asarray(points, dtype=float)
+    beams = np.asarray(beams, dtype=np.int64)
+    scan = np.asarray(scan, dtype=np.int64)
+    raised = np.zeros(n_scans, dtype=bool)
+    gap = np.zeros(n_scans, dtype=bool)
+    idx = np.flatnonzero(section)
+    if not len(idx):
+        return raised, gap
+    # the first point of smallest beam number in every scan's section
+    order = idx[np.lexsort((idx, beams[idx], scan[idx]))]
+    low = order[np.r_[True, scan[order[1:]] != scan[order[:-1]]]]
+    s = scan[low]
+    with np.errstate(invalid="ignore"):
+        gap[s] = ((under[low, 0] > points[low, 0] + tolerance)
+                  & (under[low, 1] < points[low, 1] - tolerance))
+    # the first point of the next beam down in the same scan (any point)
+    span = int(beams.max() - min(int(beams.min()), 0)) + 2
+    key = scan * span + (beams - min(int(beams.min()), 0) + 1)
+    by_key = np.argsort(key, kind="stable")
+    want = scan[low] * span + (beams[low] - min(int(beams.min()), 0))
+    at = np.searchsorted(key[by_key], want)
+    found = at < len(key)
+    found[found] = key[by_key[at[found]]] == want[found]
+    below = by_key[np.minimum(at, len(key) - 1)]
+    high = points[low, 1] >= min_clearance
+    raised[s] = high & (~found | (points[below, 0] > points[low, 0] + tolerance))
+    return raised, gap
