@@ -435,3 +435,39 @@ def test_train_progress_names_each_stage(tmp_path, capsys):
     for name, _ in make_indicator_pipeline().steps:
         assert f"fitting {name}:" in err, name
     assert "fitted: 100%" in err and "6/6" in err
+
+
+def test_missing_frames_gap_reads_a_recorder_s_gaps(tour_dirs, models, tmp_path):
+    """A tour whose recorder lost frames: refused by default (the message names the
+    option), read as gaps in time with --missing-frames gap, by detect (one tour and
+    a fleet) and evaluate alike."""
+    import shutil
+
+    from tunnelsense.io import load_model
+
+    gapped = tmp_path / "gapped"
+    shutil.copytree(tour_dirs[1], gapped)
+    for k in (40, 41, 77):
+        (gapped / "img1" / f"{k:06d}.png").unlink()
+    model = ["--model", str(models["skops"])]
+    with pytest.raises(FileNotFoundError, match="--missing-frames gap"):
+        run(["detect", "tunnel", *model, str(gapped), "--out", str(tmp_path / "no.txt")])
+    assert not (tmp_path / "no.txt").exists()
+    out = tmp_path / "r.txt"
+    assert run(["detect", "tunnel", *model, str(gapped), "--out", str(out),
+                "--missing-frames", "gap"]) == 0
+    frames = read_tour(gapped, missing_frames="gap").frames
+    expected = lines_of(load_model(models["skops"]).predict(frames))
+    assert out.read_text().splitlines() == expected
+    assert not {40, 41, 77} & set(read_mot_results(out)["frame"])
+    # a fleet passes the option to its workers: the same lines
+    folder = tmp_path / "fleet"
+    assert run(["detect", "tunnel", *model, str(gapped), str(tour_dirs[0]),
+                "--out", str(folder), "--jobs", "1", "--missing-frames", "gap"]) == 0
+    assert (folder / "gapped.txt").read_text().splitlines() == expected
+    assert run(["evaluate", "tunnel", str(gapped), str(out), "--json",
+                "--missing-frames", "gap"]) == 0
+    with pytest.raises(FileNotFoundError, match="--missing-frames gap"):
+        run(["evaluate", "tunnel", str(gapped), str(out)])
+    assert run(["train", "tunnel", str(gapped), "--model", str(tmp_path / "m.skops"),
+                "--missing-frames", "gap"]) == 0

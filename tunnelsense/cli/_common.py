@@ -21,6 +21,7 @@ from tunnelsense.io._keys import (
 __all__ = [
     "CPUS",
     "add_colour_arguments",
+    "add_missing_frames_argument",
     "add_model_arguments",
     "add_output_arguments",
     "add_verify_arguments",
@@ -102,6 +103,15 @@ def add_colour_arguments(parser) -> None:
                        "since a far-infrared false-colour palette is not luminance")
     group.add_argument("--palette-to-grey", action="store_true",
                        help="read colour frames as their luminance")
+
+
+def add_missing_frames_argument(parser) -> None:
+    """``--missing-frames raise|gap``: frame files missing from a MOTChallenge folder."""
+    parser.add_argument("--missing-frames", choices=("raise", "gap"), default="raise",
+                        help="frame files missing from a MOTChallenge folder's "
+                        "1..seqLength: refused ('raise', the default: a copy may be "
+                        "incomplete), or read as gaps in time ('gap': the frames a "
+                        "recorder kept, each under its number)")
 
 
 def colour(args):

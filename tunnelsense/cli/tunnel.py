@@ -22,7 +22,8 @@ def _cmd_train(args) -> int:
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
     key = common.check_model_output(args, args.seqdirs)
-    tours = [read_tour(d, colour=common.colour(args)) for d in args.seqdirs]
+    tours = [read_tour(d, colour=common.colour(args), missing_frames=args.missing_frames)
+             for d in args.seqdirs]
     # the reader threads decode while the fitting machinery (scikit-learn) imports
     decoding = decode_tours(tours, n_threads=args.jobs)
     from tunnelsense.tunnel import fit_indicator_detector
@@ -45,6 +46,7 @@ def _cmd_detect(args) -> int:
     if sources is not None:
         return fleet.run_fleet(args, "tunnel", sources,
                                {"colour": common.colour(args),
+                                "missing_frames": args.missing_frames,
                                 "stages_in_readers": args.readers == "stages"})
     from tunnelsense.io import clusters_path
     from tunnelsense.tunnel import detect_to_files
@@ -59,7 +61,7 @@ def _cmd_detect(args) -> int:
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
         draw_every=args.draw_every, draw_video=args.draw_video,
         progress=common.progress(args, 1, "detecting"), colour=common.colour(args),
-        stages_in_readers=args.readers == "stages")
+        stages_in_readers=args.readers == "stages", missing_frames=args.missing_frames)
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
@@ -95,7 +97,7 @@ def _cmd_evaluate(args) -> int:
     from tunnelsense.io import read_tour
     from tunnelsense.metrics import results_scores, tunnel_report
 
-    tour = read_tour(args.seqdir)
+    tour = read_tour(args.seqdir, missing_frames=args.missing_frames)
     scores = results_scores(args.results, tour, min_height=args.min_height)
     print(json.dumps(scores, indent=2) if args.json
           else tunnel_report(scores, f"{tour.name}: {len(tour)} frames"))
@@ -129,6 +131,7 @@ def register(verbs) -> None:
                    "same paths")
     common.add_output_arguments(p, writes_model=True, quiet=True)
     common.add_colour_arguments(p)
+    common.add_missing_frames_argument(p)
     p.set_defaults(func=_cmd_train)
 
     p = verbs["detect"].add_parser(
@@ -166,6 +169,7 @@ def register(verbs) -> None:
                    "spreads the work over idle cores and is slower when the cores are "
                    "busy. No effect with --jobs 0 (default: decode)")
     common.add_colour_arguments(p)
+    common.add_missing_frames_argument(p)
     fleet.add_fleet_arguments(p, "tour")
     p.set_defaults(func=_cmd_detect)
 
@@ -178,6 +182,7 @@ def register(verbs) -> None:
     p.add_argument("--json", action="store_true", help="print JSON (null for n/a)")
     p.add_argument("--min-height", type=float, default=14.0, help="indicator boxes at "
                    "least this tall (px) count (default 14)")
+    common.add_missing_frames_argument(p)
     p.set_defaults(func=_cmd_evaluate)
 
 

@@ -180,8 +180,9 @@ def _sequence_files(path, image_dir, seq, missing="raise") -> list:
                 continue
             raise FileNotFoundError(
                 f"{image_dir / f'{i:06d}{ext}'}: frame file not found (seqinfo.ini "
-                f"says seqLength={n}; missing_frames='gap' reads the frames a "
-                "recorder kept, with gaps in their numbers)"
+                f"says seqLength={n}; missing_frames='gap', on the command line "
+                "--missing-frames gap, reads the frames a recorder kept, with gaps in "
+                "their numbers)"
             )
         files.append((i, present[i]))
     if not files:

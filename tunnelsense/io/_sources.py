@@ -187,7 +187,7 @@ def read_video(path, *, check_length=True, colour=None) -> Tour:
     return Tour(name, frames, empty_mot_gt(), rate, {"source": str(path)})
 
 
-def open_tour(source, *, colour=None, ground_truth=True) -> Tour:
+def open_tour(source, *, colour=None, ground_truth=True, missing_frames="raise") -> Tour:
     """Read a tour from a MOTChallenge folder, an image folder or a video file.
 
     Parameters
@@ -201,6 +201,10 @@ def open_tour(source, *, colour=None, ground_truth=True) -> Tour:
     ground_truth : bool, default=True
         Read a MOTChallenge folder's ``gt/gt.txt`` (see :func:`read_tour`); False:
         its ``gt`` is None.
+    missing_frames : {"raise", "gap"}, default="raise"
+        A MOTChallenge folder's frame files missing from ``1..seqLength``: refused,
+        or read as gaps in time (see :func:`read_tour`).  An image folder always
+        reads its files' numbers as time.
 
     Returns
     -------
@@ -217,7 +221,8 @@ def open_tour(source, *, colour=None, ground_truth=True) -> Tour:
     source = Path(source)
     if source.is_dir():
         if (source / "seqinfo.ini").exists():
-            return read_tour(source, colour=colour, ground_truth=ground_truth)
+            return read_tour(source, colour=colour, ground_truth=ground_truth,
+                             missing_frames=missing_frames)
         return read_image_folder(source, colour=colour)
     if source.is_file():
         if source.suffix.lower() in IMAGE_EXTENSIONS + (".txt", ".csv", ".json", ".ini"):

@@ -219,13 +219,13 @@ def detect_tour(model, frames, *, progress=None, chunk=256):
     return tail.predict(FrameSequence.concat(parts))
 
 
-def open_frames(source, *, colour=None):
+def open_frames(source, *, colour=None, missing_frames="raise"):
     """The frames of a source, read lazily, and their number.
 
     A MOTChallenge or image folder gives records that decode their PNG on access; a
     video file is decoded sequentially, records built on the fly.  The first frame is
     decoded here, so that frames that cannot be read as ``colour`` says are refused
-    before any output is written.
+    before any output is written.  ``missing_frames`` is :func:`open_tour`'s.
 
     Returns
     -------
@@ -247,7 +247,8 @@ def open_frames(source, *, colour=None):
     """
     source = Path(source)
     if not source.is_file():
-        tour = open_tour(source, colour=colour, ground_truth=False)
+        tour = open_tour(source, colour=colour, ground_truth=False,
+                         missing_frames=missing_frames)
         if len(tour):
             _ = tour.frames[0].image
         return iter(tour.frames), len(tour)
@@ -379,7 +380,7 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
 
 def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_threads=0,
                     progress=None, draw=None, draw_every=1, draw_video=None,
-                    colour=None, stages_in_readers=False):
+                    colour=None, stages_in_readers=False, missing_frames="raise"):
     """Detect indicators in a tour or video, writing results as frames are final.
 
     ``out`` (MOTChallenge results) and its ``.clusters.csv`` companion are written
@@ -413,6 +414,10 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     colour : int, "luminance" or None, default=None
         How colour frames become grey: refused (None), one channel, or luminance
         (see :func:`~tunnelsense.io.read_image`).
+    missing_frames : {"raise", "gap"}, default="raise"
+        Frame files missing from a MOTChallenge folder: refused, or read as gaps in
+        time (the frames a recorder kept, each under its number; see
+        :func:`~tunnelsense.io.read_tour`).
 
     Returns
     -------
@@ -439,7 +444,7 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     """
     if draw_every < 1:
         raise ValueError(f"draw_every must be at least 1; got {draw_every}")
-    frames, total = open_frames(source, colour=colour)
+    frames, total = open_frames(source, colour=colour, missing_frames=missing_frames)
     if progress is not None:
         progress.set_total(total)
     images = {}
