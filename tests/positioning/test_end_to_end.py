@@ -157,3 +157,40 @@ def test_cli_never_overwrites(rendered, tmp_path, capsys):
     assert main(["evaluate", "position", str(tour), str(out), "--draw",
                  str(out), "--force"]) == 1  # the estimate is an input
     assert out.read_bytes()[:5] == b"frame"
+
+
+def test_missing_frames_gap_positions_every_frame(rendered, tmp_path, capsys):
+    """A tour whose recorder lost frames: ``position`` refuses it by default (the
+    message names the option, nothing is written); with ``--missing-frames gap`` a
+    lost frame keeps its row, positioned from its odometry, and the live detector
+    gives the positions its results file gives (as on the whole tour)."""
+    import shutil
+
+    root, model, _ = rendered
+    gapped = tmp_path / "gapped"
+    shutil.copytree(root / "tour", gapped)
+    lost = (120, 121, 122, 455)
+    for k in lost:
+        (gapped / "img1" / f"{k:06d}.png").unlink()
+    out = tmp_path / "pos.csv"
+    assert main(["position", str(gapped), "--model", str(model), "--out", str(out),
+                 "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "000120.png" in err and "--missing-frames gap" in err
+    assert not out.exists()
+    assert main(["position", str(gapped), "--model", str(model), "--out", str(out),
+                 "--smooth", "--quiet", "--missing-frames", "gap"]) == 0
+    got = pd.read_csv(out)
+    assert got["frame"].tolist() == list(range(1, 901)) and got["locked"].all()
+    results = tmp_path / "r.txt"
+    assert main(["detect", "tunnel", "--model", str(model), str(gapped), "--out",
+                 str(results), "--quiet", "--missing-frames", "gap"]) == 0
+    assert not set(lost) & set(read_mot_results(results)["frame"])
+    offline = tmp_path / "offline.csv"
+    assert main(["position", str(gapped), "--results", str(results), "--out",
+                 str(offline), "--smooth", "--missing-frames", "gap"]) == 0
+    pd.testing.assert_frame_equal(got, pd.read_csv(offline), rtol=0, atol=1e-3)
+    positions, odometry, indicators = _tables(root)
+    errors = position_errors(positions, read_positions(out, sigma=True), odometry,
+                             indicators)
+    assert errors["max"] < 1.0

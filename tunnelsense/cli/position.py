@@ -29,7 +29,7 @@ def _cmd_position(args) -> int:
         focal_length_px=args.focal_length, sign_height_m=args.sign_height,
         side_error=args.side_error,
         overwrite=args.force, inputs=[args.model, *common.key_files(args)],
-        colour=common.colour(args),
+        colour=common.colour(args), missing_frames=args.missing_frames,
         n_threads=args.jobs,
         progress=lambda total, desc: common.progress(args, total, desc))
     kept = int(fixes["accepted"].sum()) if len(fixes) else 0
@@ -180,4 +180,5 @@ def register_top(sub) -> None:
                    "number of CPUs)")
     common.add_output_arguments(p, quiet=True)
     common.add_colour_arguments(p)
+    common.add_missing_frames_argument(p)
     p.set_defaults(func=_cmd_position)

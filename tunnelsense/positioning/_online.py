@@ -31,9 +31,12 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
     model : Pipeline
         A fitted indicator pipeline (:func:`tunnelsense.tunnel.make_indicator_pipeline`).
     frames : iterable of FrameRecord
-        The tour's frames, in order.
+        The tour's frames, in order; frame numbers may skip frames the recorder
+        lost (a tour read with ``missing_frames="gap"``).
     odometry : DataFrame
-        ``frame, stamp, speed, yaw_rate``, a row for every frame.
+        ``frame, stamp, speed, yaw_rate``, a row for every frame (lost frames
+        included: from the first frame on, a lost frame's row gives it a position
+        from the odometry alone).
     positioner : TunnelPositioner
         Fitted (it holds the indicator map).  With ``smooth``, the rows are the
         stream's fixed-lag smoother's (the whole-tour smoother is offline:
@@ -79,8 +82,13 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
             if released:
                 until = released[-1].frame
             f = int(record.frame)
-            row = int(np.searchsorted(odo_frames, f, side="left")) if (
-                row >= len(odo_frames) or odo_frames[row] != f) else row
+            if k == 1:
+                row = int(np.searchsorted(odo_frames, f, side="left"))
+            # frames the recorder lost (a tour read with gaps): their odometry rows
+            # still carry the distance driven, and get a position with no detection
+            while row < len(odo_frames) and odo_frames[row] < f:
+                stream.push(int(odo_frames[row]), stamps[row], speeds[row], until=until)
+                row += 1
             if row >= len(odo_frames) or odo_frames[row] != f:
                 raise InputFormatError(f"odometry: no row for frame {f}")
             position = stream.push(f, stamps[row], speeds[row],

@@ -58,7 +58,8 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
                   indicator_map=None, smooth=False, start_chainage=0.0,
                   start_sigma=1.0, odometry_scale=1.0, odometry_scale_sigma=0.05,
                   focal_length_px=None, sign_height_m=None, side_error=SIDE_ERROR,
-                  overwrite=False, progress=None, inputs=(), n_threads=0, colour=None):
+                  overwrite=False, progress=None, inputs=(), n_threads=0, colour=None,
+                  missing_frames="raise"):
     """Write the chainage of every frame of a tour, from odometry and indicator fixes.
 
     The file has a row per frame: ``frame,stamp,chainage,sigma,locked,scale,
@@ -115,6 +116,10 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
         More files ``out`` must not be (the model file, a key file).
     n_threads : int, default=0
         Reader threads decoding frames ahead of the detector (with ``model``).
+    missing_frames : {"raise", "gap"}, default="raise"
+        Frame files missing from the tour's folder (a recorder that lost frames):
+        refused, or read as gaps in time (see :func:`~tunnelsense.io.read_tour`).
+        A lost frame keeps its row: its position comes from the odometry alone.
 
     Returns
     -------
@@ -155,14 +160,14 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     positioner.fit(read_indicator_map(indicator_map))
     if results is not None:
         detections = read_mot_results(results)
-        _check_coverage(odo, detections, tour, odometry)
+        _check_coverage(odo, detections, tour, odometry, missing_frames)
         positions, fixes = positioner.predict(detections, odo, return_fixes=True)
     else:
         from tunnelsense.tunnel._detect import open_frames
 
         positioner.set_params(max_gap=max(model.named_steps["tracks"].max_gap, 0))
         # as detect tunnel: a video decoded lazily
-        frames, total = open_frames(tour, colour=colour)
+        frames, total = open_frames(tour, colour=colour, missing_frames=missing_frames)
         bar = progress and progress(total, "detecting and positioning")
         positions, fixes = locate_online(model, frames, odo, positioner, progress=bar,
                                          n_threads=n_threads)
@@ -171,13 +176,14 @@ def position_tour(tour, out, *, model=None, results=None, odometry=None,
     return positions, fixes
 
 
-def _check_coverage(odo, detections, tour, odometry) -> None:
+def _check_coverage(odo, detections, tour, odometry, missing_frames="raise") -> None:
     """The odometry must have a row for every frame of the tour (as ``--model`` mode
     requires): a gap or a shorter odometry would leave frames without a position."""
     from tunnelsense.io import open_tour
 
     try:
-        last = len(open_tour(tour).frames)
+        frames = open_tour(tour, ground_truth=False, missing_frames=missing_frames).frames
+        last = int(frames[-1].frame) if len(frames) else 0
     except (OSError, ValueError):  # a folder of tables only: the detections say
         last = 0
     if len(detections):
