@@ -190,6 +190,8 @@ SETTINGS = {
                                    "kerb_depth": 7.5},
     "rows of bays at 45 deg": {"angled_row_fraction": 1.0, "bay_angle_deg": 45.0,
                                "kerb_depth": 7.5, "parked_cluster_size": 4.0},
+    "rows of bays at 90 deg": {"angled_row_fraction": 1.0, "bay_angle_deg": 90.0,
+                               "kerb_depth": 7.5, "parked_cluster_size": 4.0},
     "caravans": {"caravan_fraction": 0.15},
     "wet road": {"wet_road_fraction": 0.8},
     "walls behind the footway": {"wall_fraction": 0.6},
