@@ -214,7 +214,9 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
     motorbike_width : float, default=1.2
         Narrowest car (m; city cars are 1.5 m wide): a vehicle without a roof-wide top
         surface that is narrower than this one way (along the street or across it),
-        or shorter than ``min_car_length``, is a ``"motorbike"``.
+        or shorter than ``min_car_length`` (unless at least this long and at least
+        ``min_car_length`` deep across the street: a car seen end on), is a
+        ``"motorbike"``.
     carve_protrusions : bool, default=True
         A motorbike against a taller structure (beyond the paper): one whose far
         end touches a hedge or wall shares its intra-cluster with it in every scan.
