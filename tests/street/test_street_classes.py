@@ -51,6 +51,11 @@ def test_one_definition_of_the_classes():
     ({"roof": 0.0, "top": 1.2, "length": 5.0, "extent": 0.5}, "motorbike"),  # a row
     ({"roof": 0.6, "top": 1.2, "length": 2.0, "extent": 0.9}, "car"),  # a roof
     ({"length": np.nan, "roof": 0.8}, "car"),  # passing: no length
+    # a car seen end on (a bay at right angles): 1.7 m along, 2.8 m deep, its
+    # roof not seen; a motorbike is never 1.2 m wide both ways
+    ({"roof": 0.0, "top": 1.5, "length": 1.7, "extent": 2.8}, "car"),
+    ({"roof": 0.0, "top": 1.3, "length": 1.0, "extent": 2.8}, "motorbike"),
+    ({"roof": 0.0, "top": 1.3, "length": 1.7, "extent": 2.2}, "motorbike"),
 ])
 def test_the_rule(kw, expected):
     assert vehicle_class(features(**kw)) == expected
@@ -62,6 +67,10 @@ def test_the_rule_follows_its_parameters():
     assert vehicle_class(tall_suv, van_height=1.65) == "van"
     assert vehicle_class(features(length=7.5)) == "van"
     assert vehicle_class(features(length=7.5), van_length=8.0) == "car"
+    end_on = features(roof=0.0, length=1.7, extent=2.8)
+    assert vehicle_class(end_on) == "car"
+    assert vehicle_class(end_on, min_car_length=3.0) == "motorbike"
+    assert vehicle_class(end_on, motorbike_width=1.8) == "motorbike"
 
 
 def test_class_features_per_scan():

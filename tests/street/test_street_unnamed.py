@@ -65,6 +65,34 @@ def test_cars_in_angled_bays_span_their_footprint(angle):
     assert checked >= 5
 
 
+def test_a_car_in_a_bay_at_right_angles_shows_its_roof_from_above():
+    # seen end on, the scan plane runs along the car's axis: the beams from above
+    # reach its roof panel (metal, as on a car along the kerb), not only glass
+    from tunnelsense.datasets._street_shapes import BODY, GLASS, _car_boxes
+
+    sim = _simulate(1500, "sparse", 5, angled_row_fraction=1.0, bay_angle_deg=90.0,
+                    kerb_depth=7.5, parked_cluster_size=4.0, **QUIET)
+    depth, height = _coords(sim)
+    checked = roofs = 0
+    for i, o in enumerate(sim["objects"]):
+        if o.get("where") != "angled-bay":
+            continue
+        boxes = _car_boxes(o, np.linspace(0.05, o["length"] - 0.05, 20))
+        for row in boxes:
+            row = row[np.isfinite(row[:, 0])]
+            top = row[np.argmax(row[:, 3])]
+            assert top[4] == BODY  # the highest surface of every cut is the roof
+            assert not np.any((row[:, 4] == GLASS) & (row[:, 3] >= top[3]))
+        on = (sim["hit"] == i) & (sim["ranges"] < MAX_RANGE)
+        for k in np.flatnonzero(on.sum(axis=1) >= 10):
+            checked += 1
+            h, d = height[k, on[k]], depth[k, on[k]]
+            roof = d[h > h.max() - 0.1]
+            roofs += roof.max() - roof.min() >= 0.8  # a roof-wide top surface
+    assert checked >= 50
+    assert roofs > 0.6 * checked
+
+
 def test_caravans_are_tall_boxes_on_one_axle_classed_as_vans():
     sim = _simulate(3000, "sparse", 6, caravan_fraction=0.6, parked_cluster_size=3.0,
                     **QUIET)

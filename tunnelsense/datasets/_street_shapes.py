@@ -100,10 +100,12 @@ def _angled_car_boxes(o, s):
     """A car or van in an angled bay (``bay_angle`` rad from the street, nose toward
     the kerb when ``nose_in``): the scan plane cuts its footprint obliquely, so the
     depth it spans holds successive parts of its side profile (bumper, bonnet, cabin,
-    boot) as slices of their own height, with the wheels the plane passes through."""
+    boot) as slices of their own height, with the wheels the plane passes through.
+    As on a car along the kerb, the cabin's top 8 cm is the roof panel (metal) over
+    its windows (glass): seen end on, a car shows its roof from above."""
     n = len(s)
     k = _ANGLED_SEGMENTS
-    boxes = np.full((n, 2 * k + 4, 5), np.inf)
+    boxes = np.full((n, 3 * k + 4, 5), np.inf)
     boxes[..., 4] = _BODY
     L, W, zb = o["car_length"], o["car_width"], o["base"]
     c, sn = np.cos(o["bay_angle"]), np.sin(o["bay_angle"])
@@ -125,13 +127,15 @@ def _angled_car_boxes(o, s):
         ends = (sm < o["axles"][0] - o["wheel_radius"]) | (sm > o["axles"][1] + o["wheel_radius"])
         bot = np.where(ends, o["overhang_bottom"], o["clearance"])
         y0, y1 = yc + edges[:, j], yc + edges[:, j + 1]
-        _set(boxes, 2 * j, hit, y0, y1, zb + bot, zb + np.minimum(top, o["belt"]))
+        _set(boxes, 3 * j, hit, y0, y1, zb + bot, zb + np.minimum(top, o["belt"]))
         glass = (f >= o["glass_f"][0]) & (f <= o["glass_f"][1])
         cabin = hit & (top > o["belt"] + 0.1)
-        _set(boxes, 2 * j + 1, cabin & glass, y0, y1, zb + o["belt"], zb + top, _GLASS)
-        _set(boxes, 2 * j + 1, cabin & ~glass, y0, y1, zb + o["belt"], zb + top)
+        _set(boxes, 3 * j + 1, cabin & glass, y0, y1, zb + o["belt"], zb + top - 0.08,
+             _GLASS)
+        _set(boxes, 3 * j + 1, cabin & ~glass, y0, y1, zb + o["belt"], zb + top - 0.08)
+        _set(boxes, 3 * j + 2, cabin, y0, y1, zb + top - 0.08, zb + top)
     R = o["wheel_radius"]
-    j = 2 * k
+    j = 3 * k
     for axle in o["axles"]:
         a_lo, a_hi = sorted((sign * (L / 2 - axle - R), sign * (L / 2 - axle + R)))
         for w_lo, w_hi in ((-W / 2 + 0.04, -W / 2 + 0.26), (W / 2 - 0.26, W / 2 - 0.04)):

@@ -12,7 +12,8 @@ estimator (``_detector``) and whole runs (``_run``); a parking census of the obj
 
 # The modules follow the method: geometry (_restoration, _roi, _geometry), clustering
 # (_clustering), objects (_sections, _objects, _vehicles), the online state (_stream,
-# _labelling), the estimator (_detector) and whole runs (_run).
+# _labelling), the estimator (_detector; its parameters _detector_params and outputs
+# _detector_outputs) and whole runs (_run).
 
 from tunnelsense._lazy import attach
 

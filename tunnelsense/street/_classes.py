@@ -206,7 +206,11 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
         along a near side that advances across the street) and without a roof is a
         motorbike.
     min_car_length : float, default=2.4
-        Shortest car (m); a vehicle without a roof shorter than this is a motorbike.
+        Shortest car (m); a vehicle without a roof shorter than this is a motorbike,
+        unless it is at least ``motorbike_width`` long and its depth extent across
+        the street at least this (a car seen end on, in a bay at right angles to
+        the kerb: its width along the street, its length across it; a motorbike is
+        never 1.2 m wide both ways).
 
     Returns
     -------
@@ -228,7 +232,11 @@ def vehicle_class(features, *, van_height=1.8, van_wall=0.2, van_length=7.0,
     f = features
     if f["wall"] >= van_wall or f["top"] >= van_height or f["length"] > van_length:
         return "van"
-    narrow = bool(f["length"] < min_car_length or (
+    # a body at least motorbike_width along the street and min_car_length across
+    # it is a car seen end on (in a bay at right angles): no motorbike is that big
+    end_on = bool(np.isfinite(f["extent"]) and f["extent"] >= min_car_length
+                  and f["length"] >= motorbike_width)
+    narrow = bool((f["length"] < min_car_length and not end_on) or (
         np.isfinite(f["extent"]) and f["extent"] < motorbike_width
         and f.get("travel", 0.0) < motorbike_width))
     if f["roof"] <= motorbike_roof and narrow:

@@ -5,49 +5,25 @@ restoration, tilt compensation, region of interest, intra-scan single linkage,
 inter-scan linking, three-region merging and labelling; plus, beyond the paper, the
 splitting of nose-to-tail vehicles merged into one object and the rejection of objects
 too short to be a vehicle (pedestrians, bins, bollards).
+
+The parameters' constraints and defaults are in ``_detector_params``, what the
+estimator returns (its online state, records and object table) in
+``_detector_outputs``.
 """
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
-import pandas as pd
-from sklearn.base import BaseEstimator, TransformerMixin
 
-from tunnelsense._payload import (
-    BEAMS,
-    CLUSTERS,
-    FINISHED_OBJECTS,
-    IN_VIEW,
-    OBJECTS,
-    POINTS,
-    SPEED,
-    TILT,
-)
-from tunnelsense._records import RUN_LABELS, ScanSequence, check_scans
-from tunnelsense._streaming import StreamingMixin
-from tunnelsense.street._stream import ScanStream
-from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
+from tunnelsense._records import check_scans
+from tunnelsense.street._detector_outputs import OBJECT_COLUMNS, _ScanClustererOutputs
+from tunnelsense.street._detector_params import _ScanClustererParams
+from tunnelsense.utils._sklearn_compat import _fit_context
 
 __all__ = ["OBJECT_COLUMNS", "ScanClusterer"]
 
-#: Columns of the object table returned by :meth:`ScanClusterer.detect`.
-OBJECT_COLUMNS = (
-    "run",
-    "id",
-    "first_scan",
-    "last_scan",
-    "label",
-    "mean_depth",
-    "region",
-    "length",
-    "top_height",
-    "n_points",
-    "vehicle_class",
-)
 
-class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
+class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
     """Detect street-parked and passing vehicles in vertical laser scans.
 
     The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
@@ -238,7 +214,9 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     motorbike_width : float, default=1.2
         Narrowest car (m; city cars are 1.5 m wide): a vehicle without a roof-wide top
         surface that is narrower than this one way (along the street or across it),
-        or shorter than ``min_car_length``, is a ``"motorbike"``.
+        or shorter than ``min_car_length`` (unless at least this long and at least
+        ``min_car_length`` deep across the street: a car seen end on), is a
+        ``"motorbike"``.
     carve_protrusions : bool, default=True
         A motorbike against a taller structure (beyond the paper): one whose far
         end touches a hedge or wall shares its intra-cluster with it in every scan.
@@ -333,150 +311,6 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
     0   1          10         39  parked
     """
 
-    _payload_reads = ()
-    _payload_optional = (SPEED,)
-    _payload_adds = (POINTS, BEAMS, CLUSTERS, OBJECTS, TILT, IN_VIEW, FINISHED_OBJECTS)
-
-    _parameter_constraints: dict = {
-        "cut": [Interval(numbers.Real, 0, None, closed="neither")],
-        "link_distance": [Interval(numbers.Real, 0, None, closed="neither")],
-        "regions": ["array-like"],
-        "region_labels": ["array-like"],
-        "min_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "max_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "tilt_compensation": ["boolean"],
-        "max_tilt": [Interval(numbers.Real, 0, 45, closed="right")],
-        "split_merged": ["boolean"],
-        "split_ratio": [Interval(numbers.Real, 0, 1, closed="both")],
-        "min_length": [Interval(numbers.Real, 0, None, closed="left")],
-        "max_length": [Interval(numbers.Real, 0, None, closed="neither")],
-        "merge_gap": [Interval(numbers.Real, 0, None, closed="left")],
-        "speed": [Interval(numbers.Real, 0, None, closed="neither"),
-                  StrOptions({"paper"}), None],
-        "roof_width": [Interval(numbers.Real, 0, None, closed="left")],
-        "min_clearance": [Interval(numbers.Real, None, None, closed="neither")],
-        "min_body_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
-        "occlusion_margin": [Interval(numbers.Real, 0, None, closed="left")],
-        "bridge_occluded": ["boolean"],
-        "occluded_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
-        "max_pending_length": [Interval(numbers.Real, 0, None, closed="neither"), None],
-        "region_depth": [StrOptions({"mean", "near", "span", "across"})],
-        "min_car_length": [Interval(numbers.Real, 0, None, closed="left")],
-        "min_raised_fraction": [Interval(numbers.Real, 0, 1, closed="both")],
-        "min_roof_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "beam_occlusion": ["boolean"],
-        "spray_beams": [Interval(numbers.Integral, 0, None, closed="left")],
-        "separate_ground": ["boolean"],
-        "object_ends": ["boolean"],
-        "follow_kerb": ["boolean"],
-        "kerb_depth": [Interval(numbers.Real, 0, None, closed="neither")],
-        "min_across_length": [Interval(numbers.Real, 0, None, closed="left"), None],
-        "min_across_raised": [Interval(numbers.Real, 0, 1, closed="both")],
-        "min_across_top": [Interval(numbers.Real, None, None, closed="neither")],
-        "van_height": [Interval(numbers.Real, None, None, closed="neither")],
-        "van_length": [Interval(numbers.Real, 0, None, closed="neither")],
-        "motorbike_width": [Interval(numbers.Real, 0, None, closed="left")],
-        "carve_protrusions": ["boolean"],
-        "seen_evidence": ["boolean"],
-        "flat_by_ground": ["boolean"],
-        "min_gap_length": [Interval(numbers.Real, 0, None, closed="left")],
-        "min_gap_scans": [Interval(numbers.Integral, 1, None, closed="left")],
-    }
-
-    def __init__(
-        self,
-        cut=0.6,
-        link_distance=0.5,
-        regions=(4.0, 6.6),
-        region_labels=("passing", "parked", "roadside"),
-        min_height=0.1,
-        max_height=2.0,
-        tilt_compensation=True,
-        max_tilt=10.0,
-        split_merged=True,
-        split_ratio=0.6,
-        min_length=1.5,
-        max_length=25.0,
-        merge_gap=0.5,
-        speed=None,
-        roof_width=0.8,
-        min_clearance=0.2,
-        min_body_fraction=0.3,
-        occlusion_margin=1.0,
-        bridge_occluded=True,
-        occluded_length=4.0,
-        max_pending_length=80.0,
-        region_depth="near",
-        min_car_length=2.4,
-        min_raised_fraction=0.2,
-        min_roof_height=0.5,
-        beam_occlusion=True,
-        spray_beams=2,
-        separate_ground=True,
-        object_ends=True,
-        follow_kerb=True,
-        kerb_depth=6.45,
-        min_across_length=0.5,
-        min_across_raised=0.3,
-        min_across_top=1.05,
-        van_height=1.8,
-        van_length=7.0,
-        motorbike_width=1.2,
-        carve_protrusions=True,
-        seen_evidence=False,
-        flat_by_ground=True,
-        min_gap_length=0.5,
-        min_gap_scans=3,
-    ):
-        self.cut = cut
-        self.link_distance = link_distance
-        self.regions = regions
-        self.region_labels = region_labels
-        self.min_height = min_height
-        self.max_height = max_height
-        self.tilt_compensation = tilt_compensation
-        self.max_tilt = max_tilt
-        self.split_merged = split_merged
-        self.split_ratio = split_ratio
-        self.min_length = min_length
-        self.max_length = max_length
-        self.merge_gap = merge_gap
-        self.speed = speed
-        self.roof_width = roof_width
-        self.min_clearance = min_clearance
-        self.min_body_fraction = min_body_fraction
-        self.occlusion_margin = occlusion_margin
-        self.bridge_occluded = bridge_occluded
-        self.occluded_length = occluded_length
-        self.max_pending_length = max_pending_length
-        self.region_depth = region_depth
-        self.min_car_length = min_car_length
-        self.min_raised_fraction = min_raised_fraction
-        self.min_roof_height = min_roof_height
-        self.beam_occlusion = beam_occlusion
-        self.spray_beams = spray_beams
-        self.separate_ground = separate_ground
-        self.object_ends = object_ends
-        self.follow_kerb = follow_kerb
-        self.kerb_depth = kerb_depth
-        self.min_across_length = min_across_length
-        self.min_across_raised = min_across_raised
-        self.min_across_top = min_across_top
-        self.van_height = van_height
-        self.van_length = van_length
-        self.motorbike_width = motorbike_width
-        self.carve_protrusions = carve_protrusions
-        self.seen_evidence = seen_evidence
-        self.flat_by_ground = flat_by_ground
-        self.min_gap_length = min_gap_length
-        self.min_gap_scans = min_gap_scans
-
-    def _class_params(self):
-        """The keywords of :func:`~tunnelsense.street.vehicle_class`."""
-        return dict(van_height=self.van_height, van_length=self.van_length,
-                    motorbike_width=self.motorbike_width,
-                    min_car_length=self.min_car_length)
-
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.two_d_array = False
@@ -526,130 +360,3 @@ class ScanClusterer(StreamingMixin, TransformerMixin, BaseEstimator):
         self.region_edges_ = edges
         self.labels_ = labels
         return self
-
-    # ------------------------------------------------------------ the method
-    def start_stream(self):
-        """An online state: scans in one at a time, finished records out.
-
-        Batch :meth:`transform`, :meth:`predict` and :meth:`detect` run this very
-        state over every run, so streaming and batch give identical results.
-
-        Returns
-        -------
-        stream : ScanStream
-            ``push(record) -> list`` of finished records (payload as
-            :meth:`transform`), ``push_many(records)`` and ``close() -> list``.
-            Every released record carries in its payload ``"finished_objects"``
-            the object-table rows (:data:`OBJECT_COLUMNS`) that became final by
-            then, in id order.  Memory follows the longest object in view, not the
-            run's length.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from tunnelsense import LaserGeometry, ScanSequence
-        >>> from tunnelsense.street import ScanClusterer
-        >>> geom = LaserGeometry(np.deg2rad(-89.0), np.deg2rad(0.5), 0.05, 30.0, 2.0)
-        >>> angles = geom.angles(181)
-        >>> road = 2.0 / np.sin(-np.minimum(angles, -1e-3))
-        >>> scans = np.tile(np.where(angles < 0, road, np.inf), (300, 1))
-        >>> side = (angles > np.arctan(-1.8 / 5.0)) & (angles < np.arctan(-0.5 / 5.0))
-        >>> scans[10:40, side] = 5.0 / np.cos(angles[side])   # a car side 5 m away
-        >>> X = ScanSequence.from_arrays(scans, np.arange(300) / 75, geom, run="r")
-        >>> stream = ScanClusterer(speed=11.1).fit(X).start_stream()
-        >>> released = 0
-        >>> for i, record in enumerate(X):
-        ...     for done in stream.push(record):
-        ...         released += 1
-        ...         for row in done.payload["finished_objects"]:   # 4 m after its end
-        ...             print(f"after scan {i}:", row[1:5], f"{released} scans out")
-        after scan 67: (1, 10, 39, 'parked') 38 scans out
-        >>> len(stream.close()) + released
-        300
-        """
-        return super().start_stream()
-
-    _sequence = ScanSequence
-    _sort_tours = True  # ids count over the runs in the order of their names
-
-    def _check_records(self, X):
-        return check_scans(X)[0]
-
-    def _stream_state(self, *, batch=False):
-        return ScanStream(self)
-
-    def _batch(self, X):
-        """The records of ``X`` through the stream (input order) and the object table."""
-        out, _ = self._stream_batch(X)
-        rows = sorted((row for r in out for row in r.payload[FINISHED_OBJECTS]),
-                      key=lambda row: row[1])
-        table = pd.DataFrame(rows, columns=list(OBJECT_COLUMNS))
-        table = table.astype({"id": np.int64, "first_scan": np.int64,
-                              "last_scan": np.int64, "mean_depth": np.float64,
-                              "region": np.int64, "length": np.float64,
-                              "top_height": np.float64, "n_points": np.int64,
-                              "run": object, "label": object,
-                              "vehicle_class": object})
-        return out, table
-
-    # ------------------------------------------------------------- outputs
-    def transform(self, X):  # the mixin's, documented with the payload
-        """Per scan, the record with its clusters and objects in the payload.
-
-        Parameters
-        ----------
-        X : sequence of ScanRecord
-
-        Returns
-        -------
-        records : ScanSequence
-            In the order of ``X``; payload ``"points"`` (n, 2) ROI ``(depth, height)``,
-            ``"beams"`` (n,) their beam numbers, ``"clusters"`` (n,) intra-cluster
-            number of every point, ``"objects"``
-            (n_clusters,) object id (as in :meth:`detect`) of every intra-cluster,
-            ``"tilt"`` the tilt (rad) used, ``"in_view"`` the ``(k, 2)`` array of
-            :meth:`predict`, ``"finished_objects"`` the object-table rows that
-            became final by the time the record was released (see
-            :meth:`start_stream`).
-        """
-        return super().transform(X)
-
-    def detect(self, X, *, all_objects=False):
-        """The object table: one row per detected object.
-
-        Parameters
-        ----------
-        X : sequence of ScanRecord
-        all_objects : bool, default=False
-            Keep objects of every label (``"roadside"``, ``"other"``); by default only
-            those labelled with a key of :data:`~tunnelsense.RUN_LABELS`.
-
-        Returns
-        -------
-        objects : DataFrame
-            Columns :data:`OBJECT_COLUMNS`: ``run, id, first_scan, last_scan, label,
-            mean_depth`` (m), ``region`` (1-3), ``length`` (m along the track),
-            ``top_height`` (m), ``n_points``.  Ids count from 1 over the runs of ``X``
-            in sorted order, by first scan (then mean depth) within a run.
-        """
-        table = self._batch(X)[1]
-        if not all_objects:
-            table = table[table["label"].isin(list(RUN_LABELS))].reset_index(drop=True)
-        return table
-
-    def predict(self, X):
-        """Per scan, the ``(k, 2)`` array ``(object id, label code)`` of objects in view.
-
-        The same layout as the targets ``y`` (:meth:`tunnelsense.Run.targets`), so that
-        :mod:`tunnelsense.metrics` compares the two; only labels of
-        :data:`~tunnelsense.RUN_LABELS` are reported.
-
-        Parameters
-        ----------
-        X : sequence of ScanRecord
-
-        Returns
-        -------
-        y_pred : list of ndarray of shape (k_i, 2), int64
-        """
-        return [r.payload["in_view"] for r in self._stream_batch(X)[0]]
