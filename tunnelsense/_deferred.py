@@ -31,11 +31,23 @@ import sys
 import types
 from pathlib import Path
 
-__all__ = ["DEFERRED", "SERVED", "defer"]
+__all__ = ["DEFERRED", "NUMPY_PARTS", "SERVED", "defer", "defer_numpy_parts",
+           "start_command"]
 
 #: The modules the command defers: imported by scikit-learn at start, seldom needed.
+#: (``scipy.special``: scikit-learn's array-API helpers import it for two functions
+#: that detection does not call; building its functions' array-API wrappers parses
+#: their docstrings, a tenth of scikit-learn's import.)
 DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
-            "scipy.spatial")
+            "scipy.spatial", "scipy.special")
+
+#: NumPy's submodules the command defers once NumPy is imported
+#: (:func:`defer_numpy_parts`): SciPy's array-API layer, imported with scikit-learn,
+#: copies every name of ``numpy``, which imports each of these lazily loaded
+#: submodules (the Fortran wrapper generator, the test helpers, polynomials, the
+#: ctypes helpers); detection uses none of them.  (Not ``numpy.ma``: ``np.unique``
+#: looks it up on every call.)
+NUMPY_PARTS = ("numpy.f2py", "numpy.testing", "numpy.polynomial", "numpy.ctypeslib")
 
 #: Names a deferred package serves from one of its submodules without importing the
 #: package (see the module's docstring).
@@ -49,6 +61,9 @@ SERVED = {
                       "QhullError": "scipy.spatial._qhull",
                       "cKDTree": "scipy.spatial._ckdtree"},
 }
+
+#: Whether this process is the command's own (:func:`defer_numpy_parts` acts only then).
+_IN_COMMAND = []
 
 class _Deferred(types.ModuleType):
     """The stand-in of a module not imported yet (see the module's docstring)."""
@@ -138,4 +153,37 @@ def defer(names=DEFERRED) -> list[str]:
             stand_in.__spec__.submodule_search_locations = path
         sys.modules[name] = stand_in
         deferred.append(name)
+    return deferred
+
+
+def start_command() -> list[str]:
+    """Defer :data:`DEFERRED` for the command's own process; return those deferred.
+
+    Called once by the ``tunnelsense`` command as it starts (never by a library
+    import); :func:`defer_numpy_parts` then acts too.
+    """
+    _IN_COMMAND.append(True)
+    return defer()
+
+
+def defer_numpy_parts() -> list[str]:
+    """In the command's own process, import NumPy and defer :data:`NUMPY_PARTS`.
+
+    NumPy loads these submodules on the first look-up of ``numpy.<name>`` (its own
+    ``__getattr__``), so each stand-in is also set as that attribute of ``numpy``;
+    the first use of one imports the real submodule, which replaces it there too.
+    A command calls it before its heavy imports (scikit-learn).  Outside the
+    command (:func:`start_command` not called) it does nothing and returns ``[]``.
+
+    Returns
+    -------
+    deferred : list of str
+    """
+    if not _IN_COMMAND:
+        return []
+    import numpy
+
+    deferred = defer(NUMPY_PARTS)
+    for name in deferred:
+        setattr(numpy, name.rpartition(".")[2], sys.modules[name])
     return deferred
