@@ -217,13 +217,18 @@ def test_a_deferred_package_serves_named_submodules_then_imports_whole():
 
 
 _NUMPY_PARTS = """
-import sys
-from tunnelsense._deferred import NUMPY_PARTS, defer_numpy_parts, start_command
-assert defer_numpy_parts() == []  # not the command's process: nothing deferred
+import gc, sys
+from tunnelsense._deferred import (
+    IMPORT_GC_THRESHOLD, NUMPY_PARTS, end_imports, start_command, start_imports)
+usual = gc.get_threshold()
+assert start_imports() == [] and gc.get_threshold() == usual  # not the command
 assert "scipy.special" in start_command()
-assert defer_numpy_parts() == list(NUMPY_PARTS)
+assert start_imports() == list(NUMPY_PARTS)
+assert gc.get_threshold() == (IMPORT_GC_THRESHOLD, *usual[1:])
 import numpy as np
 import sklearn.pipeline  # SciPy's array-API layer looks up every name of numpy
+end_imports()
+assert gc.get_threshold() == usual and gc.get_freeze_count() > 0
 kinds = [type(sys.modules[m]).__name__ for m in (*NUMPY_PARTS, "scipy.special")]
 from numpy.testing import assert_array_equal  # the first use imports the real one
 assert_array_equal(np.polynomial.polynomial.polyval(2.0, [1.0, 1.0]), 3.0)
@@ -237,7 +242,7 @@ print(*set(kinds), *set(real), same)
 """
 
 
-def test_the_command_defers_numpy_parts_until_used():
+def test_the_command_defers_numpy_parts_and_collects_seldom_while_importing():
     done = subprocess.run([sys.executable, "-c", _NUMPY_PARTS], capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr

@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from tunnelsense._deferred import defer_numpy_parts
+from tunnelsense._deferred import start_imports
 from tunnelsense.cli import _common as common
 from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extra
@@ -43,7 +43,7 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
-    defer_numpy_parts()  # before scikit-learn's import (the command only)
+    start_imports()  # before scikit-learn's import (the command only)
     sources = fleet.fleet_sources(args)
     if sources is not None:
         return fleet.run_fleet(args, "tunnel", sources,
