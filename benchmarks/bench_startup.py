@@ -9,8 +9,9 @@ time.  Each repeat runs, interleaved, in fresh processes:
   and pandas itself); ``import sklearn.base, deferred`` and ``import sklearn.pipeline,
   deferred``: the same with what the detect commands defer deferred
   (``tunnelsense._deferred``: SciPy's stats and special functions, pandas,
-  ``sklearn.preprocessing``, NumPy's f2py and test helpers...), the floor of any
-  command that loads a model (a Pipeline of scikit-learn estimators);
+  ``sklearn.preprocessing``, NumPy's f2py and test helpers...; the garbage collector
+  run seldom), the floor of any command that loads a model (a Pipeline of
+  scikit-learn estimators);
 * ``tunnelsense --version``;
 * ``tunnelsense detect tunnel`` on a 10-frame tour (imports, model load, detection,
   writing), twice: from a copy of the package whose bytecode is compiled (as ``pip
@@ -48,9 +49,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from _common import load, timed_process  # noqa: E402
 
-#: What the detect commands defer before they import scikit-learn (the floors).
-_DEFERRED = ("from tunnelsense._deferred import defer_numpy_parts, start_command; "
-             "start_command(); defer_numpy_parts(); ")
+#: What the detect commands do before they import scikit-learn (the floors): defer
+#: modules, collect garbage seldom while importing.
+_DEFERRED = ("from tunnelsense._deferred import start_command, start_imports; "
+             "start_command(); start_imports(); ")
 
 _EXIT = """
 import sys, time

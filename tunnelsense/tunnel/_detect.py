@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from tunnelsense._payload import FRAME_RATE
-from tunnelsense._records import FrameRecord, FrameSequence
+from tunnelsense._records import FrameRecord, FrameSequence, decode_once
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
@@ -249,9 +249,10 @@ def open_frames(source, *, colour=None, missing_frames="raise"):
     if not source.is_file():
         tour = open_tour(source, colour=colour, ground_truth=False,
                          missing_frames=missing_frames)
-        if len(tour):
-            _ = tour.frames[0].image
-        return iter(tour.frames), len(tour)
+        if not len(tour):
+            return iter(tour.frames), 0
+        first = decode_once(tour.frames[0])  # decoded here and not again
+        return itertools.chain([first], itertools.islice(tour.frames, 1, None)), len(tour)
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
     fps = float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
