@@ -1,7 +1,7 @@
 """Whole-process ``tunnelsense detect tunnel`` on PNG tours from disk, beside a bare decode.
 
-The run that decides whether the reader threads should run the per-frame stages by
-default (about 30 s a repeat on two idle cores, so about 4 minutes; tours missing
+The run that decides how much of the per-frame work the reader threads should do by
+default (about 40 s a repeat on two idle cores, so about 5 minutes; tours missing
 from --workdir are simulated there first, about a minute, and kept for another run)::
 
     python benchmarks/bench_detect_end_to_end.py --frames 600 --repeats 7 --tours light,heavy,curved-8bit --no-train --workdir /tmp/bench-e2e-600
@@ -15,13 +15,13 @@ those files.  For each tour this script runs, interleaved, ``--repeats`` times:
 * ``readers=decode``: ``tunnelsense detect tunnel --model M TOUR --out R --force
   --quiet --readers decode`` in a fresh process (imports, model load, reading,
   detection, writing): the reader threads decode, the command's thread runs every
-  stage (today's default);
-* ``readers=keypoints``: the same with ``--readers keypoints``: the reader threads
-  also find each frame's keypoints (the first stage);
+  stage;
+* ``readers=keypoints``: the same with ``--readers keypoints`` (the command's
+  default): the reader threads also find each frame's keypoints (the first stage);
 * ``readers=stages``: the same with ``--readers stages``: the reader threads also run
   the stages that look at one frame alone, the command's thread links the tracks;
 
-the detect modes of ``--modes`` (default ``decode,stages``) in an order rotated from
+the detect modes of ``--modes`` (default ``decode,keypoints,stages``) in an order rotated from
 one repeat to the next (and their results checked byte for byte).  It prints, per
 mode, the median wall time, frames/s and the ratio to the decode, and for each mode
 after the first its ratio to the first mode: of the medians, and the median of the
@@ -176,9 +176,9 @@ def main(argv=None):
                         "command (default: not given, the command's own default)")
     parser.add_argument("--no-train", action="store_true",
                         help="do not time the training (the model is trained once)")
-    parser.add_argument("--modes", type=_mode_names, default=["decode", "stages"],
+    parser.add_argument("--modes", type=_mode_names, default=list(MODES),
                         help=f"comma-separated --readers modes, of {', '.join(MODES)}; "
-                        "each is compared to the first (default: decode,stages)")
+                        "each is compared to the first (default: all)")
     parser.add_argument("--dense-gain", type=float, default=1.04)
     parser.add_argument("--workdir", default=None,
                         help="where to keep the simulated tours (default: a temp dir)")
