@@ -1,7 +1,7 @@
 """Whole-process ``tunnelsense detect tunnel`` on PNG tours from disk, beside a bare decode.
 
-The run that decides whether the reader threads should run the per-frame stages by
-default (about 30 s a repeat on two idle cores, so about 4 minutes; tours missing
+The run that decides how much of the per-frame work the reader threads should do by
+default (about 40 s a repeat on two idle cores, so about 5 minutes; tours missing
 from --workdir are simulated there first, about a minute, and kept for another run)::
 
     python benchmarks/bench_detect_end_to_end.py --frames 600 --repeats 7 --tours light,heavy,curved-8bit --no-train --workdir /tmp/bench-e2e-600
@@ -15,16 +15,19 @@ those files.  For each tour this script runs, interleaved, ``--repeats`` times:
 * ``readers=decode``: ``tunnelsense detect tunnel --model M TOUR --out R --force
   --quiet --readers decode`` in a fresh process (imports, model load, reading,
   detection, writing): the reader threads decode, the command's thread runs every
-  stage (today's default);
+  stage;
+* ``readers=keypoints``: the same with ``--readers keypoints`` (the command's
+  default): the reader threads also find each frame's keypoints (the first stage);
 * ``readers=stages``: the same with ``--readers stages``: the reader threads also run
   the stages that look at one frame alone, the command's thread links the tracks;
 
-the two detect modes in alternating order from one repeat to the next (and their
-results checked byte for byte).  It prints the medians, frames/s, the ratio of each
-mode to the decode, and ``stages / decode-mode``: the ratio of the medians and the
-median of the per-repeat (paired) ratios with their range; beside them the CPU
-seconds (user + system) of each process: on a shared machine the wall times move
-with the load (printed before and after each tour), the CPU seconds much less.
+the detect modes of ``--modes`` (default ``decode,keypoints,stages``) in an order rotated from
+one repeat to the next (and their results checked byte for byte).  It prints, per
+mode, the median wall time, frames/s and the ratio to the decode, and for each mode
+after the first its ratio to the first mode: of the medians, and the median of the
+per-repeat (paired) ratios with their range; beside them the CPU seconds (user +
+system) of each process: on a shared machine the wall times move with the load
+(printed before and after each tour), the CPU seconds much less.
 
 The tours (640x480, ``--frames`` frames, simulated once into ``--workdir``; pick
 them with ``--tours``):
@@ -71,7 +74,7 @@ _DECODE = (
 _SIMULATED = {"light": ("light", 103), "heavy": ("heavy", 104),
               "curved-8bit": ("curved", 101), "dense": ("heavy", 102)}
 TOURS = ("light", "heavy", "curved-8bit", "curved-16bit", "dense")
-MODES = ("decode", "stages")
+MODES = ("decode", "keypoints", "stages")
 
 
 def _cli(*argv):
@@ -147,6 +150,15 @@ def _tour_names(text):
     return names
 
 
+def _mode_names(text):
+    names = [t for t in text.split(",") if t]
+    bad = [t for t in names if t not in MODES]
+    if bad or not names or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(
+            f"expected distinct modes of {', '.join(MODES)}; got {text!r}")
+    return names
+
+
 def _ratios(num, den):
     return [a / b for a, b in zip(num, den, strict=True)]
 
@@ -164,6 +176,9 @@ def main(argv=None):
                         "command (default: not given, the command's own default)")
     parser.add_argument("--no-train", action="store_true",
                         help="do not time the training (the model is trained once)")
+    parser.add_argument("--modes", type=_mode_names, default=list(MODES),
+                        help=f"comma-separated --readers modes, of {', '.join(MODES)}; "
+                        "each is compared to the first (default: all)")
     parser.add_argument("--dense-gain", type=float, default=1.04)
     parser.add_argument("--workdir", default=None,
                         help="where to keep the simulated tours (default: a temp dir)")
@@ -200,41 +215,45 @@ def main(argv=None):
     jobs = [] if args.jobs is None else ["--jobs", str(args.jobs)]
     print(f"\ndetect tunnel {' '.join(jobs) or '(default --jobs)'}, {args.repeats} "
           f"repeats, medians (wall s; CPU s = user + system); {os.cpu_count()} CPUs")
-    print("\n| tour | keypoints / frame | decode (s) | readers=decode (s) | "
-          "readers=stages (s) | frames/s decode-mode / stages-mode | "
-          "decode-mode / decode | stages-mode / decode | stages / decode-mode | "
-          "paired stages / decode-mode: median (range) | "
-          "CPU s: decode / decode-mode / stages-mode | load before -> after |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    modes = args.modes
+    print("\n| tour | keypoints / frame | decode (s) | "
+          + " | ".join(f"readers={m} (s), frames/s, / decode" for m in modes)
+          + " | " + " | ".join(f"{m} / {modes[0]}: medians, paired median (range)"
+                               for m in modes[1:])
+          + " | CPU s: decode / " + " / ".join(modes) + " | load before -> after |")
+    print("|" + "---|" * (5 + 2 * len(modes) - 1))
     for name, path in tours.items():
         model = models["16bit" if name.endswith("16bit") else "8bit"]
         before = os.getloadavg()[0]
         decode, decode_cpu = [], []
-        wall = {m: [] for m in MODES}
-        cpu = {m: [] for m in MODES}
-        outs = {m: workdir / f"{name}.{m}.txt" for m in MODES}
+        wall = {m: [] for m in modes}
+        cpu = {m: [] for m in modes}
+        outs = {m: workdir / f"{name}.{m}.txt" for m in modes}
         for k in range(args.repeats):
             decode.append(timed_process([sys.executable, "-c", _DECODE, str(path)], decode_cpu))
-            for mode in (MODES if k % 2 == 0 else MODES[::-1]):
+            for mode in modes[k % len(modes):] + modes[:k % len(modes)]:
                 wall[mode].append(timed_process(_cli(
                     "detect", "tunnel", "--model", str(model), str(path), "--out",
                     str(outs[mode]), "--force", "--quiet", "--readers", mode, *jobs),
                     cpu[mode]))
         for suffix in (".txt", ".clusters.csv"):
-            a, b = (outs[m].with_name(f"{name}.{m}{suffix}").read_bytes() for m in MODES)
-            if a != b:
-                raise RuntimeError(f"{name}: --readers decode and stages wrote different "
-                                   f"{suffix} files")
+            first, *others = (outs[m].with_name(f"{name}.{m}{suffix}").read_bytes()
+                              for m in modes)
+            if any(other != first for other in others):
+                raise RuntimeError(f"{name}: the --readers modes {', '.join(modes)} "
+                                   f"wrote different {suffix} files")
         d = statistics.median(decode)
-        e, s = (statistics.median(wall[m]) for m in MODES)
-        paired = _ratios(wall["stages"], wall["decode"])
-        dc = statistics.median(decode_cpu)
-        ec, sc = (statistics.median(cpu[m]) for m in MODES)
+        med = {m: statistics.median(wall[m]) for m in modes}
+        cells = [f"{med[m]:.2f}, {args.frames / med[m]:.0f}, {med[m] / d:.2f}"
+                 for m in modes]
+        for m in modes[1:]:
+            paired = _ratios(wall[m], wall[modes[0]])
+            cells.append(f"{med[m] / med[modes[0]]:.2f}, {statistics.median(paired):.2f} "
+                         f"({min(paired):.2f}-{max(paired):.2f})")
+        cpus = " / ".join(f"{statistics.median(cpu[m]):.2f}" for m in modes)
         density = _in_band_keypoints(model, path)
-        print(f"| {name} | {density:.0f} | {d:.2f} | {e:.2f} | {s:.2f} | "
-              f"{args.frames / e:.0f} / {args.frames / s:.0f} | {e / d:.2f} | "
-              f"{s / d:.2f} | {s / e:.2f} | {statistics.median(paired):.2f} "
-              f"({min(paired):.2f}-{max(paired):.2f}) | {dc:.2f} / {ec:.2f} / {sc:.2f} | "
+        print(f"| {name} | {density:.0f} | {d:.2f} | " + " | ".join(cells)
+              + f" | {statistics.median(decode_cpu):.2f} / {cpus} | "
               f"{before:.1f} -> {os.getloadavg()[0]:.1f} |", flush=True)
     print(f"\n{load()} after")
 

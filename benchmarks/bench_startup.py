@@ -7,9 +7,11 @@ time.  Each repeat runs, interleaved, in fresh processes:
 * ``import numpy, cv2`` and ``import sklearn.base``: the floors of a detector (its
   estimators are scikit-learn estimators, and ``sklearn.base`` imports SciPy's stats
   and pandas itself); ``import sklearn.base, deferred`` and ``import sklearn.pipeline,
-  deferred``: the same with what the command defers deferred (``tunnelsense._deferred``:
-  SciPy's stats, pandas, ``sklearn.preprocessing``...), the floor of any command that
-  loads a model (a Pipeline of scikit-learn estimators);
+  deferred``: the same with what the detect commands defer deferred
+  (``tunnelsense._deferred``: SciPy's stats and special functions, pandas,
+  ``sklearn.preprocessing``, NumPy's f2py and test helpers...; the garbage collector
+  run seldom), the floor of any command that loads a model (a Pipeline of
+  scikit-learn estimators);
 * ``tunnelsense --version``;
 * ``tunnelsense detect tunnel`` on a 10-frame tour (imports, model load, detection,
   writing), twice: from a copy of the package whose bytecode is compiled (as ``pip
@@ -46,6 +48,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from _common import load, timed_process  # noqa: E402
+
+#: What the detect commands do before they import scikit-learn (the floors): defer
+#: modules, collect garbage seldom while importing.
+_DEFERRED = ("from tunnelsense._deferred import start_command, start_imports; "
+             "start_command(); start_imports(); ")
 
 _EXIT = """
 import sys, time
@@ -135,12 +142,10 @@ def main():
             "python -c pass": [sys.executable, "-c", "pass"],
             "import numpy, cv2": [sys.executable, "-c", "import numpy, cv2"],
             "import sklearn.base": [sys.executable, "-c", "import sklearn.base"],
-            "import sklearn.base, deferred": [
-                sys.executable, "-c", "from tunnelsense._deferred import defer; defer(); "
-                "import sklearn.base"],
-            "import sklearn.pipeline, deferred": [
-                sys.executable, "-c", "from tunnelsense._deferred import defer; defer(); "
-                "import sklearn.pipeline"],
+            "import sklearn.base, deferred": [sys.executable, "-c", _DEFERRED + (
+                "import sklearn.base")],
+            "import sklearn.pipeline, deferred": [sys.executable, "-c", _DEFERRED + (
+                "import sklearn.pipeline")],
             "tunnelsense --version": _cli("--version"),
             "detect tunnel, 10 frames": (_cli(*detect), envs["compiled"]),
             "same, no bytecode": (_cli(*detect), envs["source"]),

@@ -132,8 +132,9 @@ def test_streamed_outputs_equal_batch_predict(tour_dirs, models, batch_records, 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_readers_decode_or_stages_write_the_same_bytes(tour_dirs, models, batch_records,
                                                       tmp_path, jobs, monkeypatch):
-    """--readers stages (the reader threads also run the per-frame stages) writes the
-    results and clusters --readers decode writes, byte for byte, alone and in a fleet."""
+    """--readers keypoints and stages (the reader threads also run the first or every
+    per-frame stage) write the results and clusters --readers decode writes, byte for
+    byte, alone and in a fleet."""
     from tunnelsense.tunnel import _detect
 
     asked, stream_detect = [], _detect.stream_detect
@@ -144,7 +145,7 @@ def test_readers_decode_or_stages_write_the_same_bytes(tour_dirs, models, batch_
 
     monkeypatch.setattr(_detect, "stream_detect", spy)
     written = {}
-    for mode in ("decode", "stages"):
+    for mode in ("decode", "keypoints", "stages"):
         out = tmp_path / mode / "r.txt"
         assert run(["detect", "tunnel", "--model", str(models["skops"]), str(tour_dirs[1]),
                     "--out", str(out), "--jobs", jobs, "--readers", mode, "--quiet"]) == 0
@@ -155,8 +156,10 @@ def test_readers_decode_or_stages_write_the_same_bytes(tour_dirs, models, batch_
         written[mode] = [out.read_bytes(), out.with_name("r.clusters.csv").read_bytes(),
                          *(p.read_bytes() for p in sorted(fleet.glob("tour-*")))]
     assert len(written["decode"]) == 2 + 4  # a results file and its clusters per tour
-    assert asked == [False] * 3 + [True] * 3  # one source, then a fleet of two
-    assert written["stages"] == written["decode"]
+    # one source, then a fleet of two
+    assert asked == [False] * 3 + [1] * 3 + [True] * 3
+    assert [type(a) for a in asked[3::3]] == [int, bool]
+    assert written["stages"] == written["keypoints"] == written["decode"]
     assert written["decode"][0].decode().splitlines() == lines_of(batch_records)
     assert any(lines_of(batch_records))
 

@@ -214,3 +214,36 @@ def test_a_deferred_package_serves_named_submodules_then_imports_whole():
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["_Deferred", "_Deferred", "True", "True"]
+
+
+_NUMPY_PARTS = """
+import gc, sys
+from tunnelsense._deferred import (
+    IMPORT_GC_THRESHOLD, NUMPY_PARTS, end_imports, start_command, start_imports)
+usual = gc.get_threshold()
+assert start_imports() == [] and gc.get_threshold() == usual  # not the command
+assert "scipy.special" in start_command()
+assert start_imports() == list(NUMPY_PARTS)
+assert gc.get_threshold() == (IMPORT_GC_THRESHOLD, *usual[1:])
+import numpy as np
+import sklearn.pipeline  # SciPy's array-API layer looks up every name of numpy
+end_imports()
+assert gc.get_threshold() == usual and gc.get_freeze_count() > 0
+kinds = [type(sys.modules[m]).__name__ for m in (*NUMPY_PARTS, "scipy.special")]
+from numpy.testing import assert_array_equal  # the first use imports the real one
+assert_array_equal(np.polynomial.polynomial.polyval(2.0, [1.0, 1.0]), 3.0)
+import scipy.special._ufuncs  # a submodule of a deferred module
+import scipy.stats
+assert scipy.stats.norm.cdf(0.0) == 0.5 and scipy.special.erf(0.0) == 0.0
+real = [type(sys.modules[m]).__name__ for m in (*NUMPY_PARTS[1:3], "scipy.special")]
+same = np.testing is sys.modules["numpy.testing"] and np.testing.assert_array_equal is (
+    assert_array_equal)
+print(*set(kinds), *set(real), same)
+"""
+
+
+def test_the_command_defers_numpy_parts_and_collects_seldom_while_importing():
+    done = subprocess.run([sys.executable, "-c", _NUMPY_PARTS], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["_Deferred", "module", "True"]

@@ -382,6 +382,22 @@ def test_prepared_records_in_any_order_and_threads_stream_as_pushed():
         stream.push_prepared(prepared[3]), stream.push_prepared(prepared[2])
 
 
+@pytest.mark.parametrize("steps", [0, 1, 2, 5])
+def test_prepare_steps_runs_at_most_that_many_stages_ahead(steps):
+    X = _frames("a", 6) + _frames("b", 4, offset=10)
+    pipe = Pipeline([("first", Checked()), ("b", Brightness()), ("l", LookAhead()),
+                     ("last", Checked())]).fit(X)
+    expected = list(StreamingPipeline(pipe).run(X))
+    stream = StreamingPipeline(pipe, prepare_steps=steps)
+    prepared = [stream.prepare(r) for r in X]
+    # the stateless head is two stages long: Brightness has run only when asked
+    assert all(("mean" in r.payload) == (steps >= 2) for r in prepared)
+    assert (prepared[0] is X[0]) == (steps == 0)
+    out = (stream.push_many(prepared[:4], prepared=True)
+           + stream.push_many(prepared[4:], prepared=True) + stream.close())
+    assert [(r.key, r.payload) for r in out] == [(r.key, r.payload) for r in expected]
+
+
 def test_prepare_leaves_a_stateful_first_stage_and_the_last_stage_to_push():
     X = _frames("a", 3)
     first_stateful = StreamingPipeline(

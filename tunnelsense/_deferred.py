@@ -24,6 +24,7 @@ changes how modules load in the whole process.
 
 from __future__ import annotations
 
+import gc
 import importlib
 import importlib.machinery
 import importlib.util
@@ -31,11 +32,23 @@ import sys
 import types
 from pathlib import Path
 
-__all__ = ["DEFERRED", "SERVED", "defer"]
+__all__ = ["DEFERRED", "NUMPY_PARTS", "SERVED", "defer", "defer_numpy_parts",
+           "end_imports", "start_command", "start_imports"]
 
 #: The modules the command defers: imported by scikit-learn at start, seldom needed.
+#: (``scipy.special``: scikit-learn's array-API helpers import it for two functions
+#: that detection does not call; building its functions' array-API wrappers parses
+#: their docstrings, a tenth of scikit-learn's import.)
 DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
-            "scipy.spatial")
+            "scipy.spatial", "scipy.special")
+
+#: NumPy's submodules the command defers once NumPy is imported
+#: (:func:`defer_numpy_parts`): SciPy's array-API layer, imported with scikit-learn,
+#: copies every name of ``numpy``, which imports each of these lazily loaded
+#: submodules (the Fortran wrapper generator, the test helpers, polynomials, the
+#: ctypes helpers); detection uses none of them.  (Not ``numpy.ma``: ``np.unique``
+#: looks it up on every call.)
+NUMPY_PARTS = ("numpy.f2py", "numpy.testing", "numpy.polynomial", "numpy.ctypeslib")
 
 #: Names a deferred package serves from one of its submodules without importing the
 #: package (see the module's docstring).
@@ -49,6 +62,18 @@ SERVED = {
                       "QhullError": "scipy.spatial._qhull",
                       "cKDTree": "scipy.spatial._ckdtree"},
 }
+
+#: Whether this process is the command's own (:func:`defer_numpy_parts` acts only then).
+_IN_COMMAND = []
+
+#: The garbage collector's first threshold while the command imports
+#: (:func:`start_imports`): importing makes hundreds of thousands of objects and no
+#: garbage to speak of, yet at the interpreter's threshold (700) the collector ran
+#: about 140 times, a sixth of the start-up.
+IMPORT_GC_THRESHOLD = 200_000
+
+#: The collector's thresholds before :func:`start_imports` raised them.
+_SAVED_THRESHOLDS = []
 
 class _Deferred(types.ModuleType):
     """The stand-in of a module not imported yet (see the module's docstring)."""
@@ -139,3 +164,66 @@ def defer(names=DEFERRED) -> list[str]:
         sys.modules[name] = stand_in
         deferred.append(name)
     return deferred
+
+
+def start_command() -> list[str]:
+    """Defer :data:`DEFERRED` for the command's own process; return those deferred.
+
+    Called once by the ``tunnelsense`` command as it starts (never by a library
+    import); :func:`defer_numpy_parts` then acts too.
+    """
+    _IN_COMMAND.append(True)
+    return defer()
+
+
+def defer_numpy_parts() -> list[str]:
+    """In the command's own process, import NumPy and defer :data:`NUMPY_PARTS`.
+
+    NumPy loads these submodules on the first look-up of ``numpy.<name>`` (its own
+    ``__getattr__``), so each stand-in is also set as that attribute of ``numpy``;
+    the first use of one imports the real submodule, which replaces it there too.
+    A command calls it before its heavy imports (scikit-learn).  Outside the
+    command (:func:`start_command` not called) it does nothing and returns ``[]``.
+
+    Returns
+    -------
+    deferred : list of str
+    """
+    if not _IN_COMMAND:
+        return []
+    import numpy
+
+    deferred = defer(NUMPY_PARTS)
+    for name in deferred:
+        setattr(numpy, name.rpartition(".")[2], sys.modules[name])
+    return deferred
+
+
+def start_imports() -> list[str]:
+    """In the command's own process, before its heavy imports: defer
+    :data:`NUMPY_PARTS` and collect garbage seldom until :func:`end_imports`.
+
+    Outside the command (:func:`start_command` not called) it does nothing.
+
+    Returns
+    -------
+    deferred : list of str
+        As :func:`defer_numpy_parts`.
+    """
+    if not _IN_COMMAND:
+        return []
+    if not _SAVED_THRESHOLDS:
+        _SAVED_THRESHOLDS.append(gc.get_threshold())
+        gc.set_threshold(IMPORT_GC_THRESHOLD, *_SAVED_THRESHOLDS[0][1:])
+    return defer_numpy_parts()
+
+
+def end_imports() -> None:
+    """After :func:`start_imports` and the model's load: move every object made so
+    far out of the collector's reach (``gc.freeze``: modules, classes and the model
+    live as long as the process, and later collections need not walk them again)
+    and collect at the usual thresholds.  Nothing to do otherwise.
+    """
+    if _SAVED_THRESHOLDS:
+        gc.freeze()
+        gc.set_threshold(*_SAVED_THRESHOLDS.pop())

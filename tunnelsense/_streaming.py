@@ -350,6 +350,9 @@ class StreamingPipeline:
     ----------
     pipeline : Pipeline or estimator
         A fitted ``sklearn.pipeline.Pipeline`` of record stages (or one stage).
+    prepare_steps : int or None, default=None
+        How many of the leading stages that keep no state :meth:`prepare` runs: all
+        of them (None), or at most this many.
 
     Examples
     --------
@@ -370,7 +373,7 @@ class StreamingPipeline:
     [1.5, 5.5, 9.5]
     """
 
-    def __init__(self, pipeline):
+    def __init__(self, pipeline, *, prepare_steps=None):
         steps = getattr(pipeline, "steps", None)
         stages = [s for _, s in steps] if steps is not None else [pipeline]
         stages = [s for s in stages if s is not None and s != "passthrough"]
@@ -392,7 +395,7 @@ class StreamingPipeline:
         while (head < len(self._states) - 1
                and isinstance(self._states[head], _StatelessStream)):
             head += 1
-        self._head = head
+        self._head = head if prepare_steps is None else min(head, int(prepare_steps))
 
     def prepare(self, record):
         """Run one record through the leading stages that keep no state.
@@ -442,12 +445,13 @@ class StreamingPipeline:
                 break
         return batch
 
-    def push_many(self, records) -> list:
+    def push_many(self, records, *, prepared=False) -> list:
         """Feed consecutive records at once; the same result as pushing them one by one.
 
         Each stage takes the whole chunk in one call (``push_many`` of its state,
         ``transform`` of a stateless stage), which saves the per-call overhead where
-        records are small and many (laser scans).
+        records are small and many (laser scans).  ``prepared=True``: the records
+        have been through :meth:`prepare` (as with :meth:`push_prepared`).
         """
         records = list(records)
         last = self._last_key
@@ -455,7 +459,7 @@ class StreamingPipeline:
             last = check_next_key(last, r)
         self._last_key = last
         batch = records
-        for state in self._states:
+        for state in self._states[self._head if prepared else 0:]:
             if not batch:
                 break
             if hasattr(state, "push_many"):

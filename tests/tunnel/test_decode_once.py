@@ -157,8 +157,9 @@ def test_a_frame_that_cannot_be_read_stops_after_the_frames_before_it(
     whole = tmp_path / "whole.txt"
     detect_to_files(model, folder, whole)
     written = {}
-    # in this thread; readers that decode; readers that also run the stages
-    for n_threads, stages in ((0, False), (2, False), (2, True)):
+    # in this thread; readers that decode; readers that also run the first stage,
+    # every stage
+    for n_threads, stages in ((0, False), (2, False), (2, 1), (2, True)):
         out = tmp_path / f"r{n_threads}{stages}.txt"
         with pytest.raises((InputFormatError, ValueError, OSError), match="000080.png"):
             detect_to_files(model, copy_, out, n_threads=n_threads,
@@ -168,7 +169,7 @@ def test_a_frame_that_cannot_be_read_stops_after_the_frames_before_it(
             (tmp_path / f"r{n_threads}{stages}.clusters.csv").read_text().splitlines()]
     # what the readers' runs wrote is what the plain run wrote: the uninterrupted
     # run's lines of the frames finished before frame 80
-    assert written[2, True] == written[2, False] == written[0, False]
+    assert written[2, True] == written[2, 1] == written[2, False] == written[0, False]
     lines, clusters = written[2, True]
     assert lines == whole.read_text().splitlines()[:len(lines)]
     assert all(int(line.split(",")[0]) < 80 for line in lines)

@@ -61,9 +61,9 @@ def main(argv=None) -> int:
     """Run the command; return its exit status (0 done, 1 bad input or a missing
     optional extra, 3 a defect, 130 interrupted, 143 terminated)."""
     if argv is None:  # the command: its own process (see tunnelsense._deferred)
-        from tunnelsense._deferred import defer
+        from tunnelsense._deferred import start_command
 
-        defer()
+        start_command()
         # SIGTERM unwinds like Ctrl-C, so that what the command started is ended on
         # the way out (a fleet's worker processes: joblib stops them); its default,
         # dying on the spot, left them blocked forever.

@@ -160,11 +160,14 @@ def stage_progress(args):
 
 def cli_model(args, kind):
     """The model of ``--model`` for the ``kind`` detector ("tunnel" or "street")."""
+    from tunnelsense._deferred import end_imports
     from tunnelsense.io._trust import load_trusted_model
 
     last_step, command = _MODELS[kind]
-    return load_trusted_model(args.model, last_step=last_step, command=command,
-                              trust_pickle=args.trust_pickle, **verify_keys(args))
+    model = load_trusted_model(args.model, last_step=last_step, command=command,
+                               trust_pickle=args.trust_pickle, **verify_keys(args))
+    end_imports()  # of a detect command, which has imported what it needs by now
+    return model
 
 
 def key_files(args):

@@ -6,6 +6,7 @@ import json
 import time
 from pathlib import Path
 
+from tunnelsense._deferred import start_imports
 from tunnelsense.cli import _common as common
 from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extras_for_runs
@@ -78,6 +79,7 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_detect(args) -> int:
+    start_imports()  # before scikit-learn's import (the command only)
     sources = fleet.fleet_sources(args)
     if sources is not None:
         require_extras_for_runs(sources)

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+from tunnelsense._deferred import start_imports
 from tunnelsense.cli import _common as common
 from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extra
@@ -41,13 +42,19 @@ def _cmd_train(args) -> int:
     return 0
 
 
+#: ``--readers``: what the reader threads run beside the decode (``stream_detect``'s
+#: ``stages_in_readers``): nothing, the first stage (keypoints), every per-frame stage.
+_READERS = {"decode": False, "keypoints": 1, "stages": True}
+
+
 def _cmd_detect(args) -> int:
+    start_imports()  # before scikit-learn's import (the command only)
     sources = fleet.fleet_sources(args)
     if sources is not None:
         return fleet.run_fleet(args, "tunnel", sources,
                                {"colour": common.colour(args),
                                 "missing_frames": args.missing_frames,
-                                "stages_in_readers": args.readers == "stages"})
+                                "stages_in_readers": _READERS[args.readers]})
     from tunnelsense.io import clusters_path
     from tunnelsense.tunnel import detect_to_files
     from tunnelsense.tunnel._reports import format_detection
@@ -61,7 +68,7 @@ def _cmd_detect(args) -> int:
         overwrite=args.force, n_threads=args.jobs, draw=args.draw,
         draw_every=args.draw_every, draw_video=args.draw_video,
         progress=common.progress(args, 1, "detecting"), colour=common.colour(args),
-        stages_in_readers=args.readers == "stages", missing_frames=args.missing_frames)
+        stages_in_readers=_READERS[args.readers], missing_frames=args.missing_frames)
     if facts["resumed_lines"]:
         print(f"resumed {out}: {facts['resumed_lines']} result lines kept (the source "
               "was replayed and they were checked, not rewritten)", file=sys.stderr)
@@ -160,14 +167,15 @@ def register(verbs) -> None:
                    "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; several sources: tours detected at once; "
                    "default: the number of CPUs)")
-    p.add_argument("--readers", choices=("decode", "stages"), default="decode",
+    p.add_argument("--readers", choices=tuple(_READERS), default="keypoints",
                    help="what the reader threads do: 'decode' the frames only, the "
-                   "detector's thread running every stage; or also run each frame "
-                   "through the stages that look at one frame alone (keypoints, "
-                   "verifier, clusters, appearance), the detector's thread then only "
-                   "linking the trajectories. The results are the same; 'stages' "
-                   "spreads the work over idle cores and is slower when the cores are "
-                   "busy. No effect with --jobs 0 (default: decode)")
+                   "detector's thread running every stage; also find each frame's "
+                   "'keypoints' (the first stage); or also run each frame through "
+                   "the 'stages' that look at one frame alone (keypoints, verifier, "
+                   "clusters, appearance), the detector's thread then only linking "
+                   "the trajectories. The results are the same; 'stages' spreads the "
+                   "most work over idle cores and is slower when the cores are busy. "
+                   "No effect with --jobs 0 (default: keypoints)")
     common.add_colour_arguments(p)
     common.add_missing_frames_argument(p)
     fleet.add_fleet_arguments(p, "tour")

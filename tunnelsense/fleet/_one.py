@@ -112,7 +112,7 @@ def _detect_into(model, kind, source, out, options):
         facts = detect_to_files(model, source, out, n_threads=1,
                                 colour=options.get("colour"),
                                 missing_frames=options.get("missing_frames", "raise"),
-                                stages_in_readers=bool(options.get("stages_in_readers")))
+                                stages_in_readers=options.get("stages_in_readers", False))
         return {k: facts[k] for k in ("frames", "detections", "trajectories")}
     from tunnelsense.io._laser import open_run_stream
     from tunnelsense.street._run import write_objects

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from tunnelsense._payload import FRAME_RATE
-from tunnelsense._records import FrameRecord, FrameSequence
+from tunnelsense._records import FrameRecord, FrameSequence, decode_once
 from tunnelsense._streaming import StreamingPipeline
 from tunnelsense.io._images import iter_video, open_video, read_video_frame
 from tunnelsense.io._results import (
@@ -249,9 +249,10 @@ def open_frames(source, *, colour=None, missing_frames="raise"):
     if not source.is_file():
         tour = open_tour(source, colour=colour, ground_truth=False,
                          missing_frames=missing_frames)
-        if len(tour):
-            _ = tour.frames[0].image
-        return iter(tour.frames), len(tour)
+        if not len(tour):
+            return iter(tour.frames), 0
+        first = decode_once(tour.frames[0])  # decoded here and not again
+        return itertools.chain([first], itertools.islice(tour.frames, 1, None)), len(tour)
     capture = open_video(source)
     total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
     fps = float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
@@ -319,18 +320,20 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
     progress : Progress or None, default=None
     n_threads : int, default=0
         Reader threads decoding the next frames while this one is detected (0: none).
-    stages_in_readers : bool, default=False
+    stages_in_readers : bool or int, default=False
         Whether the reader threads also run each frame through the stages that look
         at one frame alone (keypoints, verifier, clusters, appearance), this thread
-        then linking and verifying the trajectories only.  The results are the same
-        either way.  It spreads the work over idle cores; on a machine whose cores
-        are busy it is slower (the readers hold the interpreter lock in turns, and
-        the system suspends one that holds it while the others wait).
+        then linking and verifying the trajectories only (True); or through the
+        first this many of them (an int: 1, the keypoints), this thread running the
+        others.  The results are the same either way.  It spreads the work over
+        idle cores; on a machine whose cores are busy it is slower (the readers
+        hold the interpreter lock in turns, and the system suspends one that holds
+        it while the others wait).
     chunk : int, default=1
-        Frames fed to the stages at once (:meth:`StreamingPipeline.push_many`; not
-        with ``stages_in_readers``): each stage's fixed cost of a call is shared by
-        them.  The results are the same; a frame is yielded up to ``chunk - 1``
-        frames later.
+        Frames fed to this thread's stages at once
+        (:meth:`StreamingPipeline.push_many`; not with ``stages_in_readers=True``):
+        each stage's fixed cost of a call is shared by them.  The results are the
+        same; a frame is yielded up to ``chunk - 1`` frames later.
 
     Yields
     ------
@@ -351,22 +354,24 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
     ...     for a, b in zip(streamed, model.predict(X), strict=True))
     True
     """
-    stream = StreamingPipeline(model)
-    push = stream.push
-    if n_threads > 0 and stages_in_readers:
-        # the stages that keep no state run in the reader threads beside the decode;
-        # this thread links the tracks
+    every = stages_in_readers is True
+    stream = StreamingPipeline(model, prepare_steps=(
+        None if every else int(stages_in_readers) if n_threads > 0 else 0))
+    push, prepared = stream.push, False
+    if n_threads > 0 and stream._head > 0:
+        # the (first) stages that keep no state run in the reader threads beside the
+        # decode; this thread runs the others and links the tracks
         frames = decode_ahead(frames, n_threads=n_threads, then=stream.prepare)
-        push = stream.push_prepared
+        push, prepared = stream.push_prepared, True
     elif n_threads > 0:
         frames = decode_ahead(frames, n_threads=n_threads)
     # one frame's matrix products are small: BLAS threads would only contend with
     # the reader threads; so would OpenCV's on a cluster's small windows and patches
     with blas_threads(1), opencv_threads(1):
-        if chunk > 1 and not stages_in_readers:
+        if chunk > 1 and not every:
             done = 0
             for held in _chunks(frames, chunk):
-                yield from stream.push_many(held)
+                yield from stream.push_many(held, prepared=prepared)
                 done += len(held)
                 if progress is not None:
                     progress.update(done)
@@ -399,8 +404,9 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
         Continue an interrupted ``out``; replace an existing one.
     n_threads : int, default=0
         Reader threads (see :func:`stream_detect`).
-    stages_in_readers : bool, default=False
-        The reader threads also run the per-frame stages (see :func:`stream_detect`).
+    stages_in_readers : bool or int, default=False
+        The reader threads also run the per-frame stages, or the first this many
+        (see :func:`stream_detect`).
     progress : Progress or None, default=None
         Its total is set to the number of frames, then updated after each frame.
     draw : str, Path or None, default=None
