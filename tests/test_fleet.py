@@ -412,3 +412,16 @@ def test_fleet_command_exits_1_naming_the_tour_whose_worker_died(
     assert main(args) == 0
     assert "1 detected, 2 skipped, 0 failed" in capsys.readouterr().out
     _same_as_one_by_one(out, one_by_one, tours[:3])
+
+
+def test_joblib_parallel_works_after_a_fleet_in_the_same_process(tunnel_model, tours,
+                                                                 tmp_path):
+    """The fleet's worker processes are its own: joblib's process pool (a grid
+    search's) still works after a fleet ran in the same process (it failed, an
+    internal error, when the fleet had taken loky's shared executor)."""
+    from joblib import Parallel, delayed
+
+    done = detect_tours(tunnel_model, tours[:2], tmp_path / "out", n_jobs=2)
+    assert all(d["error"] is None for d in done)
+    assert Parallel(n_jobs=2, backend="loky")(
+        delayed(abs)(-k) for k in range(3)) == [0, 1, 2]

@@ -33,16 +33,20 @@ def _run_processes(model, tasks, n_workers):
     dies while it runs alone is the one that kills it, and gets an error record; the
     others go on as before.  On any exception here (an interrupt, SIGTERM raised as
     one) the workers are killed, not left running.
+
+    The executor is the fleet's own, shut down when the fleet ends: loky's reusable
+    executor is the one joblib's ``Parallel`` reuses too, and joblib expects its own
+    kind there (a search run later in the same process would fail on ours).
     """
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    from joblib.externals.loky import get_reusable_executor
+    from joblib.externals.loky import ProcessPoolExecutor
     from joblib.externals.loky.process_executor import BrokenProcessPool
 
     queue = list(range(len(tasks)))[::-1]  # popped from the end: in order
     suspects = []
     env = _worker_env(n_workers)
-    executor = get_reusable_executor(max_workers=n_workers, env=env)
+    executor = ProcessPoolExecutor(max_workers=n_workers, env=env)
     running = {}  # future -> (task index, whether it runs alone)
     try:
         while queue or suspects or running:
@@ -72,10 +76,12 @@ def _run_processes(model, tasks, n_workers):
                         suspects.append(k)
                 running.clear()
                 suspects.sort()
-                executor = get_reusable_executor(max_workers=n_workers, env=env)  # new
+                executor.shutdown(wait=True)
+                executor = ProcessPoolExecutor(max_workers=n_workers, env=env)  # new
     except BaseException:
         executor.shutdown(wait=False, kill_workers=True)
         raise
+    executor.shutdown(wait=True)
 
 
 #: The thread-pool variables joblib sets for its worker processes.
