@@ -53,7 +53,12 @@ from tunnelsense.datasets._tunnel_scene import (
     _make_vehicles,
     _resolve_params,
 )
-from tunnelsense.datasets._tunnel_sensor import Recording, defect_map
+from tunnelsense.datasets._tunnel_sensor import (
+    Recording,
+    camera_output,
+    defect_map,
+    shake,
+)
 
 __all__ = ["TUNNEL_SCENARIOS", "make_tunnel_tour"]
 
@@ -177,12 +182,24 @@ def make_tunnel_tour(
         at 255, a third at 0, a third at a level of their own) and
         ``dead_columns`` (0: whole columns reading 0).  These sensor and
         recorder artefacts draw from random streams of their own and are
-        applied to the camera's output.
+        applied to the camera's output.  ``yaw_deg`` (0: the camera pointing
+        this many degrees to the right of the road's direction, left
+        negative; the view turned about the vertical axis); ``shake_deg`` (0:
+        vibration, the camera's pitch and yaw jittering by a normal of this
+        sigma from frame to frame, from a random stream of its own);
+        ``defocus_px`` (0: an out-of-focus lens, the radiance blurred by a
+        Gaussian of this sigma in pixels before the sensor's noise);
+        ``response_gamma`` (1: the camera's output curve, the grey levels
+        written as ``255 (I / 255) ** gamma``, a non-affine response);
+        ``bit_depth`` (8: uint8 grey levels; 9-16: uint16 counts, ``2 **
+        (bit_depth - 8)`` per grey level, as cameras recording 14-bit counts
+        write them).
 
     Returns
     -------
     tour : Tour
-        uint8 frames ``(n_frames, height, width)``; ground truth of every object at least
+        uint8 frames ``(n_frames, height, width)`` (uint16 for ``bit_depth``
+        above 8); ground truth of every object at least
         2 px tall and within 300 m, per frame: box (unclipped, may extend beyond the
         image), class (1 indicator, 2 lamp, 3 vehicle, 4 shadow), persistent id,
         ``conf=1`` and ``visibility`` (fraction of the box inside the image and not
@@ -224,6 +241,9 @@ def make_tunnel_tour(
     cam = _Camera(p["focal_length_px"], (H, W), kappa, kappa_v)
 
     t, speed, s_ego, lat, hgt, pitch = _ego_motion(rng, n_frames, fps, p)
+    yaw = None  # the camera's yaw and vibration (a random stream of their own)
+    if p["yaw_deg"] or p["shake_deg"]:
+        pitch, yaw = shake(seed, pitch, p["yaw_deg"], p["shake_deg"])
     distance = float(s_ego[-1] + speed[-1] / fps)
     # an indicator's outer edge leaves the image at this depth
     side = -1 if p["indicator_side"] == "left" else 1
@@ -284,9 +304,11 @@ def make_tunnel_tour(
         motion and traffic interpolated linearly), for the bolometer's lag."""
         if q is None:
             pose = (float(lat[f]), float(hgt[f]), float(pitch[f]))
+            pose += () if yaw is None else (float(yaw[f]),)
             sc = float(s_ego[f])
         else:
             pose = (_at(lat, q), _at(hgt, q), _at(pitch, q))
+            pose += () if yaw is None else (_at(yaw, q),)
             sc = _at(s_ego, q)
         half = bg.render(sc, pose)
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
@@ -334,7 +356,8 @@ def make_tunnel_tour(
                 drawn.append((box[4], cls, oid, box, cls == VEHICLE))
         return img, drawn
 
-    images = np.empty((n_frames, H, W), dtype=np.uint8)
+    images = np.empty((n_frames, H, W),
+                      dtype=np.uint8 if p["bit_depth"] == 8 else np.uint16)
     rows = []
     defects = None
     if p["defect_pixels"] > 0 or p["dead_columns"] > 0:
@@ -351,6 +374,9 @@ def make_tunnel_tour(
             drawn = [(z, c, o, _roll_box(b, roll), occ) for z, c, o, b, occ in drawn]
         if vignette is not None:  # the lens passes less radiance off-axis
             img *= vignette
+        if p["defocus_px"] > 0:  # an out-of-focus lens: the radiance blurred
+            img = cv2.GaussianBlur(img, (0, 0), p["defocus_px"],
+                                   borderType=cv2.BORDER_REFLECT)
         if p["gain"] != 1.0 or p["offset"] != 0.0:
             img *= np.float32(p["gain"])
             img += np.float32(p["offset"])
@@ -362,9 +388,7 @@ def make_tunnel_tour(
         if defects is not None:  # stuck pixels and dead columns read the same
             img[defects[0], defects[1]] = defects[2]
             img[:, defects[3]] = 0.0
-        np.clip(img, 0, 255, out=img)
-        np.rint(img, out=img)
-        images[f] = img
+        images[f] = camera_output(img, p["response_gamma"], p["bit_depth"])
         rows.append(_gt_rows(f + 1, drawn, W, H))
         if progress is not None:
             progress(f + 1, n_frames)
@@ -423,7 +447,8 @@ def make_tunnel_tour(
     for key, default in (("roll_deg", 0.0), ("vignetting", 1.0),
                          ("indicator_side", "left"), ("thermal_time_constant_s", 0.0),
                          ("dropped_frames", 0.0), ("defect_pixels", 0.0),
-                         ("dead_columns", 0)):
+                         ("dead_columns", 0), ("yaw_deg", 0.0), ("shake_deg", 0.0),
+                         ("defocus_px", 0.0), ("response_gamma", 1.0), ("bit_depth", 8)):
         if p[key] != default:
             info[key] = p[key]
     info.update(recording.info(p))
