@@ -34,6 +34,7 @@ from tunnelsense.datasets._tunnel_camera import (
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
     _draw_lamp,
+    _draw_panel,
     _draw_shadow,
     _draw_vehicle,
     _lamp_boxes,
@@ -57,10 +58,13 @@ from tunnelsense.datasets._tunnel_sensor import (
     Recording,
     camera_output,
     defect_map,
+    panel_layout,
     shake,
 )
 
 __all__ = ["TUNNEL_SCENARIOS", "make_tunnel_tour"]
+
+_PANEL = 0  # a lit panel's class while drawing (it has no ground truth)
 
 
 # --------------------------------------------------------------------------------------
@@ -193,7 +197,11 @@ def make_tunnel_tour(
         written as ``255 (I / 255) ** gamma``, a non-affine response);
         ``bit_depth`` (8: uint8 grey levels; 9-16: uint16 counts, ``2 **
         (bit_depth - 8)`` per grey level, as cameras recording 14-bit counts
-        write them).
+        write them); ``panel_spacing_m`` (None: lit panels, emergency-exit and
+        escape-route signs 0.8 m wide x 0.4 m tall centred 2.0 m high on the
+        signs' wall, lit from inside to about the indicators' levels, every this
+        many metres from a random stream of their own; they are no indicators
+        and in no ground truth, so a detection on one is a false alarm).
 
     Returns
     -------
@@ -247,6 +255,7 @@ def make_tunnel_tour(
     distance = float(s_ego[-1] + speed[-1] / fps)
     # an indicator's outer edge leaves the image at this depth
     side = -1 if p["indicator_side"] == "left" else 1
+    panel_side = side  # lit panels stand on the signs' wall
     x_edge = abs(_lining_x(p["indicator_height_m"], side)) - 0.05
     exit_depth = cam.f * x_edge / cam.cx
     indicators = _indicator_positions(rng, s_ego[-1], p, exit_depth)
@@ -268,6 +277,7 @@ def make_tunnel_tour(
         for _ in range(len(indicators))
     ]
     vehicles = _make_vehicles(rng, t, s_ego, speed, p)
+    panel_s, panel_look = panel_layout(seed, s_ego[-1], p["panel_spacing_m"])
     bg = _Background(cam, -20.0, s_ego[-1] + _Z_FAR + 20.0, rng)
 
     # ids: indicators, lamps (two rows), vehicles, shadows
@@ -330,12 +340,18 @@ def make_tunnel_tour(
                     gl, ho = glass[k - lo], housing[k - lo]
                     if min(gl[4], ho[4]) > _Z_NEAR:
                         todo.append((lamp_s[k] + offset - sc, LAMP, (row, k, gl, ho)))
+        lo, hi = np.searchsorted(panel_s, [sc + _Z_NEAR, sc + _Z_FAR])
+        for k in range(lo, hi):
+            todo.append((panel_s[k] - sc, _PANEL, k))
         for k, veh in enumerate(vehicles):
             ds = veh["gap"][f] if q is None else _at(veh["gap"], q)
             if 2.0 < ds < _Z_FAR:
                 todo.append((ds, VEHICLE, k))
         todo.sort(key=lambda item: -item[0])  # painter's order: far to near
         for ds, cls, key in todo:
+            if cls == _PANEL:  # lit, but no indicator: in no ground truth
+                _draw_panel(img, cam, pose, ds, panel_side, panel_look[key])
+                continue
             if cls == INDICATOR:
                 box = _draw_indicator(img, cam, pose, ds, p, ind_look[key])
                 oid = ind_ids[key]
@@ -448,7 +464,8 @@ def make_tunnel_tour(
                          ("indicator_side", "left"), ("thermal_time_constant_s", 0.0),
                          ("dropped_frames", 0.0), ("defect_pixels", 0.0),
                          ("dead_columns", 0), ("yaw_deg", 0.0), ("shake_deg", 0.0),
-                         ("defocus_px", 0.0), ("response_gamma", 1.0), ("bit_depth", 8)):
+                         ("defocus_px", 0.0), ("response_gamma", 1.0), ("bit_depth", 8),
+                         ("panel_spacing_m", None)):
         if p[key] != default:
             info[key] = p[key]
     info.update(recording.info(p))

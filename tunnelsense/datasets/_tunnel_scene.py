@@ -58,6 +58,7 @@ _DEFAULTS = {
     "defocus_px": 0.0,  # Gaussian sigma (px) of an out-of-focus lens's extra blur
     "response_gamma": 1.0,  # output curve 255 (I / 255) ** gamma (1: linear)
     "bit_depth": 8,  # 8: uint8 grey levels; 9-16: uint16 counts, levels x 2**(b-8)
+    "panel_spacing_m": None,  # lit exit/escape panels on the signs' wall (None: none)
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -319,6 +320,8 @@ def _resolve_params(scenario, overrides, seed=0):
     p["shake_deg"] = _check_range("shake_deg", p["shake_deg"], 0.0, 5.0)
     p["defocus_px"] = _check_range("defocus_px", p["defocus_px"], 0.0, 20.0)
     p["response_gamma"] = _check_range("response_gamma", p["response_gamma"], 0.2, 5.0)
+    if p["panel_spacing_m"] is not None:
+        p["panel_spacing_m"] = _check_range("panel_spacing_m", p["panel_spacing_m"], 5.0)
     depth = p["bit_depth"]
     if isinstance(depth, bool) or not isinstance(depth, Integral) or not 8 <= depth <= 16:
         raise ValueError(f"bit_depth must be an int in [8, 16]; got {depth!r}")

@@ -32,10 +32,11 @@ import numpy as np
 from tunnelsense._records import FrameRecord, FrameSequence
 
 __all__ = ["Recording", "camera_output", "defect_map", "dropped_frames", "nuc_freezes",
-           "shake"]
+           "panel_layout", "shake"]
 
 #: spawn keys of the artefacts' random streams (children of the tour's seed)
 _NUC_STREAM, _DROP_STREAM, _DEFECT_STREAM, _SHAKE_STREAM = 7301, 7302, 7303, 7304
+_PANEL_STREAM = 7305
 
 
 def _stream(seed, key):
@@ -132,6 +133,28 @@ def shake(seed, pitch, yaw_deg, sigma_deg):
         pitch = pitch + jitter[0]
         yaw = yaw + jitter[1]
     return pitch, yaw
+
+
+def panel_layout(seed, s_end, spacing):
+    """Where the lit panels stand (metres along the tunnel, the first within one
+    ``spacing`` of the start, from a random stream of their own) and their looks
+    ``(housing, lit face, pictograph)`` grey levels: lit from inside like the
+    indicators' faces (170-180).
+
+    Examples
+    --------
+    >>> s, looks = panel_layout(0, 100.0, 50.0)
+    >>> len(s) == len(looks), bool(0 <= s[0] < 50), bool(np.allclose(np.diff(s), 50))
+    (True, True, True)
+    """
+    if spacing is None:
+        return np.zeros(0), []
+    rng = _stream(seed, _PANEL_STREAM)
+    first = rng.uniform(0.0, spacing)
+    s = first + spacing * np.arange(int((s_end + 300.0 - first) // spacing) + 1)
+    looks = [(rng.uniform(164, 170), rng.uniform(170, 180), rng.uniform(150, 160))
+             for _ in range(len(s))]
+    return s, looks
 
 
 def camera_output(img, gamma, bit_depth):
