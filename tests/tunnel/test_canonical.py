@@ -295,3 +295,37 @@ def test_cell_means_equal_the_area_resampling(shape, dtype, global_random_seed):
         got = cell_means(image)
         assert got.dtype == np.float32
         np.testing.assert_array_equal(got, want)
+
+
+def test_detect_to_files_refuses_another_bit_depth_naming_the_file(full_size_model,
+                                                                   tmp_path):
+    # 14-bit counts (uint16 PNGs) to a detector fitted on 8-bit frames: refused
+    # before any output is written, the message naming the frame's file and types
+    from tunnelsense.io import write_tour  # noqa: PLC0415
+    from tunnelsense.tunnel import detect_to_files  # noqa: PLC0415
+
+    counts = make_tunnel_tour(5, random_state=4, bit_depth=14, **QUIET)
+    src = write_tour(counts, tmp_path / "counts")
+    out = tmp_path / "res.txt"
+    match = r"counts/img1/000001\.png: frame 1 is uint16, but the detector was fitted on uint8"
+    with pytest.raises(InputFormatError, match=match):
+        detect_to_files(full_size_model, src, out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["counts"]
+
+
+def test_fourteen_bit_counts_are_served_by_a_model_fitted_on_them():
+    # the same tunnel recorded as 14-bit counts: a model fitted on such frames finds
+    # the sign the 8-bit model finds on the 8-bit frames
+    found = {}
+    for depth in (8, 14):
+        train = make_tunnel_tour(150, random_state=4, bit_depth=depth, **QUIET)
+        test = make_tunnel_tour(150, random_state=6, bit_depth=depth, **QUIET)
+        X, y, _ = to_xy([train])
+        model = make_indicator_pipeline(random_state=0, min_length=5).fit(X, y)
+        assert model.named_steps["keypoints"].pixel_dtype_ == str(
+            train.frames[0].image.dtype)
+        Xt, yt, _ = to_xy([test])
+        s = indicator_scores(model.predict(Xt), yt)["trajectory"]
+        found[depth] = (s["detected"], s["indicators"], s["false_alarms"])
+    assert found[8][0] == found[8][1] > 0 and found[8][2] == 0
+    assert found[14] == found[8]

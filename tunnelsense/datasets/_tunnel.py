@@ -34,6 +34,7 @@ from tunnelsense.datasets._tunnel_camera import (
 from tunnelsense.datasets._tunnel_render import (
     _draw_indicator,
     _draw_lamp,
+    _draw_panel,
     _draw_shadow,
     _draw_vehicle,
     _lamp_boxes,
@@ -53,9 +54,17 @@ from tunnelsense.datasets._tunnel_scene import (
     _make_vehicles,
     _resolve_params,
 )
-from tunnelsense.datasets._tunnel_sensor import Recording, defect_map
+from tunnelsense.datasets._tunnel_sensor import (
+    Recording,
+    camera_output,
+    defect_map,
+    panel_layout,
+    shake,
+)
 
 __all__ = ["TUNNEL_SCENARIOS", "make_tunnel_tour"]
+
+_PANEL = 0  # a lit panel's class while drawing (it has no ground truth)
 
 
 # --------------------------------------------------------------------------------------
@@ -177,12 +186,28 @@ def make_tunnel_tour(
         at 255, a third at 0, a third at a level of their own) and
         ``dead_columns`` (0: whole columns reading 0).  These sensor and
         recorder artefacts draw from random streams of their own and are
-        applied to the camera's output.
+        applied to the camera's output.  ``yaw_deg`` (0: the camera pointing
+        this many degrees to the right of the road's direction, left
+        negative; the view turned about the vertical axis); ``shake_deg`` (0:
+        vibration, the camera's pitch and yaw jittering by a normal of this
+        sigma from frame to frame, from a random stream of its own);
+        ``defocus_px`` (0: an out-of-focus lens, the radiance blurred by a
+        Gaussian of this sigma in pixels before the sensor's noise);
+        ``response_gamma`` (1: the camera's output curve, the grey levels
+        written as ``255 (I / 255) ** gamma``, a non-affine response);
+        ``bit_depth`` (8: uint8 grey levels; 9-16: uint16 counts, ``2 **
+        (bit_depth - 8)`` per grey level, as cameras recording 14-bit counts
+        write them); ``panel_spacing_m`` (None: lit panels, emergency-exit and
+        escape-route signs 0.8 m wide x 0.4 m tall centred 2.0 m high on the
+        signs' wall, lit from inside to about the indicators' levels, every this
+        many metres from a random stream of their own; they are no indicators
+        and in no ground truth, so a detection on one is a false alarm).
 
     Returns
     -------
     tour : Tour
-        uint8 frames ``(n_frames, height, width)``; ground truth of every object at least
+        uint8 frames ``(n_frames, height, width)`` (uint16 for ``bit_depth``
+        above 8); ground truth of every object at least
         2 px tall and within 300 m, per frame: box (unclipped, may extend beyond the
         image), class (1 indicator, 2 lamp, 3 vehicle, 4 shadow), persistent id,
         ``conf=1`` and ``visibility`` (fraction of the box inside the image and not
@@ -224,9 +249,13 @@ def make_tunnel_tour(
     cam = _Camera(p["focal_length_px"], (H, W), kappa, kappa_v)
 
     t, speed, s_ego, lat, hgt, pitch = _ego_motion(rng, n_frames, fps, p)
+    yaw = None  # the camera's yaw and vibration (a random stream of their own)
+    if p["yaw_deg"] or p["shake_deg"]:
+        pitch, yaw = shake(seed, pitch, p["yaw_deg"], p["shake_deg"])
     distance = float(s_ego[-1] + speed[-1] / fps)
     # an indicator's outer edge leaves the image at this depth
     side = -1 if p["indicator_side"] == "left" else 1
+    panel_side = side  # lit panels stand on the signs' wall
     x_edge = abs(_lining_x(p["indicator_height_m"], side)) - 0.05
     exit_depth = cam.f * x_edge / cam.cx
     indicators = _indicator_positions(rng, s_ego[-1], p, exit_depth)
@@ -248,6 +277,7 @@ def make_tunnel_tour(
         for _ in range(len(indicators))
     ]
     vehicles = _make_vehicles(rng, t, s_ego, speed, p)
+    panel_s, panel_look = panel_layout(seed, s_ego[-1], p["panel_spacing_m"])
     bg = _Background(cam, -20.0, s_ego[-1] + _Z_FAR + 20.0, rng)
 
     # ids: indicators, lamps (two rows), vehicles, shadows
@@ -284,9 +314,11 @@ def make_tunnel_tour(
         motion and traffic interpolated linearly), for the bolometer's lag."""
         if q is None:
             pose = (float(lat[f]), float(hgt[f]), float(pitch[f]))
+            pose += () if yaw is None else (float(yaw[f]),)
             sc = float(s_ego[f])
         else:
             pose = (_at(lat, q), _at(hgt, q), _at(pitch, q))
+            pose += () if yaw is None else (_at(yaw, q),)
             sc = _at(s_ego, q)
         half = bg.render(sc, pose)
         img = cv2.resize(half, (W, H), interpolation=cv2.INTER_LINEAR)
@@ -308,12 +340,18 @@ def make_tunnel_tour(
                     gl, ho = glass[k - lo], housing[k - lo]
                     if min(gl[4], ho[4]) > _Z_NEAR:
                         todo.append((lamp_s[k] + offset - sc, LAMP, (row, k, gl, ho)))
+        lo, hi = np.searchsorted(panel_s, [sc + _Z_NEAR, sc + _Z_FAR])
+        for k in range(lo, hi):
+            todo.append((panel_s[k] - sc, _PANEL, k))
         for k, veh in enumerate(vehicles):
             ds = veh["gap"][f] if q is None else _at(veh["gap"], q)
             if 2.0 < ds < _Z_FAR:
                 todo.append((ds, VEHICLE, k))
         todo.sort(key=lambda item: -item[0])  # painter's order: far to near
         for ds, cls, key in todo:
+            if cls == _PANEL:  # lit, but no indicator: in no ground truth
+                _draw_panel(img, cam, pose, ds, panel_side, panel_look[key])
+                continue
             if cls == INDICATOR:
                 box = _draw_indicator(img, cam, pose, ds, p, ind_look[key])
                 oid = ind_ids[key]
@@ -334,7 +372,8 @@ def make_tunnel_tour(
                 drawn.append((box[4], cls, oid, box, cls == VEHICLE))
         return img, drawn
 
-    images = np.empty((n_frames, H, W), dtype=np.uint8)
+    images = np.empty((n_frames, H, W),
+                      dtype=np.uint8 if p["bit_depth"] == 8 else np.uint16)
     rows = []
     defects = None
     if p["defect_pixels"] > 0 or p["dead_columns"] > 0:
@@ -351,6 +390,9 @@ def make_tunnel_tour(
             drawn = [(z, c, o, _roll_box(b, roll), occ) for z, c, o, b, occ in drawn]
         if vignette is not None:  # the lens passes less radiance off-axis
             img *= vignette
+        if p["defocus_px"] > 0:  # an out-of-focus lens: the radiance blurred
+            img = cv2.GaussianBlur(img, (0, 0), p["defocus_px"],
+                                   borderType=cv2.BORDER_REFLECT)
         if p["gain"] != 1.0 or p["offset"] != 0.0:
             img *= np.float32(p["gain"])
             img += np.float32(p["offset"])
@@ -362,9 +404,7 @@ def make_tunnel_tour(
         if defects is not None:  # stuck pixels and dead columns read the same
             img[defects[0], defects[1]] = defects[2]
             img[:, defects[3]] = 0.0
-        np.clip(img, 0, 255, out=img)
-        np.rint(img, out=img)
-        images[f] = img
+        images[f] = camera_output(img, p["response_gamma"], p["bit_depth"])
         rows.append(_gt_rows(f + 1, drawn, W, H))
         if progress is not None:
             progress(f + 1, n_frames)
@@ -423,7 +463,9 @@ def make_tunnel_tour(
     for key, default in (("roll_deg", 0.0), ("vignetting", 1.0),
                          ("indicator_side", "left"), ("thermal_time_constant_s", 0.0),
                          ("dropped_frames", 0.0), ("defect_pixels", 0.0),
-                         ("dead_columns", 0)):
+                         ("dead_columns", 0), ("yaw_deg", 0.0), ("shake_deg", 0.0),
+                         ("defocus_px", 0.0), ("response_gamma", 1.0), ("bit_depth", 8),
+                         ("panel_spacing_m", None)):
         if p[key] != default:
             info[key] = p[key]
     info.update(recording.info(p))

@@ -49,10 +49,17 @@ class _Camera:
         return x, z, y
 
     def project(self, x, z, y, pose):
-        """Straight-frame points (x lateral, z ahead, y height) -> pixels, depth."""
-        e, h, phi = pose
+        """Straight-frame points (x lateral, z ahead, y height) -> pixels, depth.
+
+        ``pose`` is ``(e, h, phi)`` or ``(e, h, phi, psi)``: ``psi`` a yaw (radians,
+        the camera turned to the right positive), applied before the pitch."""
+        e, h, phi = pose[:3]
         xr = np.asarray(x) - e
         yr = np.asarray(y) - h
+        psi = pose[3] if len(pose) > 3 else 0.0
+        if psi:  # the camera turned about the vertical axis
+            cy_, sy_ = math.cos(psi), math.sin(psi)
+            xr, z = xr * cy_ - z * sy_, xr * sy_ + z * cy_
         c, s = math.cos(phi), math.sin(phi)
         zc = z * c + yr * s
         yc = yr * c - z * s
@@ -111,11 +118,18 @@ class _Background:
 
     def render(self, s_cam, pose):
         cam = self.cam
-        e, h, phi = pose
+        e, h, phi = pose[:3]
         k = cam.kappa
         c, sn = math.cos(phi), math.sin(phi)
         dz = c - self.yc * sn
-        dx = self.xc / dz
+        psi = pose[3] if len(pose) > 3 else 0.0
+        if psi:  # undo the yaw: the ray in the road's frame
+            cy_, sy_ = math.cos(psi), math.sin(psi)
+            dz_yawed = dz
+            dz = dz_yawed * cy_ - self.xc * sy_
+            dx = (self.xc * cy_ + dz_yawed * sy_) / dz
+        else:
+            dx = self.xc / dz
         dy = (self.yc * c + sn) / dz
         inf = np.float32(np.inf)
         kv = cam.kappa_v

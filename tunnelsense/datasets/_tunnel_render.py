@@ -134,6 +134,35 @@ def _draw_indicator(img, cam, pose, ds, p, look):
     return box
 
 
+#: lit panels other than the indicators (emergency-exit and escape-route signs):
+#: width, height and centre height (m), landscape where the indicator is portrait
+PANEL_SIZE_M, PANEL_HEIGHT_M = (0.8, 0.4), 2.0
+
+
+def _draw_panel(img, cam, pose, ds, side, look):
+    """A lit panel sign on the wall ``side`` (-1 left) facing the traffic, its outer
+    edge 5 cm off the lining: a housing, a lit face, a darker pictograph (a running
+    figure and an arrow). Returns its box (it is in no ground truth)."""
+    w, hgt = PANEL_SIZE_M
+    x_out = _lining_x(PANEL_HEIGHT_M, side) - side * 0.05
+    d = np.array(sorted([x_out, x_out - side * w]))
+    y = np.array([PANEL_HEIGHT_M - hgt / 2, PANEL_HEIGHT_M + hgt / 2])
+    dd, yy = np.meshgrid(d, y)
+    x3, z3, y3 = cam.to_camera(np.full(4, ds), dd.ravel(), yy.ravel())
+    box = _box_of(cam, pose, x3, z3, y3)
+    if box is None:
+        return None
+    u0, v0, u1, v1, _ = box
+    bw, bh = u1 - u0, v1 - v0
+    frame, face, figure = look
+    _paint(img, u0, u1, v0, v1, frame)
+    _paint(img, u0 + 0.05 * bw, u1 - 0.05 * bw, v0 + 0.1 * bh, v1 - 0.1 * bh, face)
+    if bw > 8:
+        _paint(img, u0 + 0.15 * bw, u0 + 0.4 * bw, v0 + 0.2 * bh, v1 - 0.2 * bh, figure)
+        _paint(img, u0 + 0.55 * bw, u1 - 0.15 * bw, v0 + 0.4 * bh, v1 - 0.4 * bh, figure)
+    return box
+
+
 _LAMP_GLASS_Y = 4.9  # height of the glass (bottom face of the luminaire)
 _LAMP_LENGTH = 1.2  # along the tunnel
 _LAMP_DEPTH = 0.25  # housing height above the glass

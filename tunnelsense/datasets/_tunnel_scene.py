@@ -53,6 +53,12 @@ _DEFAULTS = {
     "frame_numbers": "counter",  # the camera's counter, or "sequential" (no gaps)
     "defect_pixels": 0.0,  # fraction of pixels stuck (hot, dead, or at a level)
     "dead_columns": 0,  # columns reading 0
+    "yaw_deg": 0.0,  # camera pointing, turned to the right positive
+    "shake_deg": 0.0,  # per-frame pitch and yaw jitter (vibration), sigma in degrees
+    "defocus_px": 0.0,  # Gaussian sigma (px) of an out-of-focus lens's extra blur
+    "response_gamma": 1.0,  # output curve 255 (I / 255) ** gamma (1: linear)
+    "bit_depth": 8,  # 8: uint8 grey levels; 9-16: uint16 counts, levels x 2**(b-8)
+    "panel_spacing_m": None,  # lit exit/escape panels on the signs' wall (None: none)
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -310,6 +316,16 @@ def _resolve_params(scenario, overrides, seed=0):
             f"got {columns!r}"
         )
     p["dead_columns"] = int(columns)
+    p["yaw_deg"] = _check_range("yaw_deg", p["yaw_deg"], -20.0, 20.0)
+    p["shake_deg"] = _check_range("shake_deg", p["shake_deg"], 0.0, 5.0)
+    p["defocus_px"] = _check_range("defocus_px", p["defocus_px"], 0.0, 20.0)
+    p["response_gamma"] = _check_range("response_gamma", p["response_gamma"], 0.2, 5.0)
+    if p["panel_spacing_m"] is not None:
+        p["panel_spacing_m"] = _check_range("panel_spacing_m", p["panel_spacing_m"], 5.0)
+    depth = p["bit_depth"]
+    if isinstance(depth, bool) or not isinstance(depth, Integral) or not 8 <= depth <= 16:
+        raise ValueError(f"bit_depth must be an int in [8, 16]; got {depth!r}")
+    p["bit_depth"] = int(depth)
     if p["indicator_side"] not in ("left", "right"):
         raise ValueError(
             f"indicator_side must be 'left' or 'right'; got {p['indicator_side']!r}"

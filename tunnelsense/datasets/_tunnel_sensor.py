@@ -14,7 +14,13 @@ was:
   what it writes itself, consecutive numbers (the time of a lost frame is lost);
 * **defective pixels**: pixels stuck at full scale (hot), at zero (dead) or at a
   level of their own, and whole dead columns (a failed column amplifier), at the
-  same place in every frame.
+  same place in every frame;
+* **vibration** (camera shake): the mount's pitch and yaw jitter from frame to
+  frame (engine and road at 10-30 Hz, faster than a frame).
+
+And, drawing nothing at random, the camera's **output stage**: a non-linear
+response (a gamma curve on the grey levels) and the bit depth of the frames
+(14-bit counts in 16-bit words, as many FIR cameras record).
 """
 
 from __future__ import annotations
@@ -25,10 +31,12 @@ import numpy as np
 
 from tunnelsense._records import FrameRecord, FrameSequence
 
-__all__ = ["Recording", "defect_map", "dropped_frames", "nuc_freezes"]
+__all__ = ["Recording", "camera_output", "defect_map", "dropped_frames", "nuc_freezes",
+           "panel_layout", "shake"]
 
 #: spawn keys of the artefacts' random streams (children of the tour's seed)
-_NUC_STREAM, _DROP_STREAM, _DEFECT_STREAM = 7301, 7302, 7303
+_NUC_STREAM, _DROP_STREAM, _DEFECT_STREAM, _SHAKE_STREAM = 7301, 7302, 7303, 7304
+_PANEL_STREAM = 7305
 
 
 def _stream(seed, key):
@@ -105,6 +113,76 @@ def defect_map(seed, shape, fraction, n_columns):
                                                  np.floor(rng.uniform(0, 256, k))))
     dead = np.sort(rng.choice(W, size=int(n_columns), replace=False))
     return flat // W, flat % W, levels.astype(np.float32), dead
+
+
+def shake(seed, pitch, yaw_deg, sigma_deg):
+    """The camera's pitch and yaw per frame (radians): ``pitch`` (the body's) and
+    the static ``yaw_deg`` (right positive), each plus an independent normal jitter
+    of ``sigma_deg`` per frame (vibration).
+
+    Examples
+    --------
+    >>> p, y = shake(0, np.zeros(500), 3.0, 0.3)
+    >>> round(float(np.rad2deg(y).mean()), 1), round(float(np.rad2deg(p).std()), 1)
+    (3.0, 0.3)
+    """
+    n = len(pitch)
+    yaw = np.full(n, math.radians(yaw_deg))
+    if sigma_deg > 0:
+        jitter = np.deg2rad(_stream(seed, _SHAKE_STREAM).normal(0.0, sigma_deg, (2, n)))
+        pitch = pitch + jitter[0]
+        yaw = yaw + jitter[1]
+    return pitch, yaw
+
+
+def panel_layout(seed, s_end, spacing):
+    """Where the lit panels stand (metres along the tunnel, the first within one
+    ``spacing`` of the start, from a random stream of their own) and their looks
+    ``(housing, lit face, pictograph)`` grey levels: lit from inside like the
+    indicators' faces (170-180).
+
+    Examples
+    --------
+    >>> s, looks = panel_layout(0, 100.0, 50.0)
+    >>> len(s) == len(looks), bool(0 <= s[0] < 50), bool(np.allclose(np.diff(s), 50))
+    (True, True, True)
+    """
+    if spacing is None:
+        return np.zeros(0), []
+    rng = _stream(seed, _PANEL_STREAM)
+    first = rng.uniform(0.0, spacing)
+    s = first + spacing * np.arange(int((s_end + 300.0 - first) // spacing) + 1)
+    looks = [(rng.uniform(164, 170), rng.uniform(170, 180), rng.uniform(150, 160))
+             for _ in range(len(s))]
+    return s, looks
+
+
+def camera_output(img, gamma, bit_depth):
+    """The frame the camera writes from its linear grey levels ``img`` (float32,
+    0-255 scale, modified in place): clipped, the response curve ``255 (I / 255) **
+    gamma`` when ``gamma != 1``, scaled to ``2 ** bit_depth`` counts when
+    ``bit_depth > 8`` (the 8-bit scale's 255 at ``255 * 2 ** (bit_depth - 8)``),
+    rounded.
+
+    Examples
+    --------
+    >>> img = np.array([[0.0, 63.75, 255.0, 300.0]], np.float32)
+    >>> camera_output(img.copy(), 1.0, 8).tolist()
+    [[0.0, 64.0, 255.0, 255.0]]
+    >>> camera_output(img.copy(), 0.5, 8).tolist()
+    [[0.0, 128.0, 255.0, 255.0]]
+    >>> camera_output(img.copy(), 1.0, 14).tolist()
+    [[0.0, 4080.0, 16320.0, 16320.0]]
+    """
+    np.clip(img, 0, 255, out=img)
+    if gamma != 1.0:
+        img /= np.float32(255.0)
+        np.power(img, np.float32(gamma), out=img)
+        img *= np.float32(255.0)
+    if bit_depth > 8:
+        img *= np.float32(2 ** (bit_depth - 8))
+    np.rint(img, out=img)
+    return img
 
 
 class Recording:

@@ -32,6 +32,7 @@ from tunnelsense.io._sources import decode_ahead, decode_tours, open_tour
 from tunnelsense.io._video_out import VideoOutput, source_frame_rate
 from tunnelsense.io._writer import ResultsWriter
 from tunnelsense.plotting._detections import draw_detections
+from tunnelsense.tunnel._keypoints import check_served_depth
 from tunnelsense.tunnel._kmeans import blas_threads
 from tunnelsense.tunnel._pipeline import make_indicator_pipeline
 from tunnelsense.tunnel._search_grid import SEARCH_GRID
@@ -451,6 +452,10 @@ def detect_to_files(model, source, out, *, resume=False, overwrite=False, n_thre
     if draw_every < 1:
         raise ValueError(f"draw_every must be at least 1; got {draw_every}")
     frames, total = open_frames(source, colour=colour, missing_frames=missing_frames)
+    first = next(frames, None)
+    if first is not None:  # a frame of another bit depth: refused, nothing written
+        check_served_depth(model, first, source)
+        frames = itertools.chain([first], frames)
     if progress is not None:
         progress.set_total(total)
     images = {}

@@ -83,6 +83,26 @@ def _check_depth(image, index, record, expected, band=None):
     )
 
 
+def check_served_depth(model, record, source):
+    """Refuse, before any output is written, a source whose first frame has another
+    pixel type than the frames ``model`` (a fitted indicator pipeline) was fitted
+    on, naming the file and both types; a model without a fitted sampler of known
+    depth passes (its own ``predict`` decides)."""
+    step = getattr(model, "named_steps", {}).get("keypoints")
+    fitted = getattr(step, "pixel_dtype_", None)
+    image = record.image
+    if fitted is None or str(image.dtype) == fitted:
+        return
+    path = getattr(record.source, "path", None) or str(source)
+    raise InputFormatError(
+        f"{path}: frame {record.frame} is {image.dtype}, but the detector was fitted "
+        f"on {fitted} frames (its intensity band is in {fitted} grey levels). A "
+        "16-bit camera's raw counts are not 8-bit levels times 257 (the camera's "
+        "gain decides); fit the detector on frames of this depth, or convert the "
+        "frames to the fitted depth yourself"
+    )
+
+
 def to_canonical_8bit(image, level, spread, ref_level, ref_spread):
     """A frame of any depth mapped affinely so that its background ``(level,
     spread)`` becomes ``(ref_level, ref_spread)``, rounded and clipped to 8 bits.
