@@ -8,6 +8,8 @@ For one ``--frames`` light-traffic tour (640x480 PNGs, simulated once into
   (the floor of any command that reads the tour);
 * ``train``: ``tunnelsense train tunnel TOUR --model M --force --quiet``;
 * ``train --jobs 1``: the same with one reader thread;
+* with ``--sample-rate HZ``, ``train --sample-rate HZ``: the same, decoding and
+  fitting HZ frames of each second of the tour only (a model that changes);
 * with ``--baseline SRC`` (a source tree, e.g. a ``git worktree`` of an older
   commit), ``baseline train`` and ``baseline train --jobs 1``: the same commands
   run from that tree (``PYTHONPATH=SRC``), for a paired before/after;
@@ -22,6 +24,7 @@ than one thread); it exits 1 when the first round's train median exceeds
 
     python benchmarks/bench_train_tunnel.py --frames 1500 --repeats 5
     python benchmarks/bench_train_tunnel.py --repeats 3 --baseline /tmp/main-tree
+    python benchmarks/bench_train_tunnel.py --no-busy --sample-rate 10
 """
 
 import argparse
@@ -48,7 +51,7 @@ def _busy():
         pass
 
 
-def _runs(tour, model, baseline):
+def _runs(tour, model, baseline, sample_rate=None):
     # -P: the working directory is not put first on the path, so each run imports
     # the tree its PYTHONPATH names (this one, or --baseline) wherever the script
     # is started from (from the repository's root, the baseline ran this tree)
@@ -57,6 +60,9 @@ def _runs(tour, model, baseline):
     here = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     runs = {"decode": ([sys.executable, "-c", _DECODE, str(tour)], None),
             "train": (cli, here), "train --jobs 1": ([*cli, "--jobs", "1"], here)}
+    if sample_rate is not None:
+        runs[f"train --sample-rate {sample_rate:g}"] = (
+            [*cli, "--sample-rate", str(sample_rate)], here)
     if baseline is not None:
         env = {**os.environ, "PYTHONPATH": str(Path(baseline).resolve())}
         runs["baseline train"] = (cli, env)
@@ -88,6 +94,8 @@ def main(argv=None):
                    help="also run train from this source tree (PYTHONPATH=SRC)")
     p.add_argument("--no-busy", action="store_true", help="skip the round beside "
                    "two busy processes")
+    p.add_argument("--sample-rate", type=float, default=None, metavar="HZ",
+                   help="also run train --sample-rate HZ (this tree)")
     args = p.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="bench-train-"))
     tour = work / f"light-{args.frames}"
@@ -96,7 +104,7 @@ def main(argv=None):
         from tunnelsense.io import write_tour
 
         write_tour(make_tunnel_tour(args.frames, scenario="light", random_state=0), tour)
-    runs = _runs(tour, work / "m.skops", args.baseline)
+    runs = _runs(tour, work / "m.skops", args.baseline, args.sample_rate)
     rounds = []
     label = "as it is"
     load = machine_load()

@@ -440,6 +440,51 @@ def test_train_progress_names_each_stage(tmp_path, capsys):
     assert "fitted: 100%" in err and "6/6" in err
 
 
+def test_train_sample_rate_decodes_and_fits_a_sample_in_time(tmp_path, capsys):
+    """By default (and with --sample-rate all) every frame is fitted; --sample-rate 6
+    fits every 5th frame of the 30 fps tour, the model that of those frames (the model
+    card and the report say so); a rate that is not a positive number is refused by
+    name before anything is read."""
+    from tunnelsense import to_xy
+    from tunnelsense.io import describe_model, load_model
+    from tunnelsense.tunnel import make_indicator_pipeline
+
+    def read_model_summary(path):
+        return describe_model(path)["summary"]
+
+    tour = write_tour(make_tunnel_tour(60, random_state=5, first_indicator_m=20.0),
+                      tmp_path / "t")
+    model = tmp_path / "m.skops"
+    for extra in ([], ["--sample-rate", "all"]):
+        assert main(["train", "tunnel", str(tour), "--model", str(model), "--force",
+                     *extra]) == 0
+        captured = capsys.readouterr()
+        assert "60/60" in captured.err.replace("\r", "\n")
+        assert "fitted on" not in captured.out
+        summary = read_model_summary(model)
+        assert summary["sample_rate"] is None and summary["frames_fitted"] == 60
+    assert main(["train", "tunnel", str(tour), "--model", str(model), "--force",
+                 "--sample-rate", "6"]) == 0
+    assert "fitted on 12 frames (6 a second of each tour)" in capsys.readouterr().out
+    summary = read_model_summary(model)
+    assert summary["sample_rate"] == 6.0 and summary["frames_fitted"] == 12
+    X, y, _ = to_xy([read_tour(tour)])
+    assert X[0].payload["frame_rate"] == 30.0
+    fitted = make_indicator_pipeline(random_state=0,
+                                     verifier__n_jobs=os.cpu_count() or 1)
+    fitted.fit(X[::5], y[::5])
+    trained = load_model(model)
+    assert lines_of(fitted.predict(X)) == lines_of(trained.predict(X))
+    assert trained["keypoints"].low_ == fitted["keypoints"].low_
+    assert trained["keypoints"].high_ == fitted["keypoints"].high_
+    for bad in ("0", "-3", "nan", "fast"):
+        with pytest.raises(SystemExit):
+            main(["train", "tunnel", str(tour), "--model", str(tmp_path / "x.skops"),
+                  "--sample-rate", bad])
+        assert "--sample-rate: expected a positive number" in capsys.readouterr().err
+    assert not (tmp_path / "x.skops").exists()
+
+
 def test_missing_frames_gap_reads_a_recorder_s_gaps(tour_dirs, models, tmp_path):
     """A tour whose recorder lost frames: refused by default (the message names the
     option), read as gaps in time with --missing-frames gap, by detect (one tour and

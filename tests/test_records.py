@@ -153,3 +153,34 @@ def test_a_tour_s_frames_carry_its_frame_rate(tmp_path):
     assert {r.payload["frame_rate"] for r in open_tour(tmp_path / "a").frames} == {9.0}
     # a frame array of a user's carries none
     assert "frame_rate" not in FrameSequence.from_array(images)[0].payload
+
+
+def test_sample_in_time_keeps_every_kth_frame_of_each_tour_as_a_slower_recording():
+    """A 30 fps tour with a gap (frames 8 and 9 lost) and a 15 fps tour, sampled at 6
+    frames a second: every 5th and every 2nd frame by number, renumbered as a
+    recording at 6 and 7.5 fps (the gap stays one), targets and tours aligned; the
+    images are the same objects (nothing decoded)."""
+    from tunnelsense._records._sampling import sample_in_time
+
+    image = np.zeros((2, 2), np.uint8)
+    a = [FrameRecord("a", f, image, {"frame_rate": 30.0})
+         for f in range(3, 25) if f not in (8, 9)]
+    b = [FrameRecord("b", f, image, {"frame_rate": 15.0}) for f in range(1, 6)]
+    X = a + b
+    y = [(r.tour, r.frame) for r in X]
+    groups = [0] * len(a) + [1] * len(b)
+    Xs, ys, gs = sample_in_time(X, y, groups, 6.0)
+    assert ys == [("a", 3), ("a", 13), ("a", 18), ("a", 23), ("b", 1), ("b", 3),
+                  ("b", 5)]
+    assert [(r.tour, r.frame) for r in Xs] == [("a", 1), ("a", 3), ("a", 4), ("a", 5),
+                                               ("b", 1), ("b", 2), ("b", 3)]
+    assert [r.payload["frame_rate"] for r in Xs] == [6.0] * 4 + [7.5] * 3
+    assert gs == [0, 0, 0, 0, 1, 1, 1]
+    assert all(r.source is image for r in Xs)
+    # a rate at or above the tour's keeps every frame as it is
+    Xs, ys, _ = sample_in_time(b, list(range(5)), [0] * 5, 15.0)
+    assert Xs == b and ys == list(range(5))
+    assert sample_in_time(X, y, groups, None) == (X, y, groups)
+    for bad in (0.0, -1.0, float("nan"), float("inf"), "6"):
+        with pytest.raises(ValueError, match="sample_rate must be"):
+            sample_in_time(X, y, groups, bad)

@@ -26,7 +26,8 @@ def _cmd_train(args) -> int:
     tours = [read_tour(d, colour=common.colour(args), missing_frames=args.missing_frames)
              for d in args.seqdirs]
     # the reader threads decode while the fitting machinery (scikit-learn) imports
-    decoding = decode_tours(tours, n_threads=args.jobs)
+    rate = None if args.search else args.sample_rate
+    decoding = decode_tours(tours, n_threads=args.jobs, sample_rate=rate)
     from tunnelsense.tunnel import fit_indicator_detector
     from tunnelsense.tunnel._reports import format_tours, format_training
 
@@ -34,7 +35,8 @@ def _cmd_train(args) -> int:
     bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
         tours, search=args.search, random_state=args.seed, n_jobs=args.jobs,
-        dask_scheduler=args.dask_scheduler, progress=bars, _decoding=decoding)
+        dask_scheduler=args.dask_scheduler, progress=bars, sample_rate=rate,
+        _decoding=decoding)
     if bars is not None:
         bars.close()
     print(format_training(model, summary))
@@ -45,6 +47,20 @@ def _cmd_train(args) -> int:
 #: ``--readers``: what the reader threads run beside the decode (``stream_detect``'s
 #: ``stages_in_readers``): nothing, the first stage (keypoints), every per-frame stage.
 _READERS = {"decode": False, "keypoints": 1, "stages": True}
+
+
+def _sample_rate(text):
+    """``--sample-rate``: a positive number of frames per second, or 'all' (None)."""
+    if text == "all":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number of frames per second or 'all'; got {text!r}")
+    return value
 
 
 def _cmd_detect(args) -> int:
@@ -132,6 +148,10 @@ def register(verbs) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--jobs", type=int, default=common.CPUS, help="threads decoding the "
                    "frames, and parallel fits of --search (default: the number of CPUs)")
+    p.add_argument("--sample-rate", type=_sample_rate, default=None, metavar="HZ",
+                   help="decode and fit only this many frames per second of each tour "
+                   "(every k-th frame; faster, but the model changes), or 'all' "
+                   "(default: every frame); --search always uses every frame")
     p.add_argument("--dask-scheduler", metavar="ADDRESS", help="run the fits of "
                    "--search on this Dask cluster (e.g. tcp://10.0.0.5:8786; needs the "
                    "'distributed' extra); the workers must see the tour folders at the "

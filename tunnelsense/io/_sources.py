@@ -281,14 +281,16 @@ def decode_ahead(records: Iterable, *, n_threads=1, ahead=8, then=None) -> Itera
             yield pending.popleft().result()
 
 
-def decode_tours(tours, *, n_threads=1):
+def decode_tours(tours, *, n_threads=1, sample_rate=None):
     """Start decoding every frame of labelled tours in reader threads, at once.
 
     The training command calls it before it imports the fitting machinery
     (scikit-learn, about a second), so that the import runs while the reader threads
     decode.  Returns ``(frames, y, groups, n_frames)``: ``frames`` yields the decoded
     records in order (see :func:`decode_ahead`); ``y`` and ``groups`` are those of
-    :func:`~tunnelsense.to_xy`.
+    :func:`~tunnelsense.to_xy`.  With ``sample_rate`` (frames per second), only the
+    frames :func:`~tunnelsense._records._sampling.sample_in_time` keeps are decoded
+    and given (renumbered as a recording at that rate).
 
     Examples
     --------
@@ -299,8 +301,9 @@ def decode_tours(tours, *, n_threads=1):
     (5, 5)
     """
     from tunnelsense._records import to_xy  # noqa: PLC0415
+    from tunnelsense._records._sampling import sample_in_time  # noqa: PLC0415
 
-    X, y, groups = to_xy(tours)
+    X, y, groups = sample_in_time(*to_xy(tours), sample_rate)
     frames = decode_ahead(X, n_threads=max(int(n_threads), 1), ahead=max(len(X), 1))
     first = next(frames, None)  # every frame is queued now: the reader threads start
 

@@ -50,12 +50,12 @@ __all__ = [
 
 def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
                            dask_scheduler=None, progress=None, search_progress=None,
-                           _decoding=None):
+                           sample_rate=None, _decoding=None):
     """Fit the indicator detector on labelled tours, as ``train tunnel`` does.
 
     The frames are decoded once, in ``n_jobs`` reader threads; the fit equals
     ``make_indicator_pipeline(random_state=random_state).fit(X, y)`` on
-    ``X, y = to_xy(tours)``.
+    ``X, y = to_xy(tours)`` (sampled in time with ``sample_rate``).
 
     Parameters
     ----------
@@ -80,6 +80,16 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         fit (``done`` steps of ``total``), or the search's fits done and its refit.
     search_progress : callable or None, default=None
         ``search_progress(done, total)`` after each fit of a search.
+    sample_rate : float or None, default=None
+        Frames per second of each tour the fit sees (every ``k``-th frame,
+        ``k = floor(frame rate / sample_rate)``, at least 1; the others are not
+        decoded); None: every frame.  Only the keypoint band, the verifier and the
+        appearance stage learn, and each from single frames (the trajectory stages
+        learn nothing), so a sample in time fits them at a fraction of the decoding
+        and fitting; it changes the fitted model, hence off by default.  The
+        training scores are those of the sample, read as a recording at its rate.
+        A search (``search=True``) fits and scores every frame (its scores follow
+        whole trajectories).
 
     Returns
     -------
@@ -103,8 +113,9 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
     # _decoding (private): decode_tours(tours) started by the caller (the command,
     # before its imports), else started here
+    rate = None if search else sample_rate
     if _decoding is None:
-        _decoding = decode_tours(tours, n_threads=max(n_jobs, 1))
+        _decoding = decode_tours(tours, n_threads=max(n_jobs, 1), sample_rate=rate)
     frames, y, groups, n_frames = _decoding
     frames = counted(frames, "decoding frames", n_frames, progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
@@ -137,7 +148,7 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     else:
         model, output = fit_pipeline(model, X, y, progress=progress and (
             lambda name, k, n: progress(f"fitting {name}" if name else "fitted", k, n)))
-    return model, _summary(tours, model, output, y, found)
+    return model, _summary(tours, model, output, y, found, rate)
 
 
 def _dask(address):
@@ -154,7 +165,7 @@ def _dask(address):
     return stack
 
 
-def _summary(tours, model, output, y, search) -> dict:
+def _summary(tours, model, output, y, search, sample_rate) -> dict:
     """Tours, parameters and scores stored in a model file (``tunnelsense info``)."""
     from tunnelsense.metrics import indicator_scores
 
@@ -171,6 +182,9 @@ def _summary(tours, model, output, y, search) -> dict:
                        if "__" in k and not hasattr(v, "get_params")},
         # the band in use (learned from the training tours by default)
         "keypoint_band": [round(float(kp.low_), 2), round(float(kp.high_), 2)],
+        # the frames fitted (and scored): every frame, or a sample in time
+        "sample_rate": sample_rate,
+        "frames_fitted": len(output),
         "training_scores": indicator_scores(output, y),
     }
     if search is not None:

@@ -61,6 +61,9 @@ def format_training(model, summary) -> str:
                      f"(score {s['best_score']:.4f})")
     kp = model.named_steps["keypoints"]
     lines.append(f"keypoint band: [{kp.low_:.1f}, {kp.high_:.1f}] ({kp.band})")
+    if summary.get("sample_rate") is not None:
+        lines.append(f"fitted on {summary['frames_fitted']} frames "
+                     f"({summary['sample_rate']:g} a second of each tour)")
     return "\n".join(lines)
 
 
