@@ -93,7 +93,8 @@ def check_served_depth(model, record, source):
     image = record.image
     if fitted is None or str(image.dtype) == fitted:
         return
-    path = getattr(record.source, "path", None) or str(source)
+    origin = getattr(record.source, "origin", record.source)  # decoded: its file
+    path = getattr(origin, "path", None) or str(source)
     raise InputFormatError(
         f"{path}: frame {record.frame} is {image.dtype}, but the detector was fitted "
         f"on {fitted} frames (its intensity band is in {fitted} grey levels). A "
