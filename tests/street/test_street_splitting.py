@@ -28,15 +28,18 @@ def test_oblique_cars_overlap_along_the_track(echelon):
     assert (gt.first_scan.to_numpy()[1:] < gt.last_scan.to_numpy()[:-1]).all()
 
 
-def test_cars_in_echelon_are_split_into_one_object_each(echelon):
-    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6)).fit(echelon.scans)
-    off = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), split_merged=False).fit(
+@pytest.mark.parametrize("off", [dict(split_merged=False), dict(region_depth="near")])
+def test_cars_in_echelon_are_split_into_one_object_each(echelon, off):
+    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), region_depth="across").fit(
         echelon.scans)
+    off = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), **{
+        "region_depth": "across", **off}).fit(echelon.scans)
     d_on, d_off = on.detect(echelon.scans), off.detect(echelon.scans)
     s_on = street_scores(echelon.gt, d_on)["parked"]
     assert s_on["tp"] == 3 and s_on["fp"] == 0
     assert (d_on.label == "parked").sum() == 3 and d_on.length.max() < 5.0
-    # without splitting, neighbours joined where a scan cuts both
+    # without splitting (the default region_depth="near" never splits so),
+    # neighbours joined where a scan cuts both
     assert street_scores(echelon.gt, d_off)["parked"]["tp"] < 3
     assert d_off.length.max() > 7.0
 
@@ -78,5 +81,6 @@ def test_cars_along_the_kerb_are_not_split():
     boxes = [dict(s0=2.0 + k * 4.5, s1=6.4 + k * 4.5, depth=4.6, top=sedan)
              for k in range(3)]
     run = make_run(boxes, ["parked"] * 3, n_scans=150, speed=SPEED)
-    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6)).fit(run.scans)
+    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), region_depth="across").fit(
+        run.scans)
     assert street_scores(run.gt, on.detect(run.scans))["parked"]["tp"] == 3

@@ -67,6 +67,7 @@ class _Labelling:
                 link_distance=est.link_distance,
                 **(dict(horizon=self.horizon, step=HORIZON_STEP) if est.beam_occlusion
                    else {}))
+        if est.split_merged and est.region_depth == "across" and len(objects):
             # vehicles in echelon (bays at an angle), joined by overlapping ends
             n = int(objects.max()) + 1
             first = np.full(n, len(self.records), dtype=np.int64)
