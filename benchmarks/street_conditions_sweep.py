@@ -177,6 +177,30 @@ deg 0.870 -> 0.870, rows at 45 deg 0.677/0.985 -> 0.677/0.985, rows at 90 deg
 walls, hedges and parked bicycles unchanged; the matrix
 (cross_condition_street_table.py --scans 2000) unchanged in every row, classes
 included.
+
+Measured 2026-11-28, ``region_depth="across"`` against the default on every setting
+of bases plain and motorbikes and the default rows of the other bases, tuning seeds
+101-105, with and without the echelon split (``split_merged``: an object whose near
+side has a ridge between two valleys, each at least half its median body depth
+below it, is cut at the ridge); the whole table is street_region_depth_table.md.
+"across" differs from "near" only on kerb 5.2 m (plain 0.943 -> 0.957, motorbikes
+0.944 -> 0.948) and the angled bays; it does not become the default: base
+motorbikes, rows of bays at 90 deg, 1 -> 3 false objects (0.486/0.994 ->
+0.718/0.987: two neighbours seen end on, joined into one ~4 m object, parked).  The
+split on by default was tried and dropped: base motorbikes, hedges right behind the
+kerb 0.851/0.954 -> 0.877/0.933 (+6 false objects: the hedge between two motorbikes
+across the kerb is a ridge of the near side; walls there 0.877/0.967 ->
+0.933/0.984); so it runs with "across" only.  "across" + split against "across",
+tuning: base plain, bays 45 deg 0.939 -> 0.951, rows of bays at 45 deg
+0.665/0.984 -> 0.780/1.000; base motorbikes, bays 45 deg 0.767 -> 0.770, rows of
+45-deg bays 0.687 -> 0.715, walls 0.877/0.967 -> 0.933/0.984, hedges 0.851/0.954
+-> 0.877/0.933; every other row identical.  Evaluation seeds 7001-7003, once, base
+plain, "across" before -> after: bays at 90 deg 0.964/1.000 both, bays at 45 deg
+0.870 -> 0.926, rows of bays at 45 deg 0.677/0.985 -> 0.781/1.000, rows of bays
+at 90 deg 0.870/1.000 both (the default's figures unchanged); base motorbikes,
+bays 45 deg 0.746 -> 0.751, rows of 45-deg bays 0.686 -> 0.698, bays and rows at
+90 deg and walls unchanged, hedges right behind the kerb 0.917/0.982 ->
+0.893/0.964 (the hedge cut at its ridges, as on the tuning seeds).
 """
 
 import argparse

@@ -68,7 +68,14 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
     max_tilt : float, default=10.0
         Largest tilt (degrees) the estimate considers.
     split_merged : bool, default=True
-        Split objects whose height profile shows two vehicles nose to tail.
+        Split objects whose height profile shows two vehicles nose to tail; with
+        ``region_depth="across"``, also objects whose near side shows vehicles in
+        echelon (bays at an angle to the kerb, neighbours overlapping along the
+        street): the near side (nearest body depth of every scan) has a ridge
+        between two valleys, rising from each by at least half the object's median
+        body depth extent across the street (a car's step, measured on the object);
+        each part is at least ``min_car_length`` long, and only objects whose median
+        body extent is at least ``roof_width`` are split.
     split_ratio : float, default=0.6
         Largest valley-to-peak height ratio that splits (see :func:`~tunnelsense.street.split_profile`).
     min_length : float, default=1.5
@@ -131,9 +138,13 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         lane, its body reaching into the parking lane).  A vehicle driving along
         the street keeps its near side and is as long as a car, so the traffic of a
         street narrower than the regions assume, reaching into region II, stays
-        passing.  For streets with angled bays (not the default: where neighbouring
-        cars of a row of bays at 45 degrees are joined into one object, it can count
-        them as one parked vehicle where the default counts none).  ``"span"``: any
+        passing.  With ``split_merged`` it also cuts apart neighbours in bays at an
+        angle joined into one object (see ``split_merged``).  For streets with
+        angled bays (not the default: where two neighbours in a row of bays at
+        right angles, seen end on, are joined into one object, it can count them as
+        one parked vehicle where the default counts none; and the echelon split
+        can cut a hedge right behind the kerb with motorbikes in front of it into
+        pieces that count as vehicles).  ``"span"``: any
         object averaging in region I whose far side lies in region II belongs to
         region II (also traffic reaching into it).
     min_car_length : float, default=2.4

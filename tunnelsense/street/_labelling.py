@@ -33,7 +33,7 @@ from tunnelsense.street._objects import (
     depth_region,
 )
 from tunnelsense.street._sections import lowest_marks
-from tunnelsense.street._splitting import split_objects
+from tunnelsense.street._splitting import split_echelon, split_objects
 from tunnelsense.street._vehicles import (
     end_match,
     hidden_ends,
@@ -67,6 +67,16 @@ class _Labelling:
                 link_distance=est.link_distance,
                 **(dict(horizon=self.horizon, step=HORIZON_STEP) if est.beam_occlusion
                    else {}))
+        if est.split_merged and est.region_depth == "across" and len(objects):
+            # vehicles in echelon (bays at an angle), joined by overlapping ends
+            n = int(objects.max()) + 1
+            first = np.full(n, len(self.records), dtype=np.int64)
+            last = np.zeros(n, dtype=np.int64)
+            np.minimum.at(first, objects, position)
+            np.maximum.at(last, objects, position)
+            objects = split_echelon(objects, position, self.side[clusters],
+                                    self.far[clusters], first, last, self.cum,
+                                    min_length=est.min_car_length, depth=est.roof_width)
         prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
         region_depth = self._region_depth(objects, clusters, prof)
         self.object_id[clusters] = -1  # final, waiting for its id

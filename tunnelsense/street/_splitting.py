@@ -1,9 +1,13 @@
-"""Splitting vehicles parked nose to tail and merged into one object (beyond the paper).
+"""Splitting vehicles merged into one object (beyond the paper).
 
-An object's height profile along the track (its top height in every scan) has one
-hump per vehicle: roof, with bonnet and boot lower at its ends.  Two humps with a
-valley between them are two vehicles; a stretch hidden by something nearer is a gap
-only where the seen profile falls into it and rises out of it.
+Nose to tail: an object's height profile along the track (its top height in every
+scan) has one hump per vehicle: roof, with bonnet and boot lower at its ends.  Two
+humps with a valley between them are two vehicles; a stretch hidden by something
+nearer is a gap only where the seen profile falls into it and rises out of it.
+
+In echelon (bays at an angle to the kerb): an object's near side along the track
+(its nearest body depth in every scan) has one valley per vehicle, the corner it
+turns to the street; two valleys with a ridge between them are two vehicles.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import numpy as np
 
 from tunnelsense.street._clustering import concat
 
-__all__ = ["split_objects", "split_profile"]
+__all__ = ["split_echelon", "split_near_side", "split_objects", "split_profile"]
 
 
 def _fill_hidden(top, band):
@@ -147,6 +151,137 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
         mine = np.flatnonzero(objects == o)
         part = np.searchsorted(np.asarray(cuts), prof.position[mine] - first,
                                side="right")
+        new[mine] = np.where(part == 0, o, next_object + part - 1)
+        next_object += len(cuts)
+    return new
+
+
+def split_near_side(side, along, *, min_length, travel):
+    """Where to split an object whose near side shows two vehicles in echelon.
+
+    A vehicle in a bay at an angle to the kerb turns a corner to the street: along
+    the track its near side (nearest body depth of every scan) comes forward along
+    one end and steps back along its flank, one valley.  Neighbours in a row of such
+    bays overlap along the street, so one scan can cut two of them and they join
+    into one object; its near side then has a ridge between two valleys: it steps
+    back across the street along one vehicle's flank and comes forward again at the
+    next one's end.  A vehicle parked along the kerb keeps its near side.
+
+    The split point is the scan of the highest ridge that rises at least ``travel``
+    above the nearest near side on both sides, leaving at least ``min_length``
+    metres on each; its scan goes with the side it continues.  Applied recursively
+    to both parts.
+
+    Parameters
+    ----------
+    side : ndarray of shape (n_scans,)
+        Near side (m) of the object in each of its scans (NaN: no body seen).
+    along : ndarray of shape (n_scans + 1,)
+        Distance (m) along the track at the start of every scan and past the last.
+    min_length : float
+        Shortest part (m along the track) a split may leave.
+    travel : float
+        How far (m) the near side must step back across the street from each
+        valley to the ridge.
+
+    Returns
+    -------
+    cuts : list of int
+        Scan offsets where a new object starts (sorted).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._splitting import split_near_side
+    >>> car = np.r_[4.2, 3.8, 3.4, 3.0, 3.3, 3.6, 3.9, 4.2, 4.5, 4.8, 5.1]
+    >>> split_near_side(np.r_[car, car], np.arange(23) * 0.4, min_length=2.4,
+    ...                 travel=1.0)
+    [11]
+    >>> split_near_side(car, np.arange(12) * 0.4, min_length=2.4, travel=1.0)
+    []
+    """
+    side = np.asarray(side, dtype=np.float64)
+    along = np.asarray(along, dtype=np.float64)
+    n = len(side)
+    seen = np.flatnonzero(np.isfinite(side))
+    if len(seen) < 3:
+        return []
+    s = side[seen]
+    left = np.minimum.accumulate(s)
+    right = np.minimum.accumulate(s[::-1])[::-1]
+    idx = np.arange(1, len(seen) - 1)
+    rise = np.minimum(s[idx] - left[idx - 1], s[idx] - right[idx + 1])
+    room = ((along[seen[idx]] - along[0] >= min_length)
+            & (along[n] - along[seen[idx] + 1] >= min_length))
+    rise = np.where(room, rise, -np.inf)
+    j = int(np.argmax(rise))
+    if not rise[j] >= travel:
+        return []
+    i = int(idx[j])
+    # the ridge scan goes with the neighbour whose near side it continues
+    start = seen[i] + 1 if abs(s[i] - s[i - 1]) <= abs(s[i] - s[i + 1]) else seen[i]
+    a = split_near_side(side[:start], along[:start + 1], min_length=min_length,
+                        travel=travel)
+    b = split_near_side(side[start:], along[start:], min_length=min_length,
+                        travel=travel)
+    start = int(start)
+    return [*a, start, *(start + c for c in b)]
+
+
+def split_echelon(objects, position, side, far, first, last, cum, *, min_length,
+                  depth):
+    """Split objects whose near side shows vehicles in echelon; the new object of
+    every cluster.
+
+    Only an object whose bodies are deep across the street (the median over its
+    scans of the body's depth extent at least ``depth``: a car seen obliquely, not a
+    hedge or wall) is split, where its near side steps back by at least half that
+    median extent on both sides of a ridge (a car's step, from the object itself:
+    see :func:`split_near_side`), each part at least ``min_length`` long.
+
+    Parameters
+    ----------
+    objects, position : ndarray of shape (n_clusters,) of int
+        Object number and scan position (from the window's start) of every cluster.
+    side, far : ndarray of shape (n_clusters,)
+        Nearest and farthest body depth (m) of every cluster (inf/NaN: no body).
+    first, last : ndarray of shape (n_objects,) of int
+        First and last scan position of every object.
+    cum : ndarray
+        Distance (m) along the track at the start of every scan of the window.
+    min_length : float
+        Shortest part (m) a split may leave (a car).
+    depth : float
+        Smallest median body extent (m) across the street of an object to split.
+
+    Returns
+    -------
+    objects : ndarray of shape (n_clusters,) of int64
+    """
+    new = objects.copy()
+    next_object = len(first)
+    near = np.where(np.isfinite(side), side, np.nan)
+    for o in range(len(first)):
+        lo, hi = int(first[o]), int(last[o])
+        if cum[hi + 1] - cum[lo] < 2 * min_length:
+            continue
+        mine = np.flatnonzero(objects == o)
+        pos = position[mine] - lo
+        scan_side = np.full(hi - lo + 1, np.inf)
+        np.fmin.at(scan_side, pos, near[mine])
+        scan_far = np.full(hi - lo + 1, -np.inf)
+        np.fmax.at(scan_far, pos, far[mine])
+        with np.errstate(invalid="ignore"):
+            extent = scan_far - scan_side
+        extent = extent[np.isfinite(extent)]
+        if not len(extent) or not np.median(extent) >= depth:
+            continue
+        scan_side[~np.isfinite(scan_side)] = np.nan
+        cuts = split_near_side(scan_side, cum[lo:hi + 2] - cum[lo],
+                               min_length=min_length, travel=np.median(extent) / 2)
+        if not cuts:
+            continue
+        part = np.searchsorted(np.asarray(cuts), pos, side="right")
         new[mine] = np.where(part == 0, o, next_object + part - 1)
         next_object += len(cuts)
     return new

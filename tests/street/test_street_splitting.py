@@ -1,0 +1,86 @@
+"""Vehicles in echelon (bays at an angle to the kerb) joined into one object and split
+by their near side."""
+
+import numpy as np
+import pytest
+from _street_scenes import make_run, oblique_car, sedan
+
+from tunnelsense.metrics import street_scores
+from tunnelsense.street import ScanClusterer
+from tunnelsense.street._splitting import split_echelon, split_near_side
+
+SPEED = 11.0
+#: along-track pitch of bays 2.5 m wide at 45 degrees
+PITCH = 2.5 / np.sin(np.deg2rad(45.0))
+
+
+@pytest.fixture(scope="module")
+def echelon():
+    # three cars in bays 2.5 m wide at 45 degrees: 4.4 m along the track each,
+    # overlapping their neighbours by 0.8 m (a scan there cuts two), the middle one
+    # pulled 0.8 m less far in: its end starts where the first one's flank ends
+    boxes = [oblique_car(3.0 + k * PITCH, 3.4 + 0.8 * (k % 2)) for k in range(3)]
+    return make_run(boxes, ["parked"] * 3, n_scans=150, speed=SPEED)
+
+
+def test_oblique_cars_overlap_along_the_track(echelon):
+    gt = echelon.gt.sort_values("first_scan")
+    assert (gt.first_scan.to_numpy()[1:] < gt.last_scan.to_numpy()[:-1]).all()
+
+
+@pytest.mark.parametrize("off", [dict(split_merged=False), dict(region_depth="near")])
+def test_cars_in_echelon_are_split_into_one_object_each(echelon, off):
+    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), region_depth="across").fit(
+        echelon.scans)
+    off = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), **{
+        "region_depth": "across", **off}).fit(echelon.scans)
+    d_on, d_off = on.detect(echelon.scans), off.detect(echelon.scans)
+    s_on = street_scores(echelon.gt, d_on)["parked"]
+    assert s_on["tp"] == 3 and s_on["fp"] == 0
+    assert (d_on.label == "parked").sum() == 3 and d_on.length.max() < 5.0
+    # without splitting (the default region_depth="near" never splits so),
+    # neighbours joined where a scan cuts both
+    assert street_scores(echelon.gt, d_off)["parked"]["tp"] < 3
+    assert d_off.length.max() > 7.0
+
+
+def test_split_near_side_needs_a_ridge_between_two_valleys():
+    along = np.arange(41) * 0.2
+    # one car at 45 degrees: its end comes forward 1.2 m, its flank steps back 3 m
+    car = np.r_[np.linspace(4.6, 3.4, 7), np.linspace(3.6, 6.4, 15)]
+    assert split_near_side(car, along[:23], min_length=2.4, travel=1.0) == []
+    two = np.r_[car[:-2], car[:-2]]
+    assert split_near_side(two, along, min_length=2.4, travel=1.0) == [20]
+    # a ridge lower than travel (a bumper's rounded corner) is no split
+    assert split_near_side(two, along, min_length=2.4, travel=3.5) == []
+    # ... nor one leaving a part shorter than min_length
+    assert split_near_side(two, along, min_length=4.2, travel=1.0) == []
+    # a car parked along the kerb keeps its near side; unseen scans are skipped
+    flat = np.full(40, 4.6)
+    flat[18:21] = np.nan
+    assert split_near_side(flat, along, min_length=2.4, travel=0.5) == []
+
+
+def test_split_echelon_leaves_shallow_objects_alone():
+    # a hedge's near side waves by a metre, but its body is 0.4 m deep
+    n = 60
+    position = np.arange(n)
+    side = 6.0 + 0.6 * np.sin(np.arange(n) / 4.0)
+    objects = np.zeros(n, dtype=np.int64)
+    cum = np.arange(n + 2) * 0.2
+    args = dict(min_length=2.4, depth=0.8)
+    assert (split_echelon(objects, position, side, side + 0.4, np.r_[0], np.r_[n - 1],
+                          cum, **args) == 0).all()
+    # the same near side on a body 2 m deep is split
+    new = split_echelon(objects, position, side, side + 2.0, np.r_[0], np.r_[n - 1],
+                        cum, **args)
+    assert len(np.unique(new)) > 1
+
+
+def test_cars_along_the_kerb_are_not_split():
+    boxes = [dict(s0=2.0 + k * 4.5, s1=6.4 + k * 4.5, depth=4.6, top=sedan)
+             for k in range(3)]
+    run = make_run(boxes, ["parked"] * 3, n_scans=150, speed=SPEED)
+    on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), region_depth="across").fit(
+        run.scans)
+    assert street_scores(run.gt, on.detect(run.scans))["parked"]["tp"] == 3
