@@ -482,6 +482,10 @@ def test_train_sample_rate_decodes_and_fits_a_sample_in_time(tmp_path, capsys):
             main(["train", "tunnel", str(tour), "--model", str(tmp_path / "x.skops"),
                   "--sample-rate", bad])
         assert "--sample-rate: expected a positive number" in capsys.readouterr().err
+    # a search fits every frame: not with a sample
+    assert main(["train", "tunnel", str(tour), str(tour), "--model",
+                 str(tmp_path / "x.skops"), "--search", "--sample-rate", "6"]) == 1
+    assert "--sample-rate: --search fits every frame" in capsys.readouterr().err
     assert not (tmp_path / "x.skops").exists()
 
 

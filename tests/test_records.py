@@ -17,6 +17,7 @@ from tunnelsense import (
     check_scans,
     to_xy,
 )
+from tunnelsense.exceptions import InputFormatError
 
 
 def _tour(name, n=4, shape=(6, 8)):
@@ -181,6 +182,12 @@ def test_sample_in_time_keeps_every_kth_frame_of_each_tour_as_a_slower_recording
     Xs, ys, _ = sample_in_time(b, list(range(5)), [0] * 5, 15.0)
     assert Xs == b and ys == list(range(5))
     assert sample_in_time(X, y, groups, None) == (X, y, groups)
-    for bad in (0.0, -1.0, float("nan"), float("inf"), "6"):
+    for bad in (0.0, -1.0, float("nan"), float("inf"), "6", True):
         with pytest.raises(ValueError, match="sample_rate must be"):
             sample_in_time(X, y, groups, bad)
+    Xs, _, _ = sample_in_time(X, y, groups, np.float32(6.0))  # any real number
+    assert [r.frame for r in Xs] == [1, 3, 4, 5, 1, 2, 3]
+    # no frame rate: no time to sample in
+    bare = [FrameRecord("c", f, image, {}) for f in range(1, 6)]
+    with pytest.raises(InputFormatError, match="'c'.*no frame rate"):
+        sample_in_time(bare, list(range(5)), [0] * 5, 6.0)

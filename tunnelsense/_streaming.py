@@ -395,7 +395,17 @@ class StreamingPipeline:
         while (head < len(self._states) - 1
                and isinstance(self._states[head], _StatelessStream)):
             head += 1
+        if prepare_steps is not None and (
+                isinstance(prepare_steps, bool | np.bool_)
+                or not isinstance(prepare_steps, int | np.integer) or prepare_steps < 0):
+            raise ValueError("prepare_steps must be None or a non-negative int; got "
+                             f"{prepare_steps!r}")
         self._head = head if prepare_steps is None else min(head, int(prepare_steps))
+
+    @property
+    def prepared_steps(self) -> int:
+        """How many leading stages :meth:`prepare` runs (0: none)."""
+        return self._head
 
     def prepare(self, record):
         """Run one record through the leading stages that keep no state.

@@ -187,6 +187,12 @@ def test_missing_frames_gap_positions_every_frame(rendered, tmp_path, capsys):
                  str(results), "--quiet", "--missing-frames", "gap"]) == 0
     assert not set(lost) & set(read_mot_results(results)["frame"])
     offline = tmp_path / "offline.csv"
+    # a results file on the tour: refused too by default (the coverage check reads
+    # the tour's frames)
+    assert main(["position", str(gapped), "--results", str(results), "--out",
+                 str(offline), "--smooth"]) == 1
+    assert "--missing-frames gap" in capsys.readouterr().err
+    assert not offline.exists()
     assert main(["position", str(gapped), "--results", str(results), "--out",
                  str(offline), "--smooth", "--missing-frames", "gap"]) == 0
     pd.testing.assert_frame_equal(got, pd.read_csv(offline), rtol=0, atol=1e-3)

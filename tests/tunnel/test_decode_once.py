@@ -159,19 +159,38 @@ def test_a_frame_that_cannot_be_read_stops_after_the_frames_before_it(
     written = {}
     # in this thread; readers that decode; readers that also run the first stage,
     # every stage
-    for n_threads, stages in ((0, False), (2, False), (2, 1), (2, True)):
-        out = tmp_path / f"r{n_threads}{stages}.txt"
+    modes = {"here": (0, False), "decode": (2, False), "keypoints": (2, 1),
+             "stages": (2, True)}
+    for mode, (n_threads, stages) in modes.items():
+        out = tmp_path / f"{mode}.txt"
         with pytest.raises((InputFormatError, ValueError, OSError), match="000080.png"):
             detect_to_files(model, copy_, out, n_threads=n_threads,
                             stages_in_readers=stages)
-        written[n_threads, stages] = [
-            out.read_text().splitlines(),
-            (tmp_path / f"r{n_threads}{stages}.clusters.csv").read_text().splitlines()]
+        written[mode] = [out.read_text().splitlines(),
+                         (tmp_path / f"{mode}.clusters.csv").read_text().splitlines()]
     # what the readers' runs wrote is what the plain run wrote: the uninterrupted
     # run's lines of the frames finished before frame 80
-    assert written[2, True] == written[2, 1] == written[2, False] == written[0, False]
-    lines, clusters = written[2, True]
+    assert len(written) == 4
+    assert (written["stages"] == written["keypoints"] == written["decode"]
+            == written["here"])
+    lines, clusters = written["stages"]
     assert lines == whole.read_text().splitlines()[:len(lines)]
     assert all(int(line.split(",")[0]) < 80 for line in lines)
     assert len(clusters) > 1 and clusters == (
         tmp_path / "whole.clusters.csv").read_text().splitlines()[:len(clusters)]
+
+
+def test_stages_in_readers_and_prepare_steps_are_counts(fitted):
+    from tunnelsense._streaming import StreamingPipeline
+    from tunnelsense.tunnel import stream_detect
+
+    model = fitted[0]
+    for bad in ("keypoints", 2.7, -1, None):
+        with pytest.raises(ValueError, match="stages_in_readers"):
+            next(stream_detect(model, iter([]), n_threads=1, stages_in_readers=bad))
+    for bad in (-1, 1.0, True):
+        with pytest.raises(ValueError, match="prepare_steps"):
+            StreamingPipeline(model, prepare_steps=bad)
+    assert StreamingPipeline(model, prepare_steps=1).prepared_steps == 1
+    assert StreamingPipeline(model, prepare_steps=0).prepared_steps == 0
+    assert StreamingPipeline(model).prepared_steps == 4  # every per-frame stage

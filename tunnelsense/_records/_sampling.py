@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
+import numbers
 
-__all__ = ["REFERENCE_RATE", "sample_in_time", "sampling_stride"]
+from tunnelsense.exceptions import InputFormatError
 
-#: The rate assumed for a tour whose frames carry none (the stages' reference rate).
-REFERENCE_RATE = 30.0
+__all__ = ["sample_in_time", "sampling_stride"]
 
 
 def sampling_stride(frame_rate, sample_rate) -> int:
@@ -33,8 +33,9 @@ def sample_in_time(X, y, groups, sample_rate):
     recording at that rate would hold them.
 
     In each tour (``groups``) every ``k``-th frame by frame number is kept
-    (:func:`sampling_stride` of the tour's frame rate, :data:`REFERENCE_RATE` when its
-    frames carry none), counting from the tour's first frame; a kept frame is
+    (:func:`sampling_stride` of the tour's frame rate; a tour whose frames carry
+    none is refused: sampling in time needs the time), counting from the tour's
+    first frame; a kept frame is
     renumbered ``(frame - first) // k + 1`` and carries the rate ``rate / k``, so
     that the stages that count frames (trajectory gaps and lengths) see the sample
     as a recording at that rate and a gap of the tour stays a gap.  The images are
@@ -71,8 +72,8 @@ def sample_in_time(X, y, groups, sample_rate):
 
     if sample_rate is None:
         return X, y, groups
-    if not (isinstance(sample_rate, int | float) and math.isfinite(sample_rate)
-            and sample_rate > 0):
+    if not (isinstance(sample_rate, numbers.Real) and not isinstance(sample_rate, bool)
+            and math.isfinite(sample_rate) and sample_rate > 0):
         raise ValueError("sample_rate must be None or a positive number of frames per "
                          f"second; got {sample_rate!r}")
     kept_X, kept_y, kept_groups = [], [], []
@@ -80,7 +81,11 @@ def sample_in_time(X, y, groups, sample_rate):
     for record, target, group in zip(X, y, groups, strict=True):
         if group not in first:
             first[group] = record.frame
-            rate[group] = frame_rate_of(record) or REFERENCE_RATE
+            rate[group] = frame_rate_of(record)
+            if not rate[group]:
+                raise InputFormatError(
+                    f"tour {record.tour!r}: its frames carry no frame rate (a "
+                    "MOTChallenge tour's seqinfo.ini frameRate); sample_rate needs it")
             stride[group] = sampling_stride(rate[group], sample_rate)
         offset = record.frame - first[group]
         if offset % stride[group]:

@@ -22,11 +22,13 @@ def _cmd_train(args) -> int:
     start = time.perf_counter()
     if args.dask_scheduler:
         require_extra("distributed", "--dask-scheduler")
+    if args.search and args.sample_rate is not None:
+        raise ValueError("--sample-rate: --search fits every frame; give one or the other")
     key = common.check_model_output(args, args.seqdirs)
     tours = [read_tour(d, colour=common.colour(args), missing_frames=args.missing_frames)
              for d in args.seqdirs]
     # the reader threads decode while the fitting machinery (scikit-learn) imports
-    rate = None if args.search else args.sample_rate
+    rate = args.sample_rate
     decoding = decode_tours(tours, n_threads=args.jobs, sample_rate=rate)
     from tunnelsense.tunnel import fit_indicator_detector
     from tunnelsense.tunnel._reports import format_tours, format_training

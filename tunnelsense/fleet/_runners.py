@@ -76,7 +76,7 @@ def _run_processes(model, tasks, n_workers):
                         suspects.append(k)
                 running.clear()
                 suspects.sort()
-                executor.shutdown(wait=True)
+                executor.shutdown(wait=True, kill_workers=True)  # broken: none left
                 executor = ProcessPoolExecutor(max_workers=n_workers, env=env)  # new
     except BaseException:
         executor.shutdown(wait=False, kill_workers=True)

@@ -43,7 +43,7 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
         ``positioner.predict`` on a results file).
     on_position : callable or None, default=None
         Called with the :class:`Position` of each frame as soon as it is known
-        (before the next frame is read).
+        (before the next frame is read; a lost frame's, before the frame after it).
     progress : Progress or None, default=None
     n_threads : int, default=0
         Reader threads decoding the next frames (0: none).
@@ -87,8 +87,11 @@ def locate_online(model, frames, odometry, positioner, *, on_position=None,
             # frames the recorder lost (a tour read with gaps): their odometry rows
             # still carry the distance driven, and get a position with no detection
             while row < len(odo_frames) and odo_frames[row] < f:
-                stream.push(int(odo_frames[row]), stamps[row], speeds[row], until=until)
+                lost = stream.push(int(odo_frames[row]), stamps[row], speeds[row],
+                                   until=until)
                 row += 1
+                if on_position is not None:
+                    on_position(lost)
             if row >= len(odo_frames) or odo_frames[row] != f:
                 raise InputFormatError(f"odometry: no row for frame {f}")
             position = stream.push(f, stamps[row], speeds[row],

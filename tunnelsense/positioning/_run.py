@@ -181,11 +181,14 @@ def _check_coverage(odo, detections, tour, odometry, missing_frames="raise") -> 
     requires): a gap or a shorter odometry would leave frames without a position."""
     from tunnelsense.io import open_tour
 
+    tour = Path(tour)
     try:
         frames = open_tour(tour, ground_truth=False, missing_frames=missing_frames).frames
         last = int(frames[-1].frame) if len(frames) else 0
-    except (OSError, ValueError):  # a folder of tables only: the detections say
-        last = 0
+    except (OSError, ValueError):
+        if (tour / "seqinfo.ini").is_file() or (tour / "img1").is_dir():
+            raise  # a tour's frames that cannot be read (lost frames: the option)
+        last = 0  # a folder of tables only: the detections say
     if len(detections):
         last = max(last, int(detections["frame"].max()))
     missing = np.setdiff1d(np.arange(1, last + 1), odo["frame"].to_numpy())

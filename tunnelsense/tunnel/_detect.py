@@ -111,11 +111,13 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
 
     if search and len(tours) < 2:
         raise ValueError("search needs at least 2 tours (folds are whole tours)")
+    if search and sample_rate is not None:
+        raise ValueError("sample_rate: a search fits every frame; give one or the other")
     # _decoding (private): decode_tours(tours) started by the caller (the command,
     # before its imports), else started here
-    rate = None if search else sample_rate
     if _decoding is None:
-        _decoding = decode_tours(tours, n_threads=max(n_jobs, 1), sample_rate=rate)
+        _decoding = decode_tours(tours, n_threads=max(n_jobs, 1),
+                                 sample_rate=sample_rate)
     frames, y, groups, n_frames = _decoding
     frames = counted(frames, "decoding frames", n_frames, progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
@@ -148,7 +150,7 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     else:
         model, output = fit_pipeline(model, X, y, progress=progress and (
             lambda name, k, n: progress(f"fitting {name}" if name else "fitted", k, n)))
-    return model, _summary(tours, model, output, y, found, rate)
+    return model, _summary(tours, model, output, y, found, sample_rate)
 
 
 def _dask(address):
@@ -369,11 +371,17 @@ def stream_detect(model, frames, *, progress=None, n_threads=0, stages_in_reader
     ...     for a, b in zip(streamed, model.predict(X), strict=True))
     True
     """
-    every = stages_in_readers is True
+    if isinstance(stages_in_readers, bool | np.bool_):
+        every, steps = bool(stages_in_readers), 0
+    elif isinstance(stages_in_readers, int | np.integer) and stages_in_readers >= 0:
+        every, steps = False, int(stages_in_readers)
+    else:
+        raise ValueError("stages_in_readers must be a bool or a non-negative int; got "
+                         f"{stages_in_readers!r}")
     stream = StreamingPipeline(model, prepare_steps=(
-        None if every else int(stages_in_readers) if n_threads > 0 else 0))
+        None if every else steps if n_threads > 0 else 0))
     push, prepared = stream.push, False
-    if n_threads > 0 and stream._head > 0:
+    if n_threads > 0 and stream.prepared_steps > 0:
         # the (first) stages that keep no state run in the reader threads beside the
         # decode; this thread runs the others and links the tracks
         frames = decode_ahead(frames, n_threads=n_threads, then=stream.prepare)
