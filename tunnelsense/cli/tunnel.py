@@ -189,15 +189,16 @@ def register(verbs) -> None:
                    "decode the next frames while the detector works (0: decode in the "
                    "detector's thread; several sources: tours detected at once; "
                    "default: the number of CPUs)")
-    p.add_argument("--readers", choices=tuple(_READERS), default="keypoints",
+    p.add_argument("--readers", choices=tuple(_READERS), default="decode",
                    help="what the reader threads do: 'decode' the frames only, the "
                    "detector's thread running every stage; also find each frame's "
                    "'keypoints' (the first stage); or also run each frame through "
                    "the 'stages' that look at one frame alone (keypoints, verifier, "
                    "clusters, appearance), the detector's thread then only linking "
-                   "the trajectories. The results are the same; 'stages' spreads the "
-                   "most work over idle cores and is slower when the cores are busy. "
-                   "No effect with --jobs 0 (default: keypoints)")
+                   "the trajectories. The results are the same; the more the readers "
+                   "do, the more the work is spread over idle cores, and the slower "
+                   "it is when the cores are busy. No effect with --jobs 0 (default: "
+                   "decode)")
     common.add_colour_arguments(p)
     common.add_missing_frames_argument(p)
     fleet.add_fleet_arguments(p, "tour")
