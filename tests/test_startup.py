@@ -49,7 +49,7 @@ def test_lazy_names_are_the_package_names():
         for name in package.__all__:
             assert getattr(package, name) is not None
             assert name in dir(package)
-    assert tunnelsense.tunnel._detect.SEARCH_GRID is tunnelsense.tunnel._search_grid.SEARCH_GRID
+    assert tunnelsense.tunnel._training.SEARCH_GRID is tunnelsense.tunnel._search_grid.SEARCH_GRID
 
 
 def test_a_missing_name_is_an_attribute_error():

@@ -21,7 +21,7 @@ _NAMES = {
     "region_boxes": "_clustering",
     "detect_to_files": "_detect",
     "detect_tour": "_detect",
-    "fit_indicator_detector": "_detect",
+    "fit_indicator_detector": "_training",
     "stream_detect": "_detect",
     "IntensityKeypointSampler": "_keypoints",
     "indicator_band": "_keypoints",
