@@ -111,7 +111,9 @@ def test_detect_refuses_frames_of_another_depth(tour_dir, tmp_path, capsys):
     assert main(["detect", "tunnel", "--model", str(model), str(wide), "--out",
                  str(out), "--quiet"]) == 1
     err = capsys.readouterr().err
-    assert "a uint16 frame, but the sampler was fitted on uint8 frames" in err
+    # refused before any output, naming the first frame's file and both types
+    assert "000001.png: frame 1 is uint16, but the detector was fitted on uint8" in err
+    assert not out.exists()
     assert open_tour(wide).frames[0].image.dtype == np.uint16
 
 
