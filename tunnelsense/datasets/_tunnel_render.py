@@ -100,6 +100,14 @@ def _box_of(cam, pose, xs, zs, ys):
     )
 
 
+def _facing_box(cam, pose, ds, d, y):
+    """The box of a flat rectangle facing the traffic ``ds`` ahead, spanning the
+    lateral offsets ``d`` and the heights ``y`` (two each; None behind the camera)."""
+    dd, yy = np.meshgrid(d, y)
+    x3, z3, y3 = cam.to_camera(np.full(4, ds), dd.ravel(), yy.ravel())
+    return _box_of(cam, pose, x3, z3, y3)
+
+
 def _draw_indicator(img, cam, pose, ds, p, look):
     w, hgt = p.get("indicator_size_m", _INDICATOR_SIZE)
     yc = p["indicator_height_m"]
@@ -110,9 +118,7 @@ def _draw_indicator(img, cam, pose, ds, p, look):
         x_out = _lining_x(yc, 1) - 0.05
         d = np.array([x_out - w, x_out])
     y = np.array([yc - hgt / 2, yc + hgt / 2])
-    dd, yy = np.meshgrid(d, y)
-    x3, z3, y3 = cam.to_camera(np.full(4, ds), dd.ravel(), yy.ravel())
-    box = _box_of(cam, pose, x3, z3, y3)
+    box = _facing_box(cam, pose, ds, d, y)
     if box is None:
         return None
     u0, v0, u1, v1, z = box
@@ -147,9 +153,7 @@ def _draw_panel(img, cam, pose, ds, side, look):
     x_out = _lining_x(PANEL_HEIGHT_M, side) - side * 0.05
     d = np.array(sorted([x_out, x_out - side * w]))
     y = np.array([PANEL_HEIGHT_M - hgt / 2, PANEL_HEIGHT_M + hgt / 2])
-    dd, yy = np.meshgrid(d, y)
-    x3, z3, y3 = cam.to_camera(np.full(4, ds), dd.ravel(), yy.ravel())
-    box = _box_of(cam, pose, x3, z3, y3)
+    box = _facing_box(cam, pose, ds, d, y)
     if box is None:
         return None
     u0, v0, u1, v1, _ = box
