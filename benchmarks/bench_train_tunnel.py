@@ -22,7 +22,17 @@ default / ``--jobs 1`` (goal: at most 1.0, the default never slower under load
 than one thread); it exits 1 when the first round's train median exceeds
 ``--budget`` seconds (default 5 s, for 1,500 frames on a quiet machine).
 
+With ``--phases``, it runs instead, ``--repeats`` times in fresh processes
+(interleaved with the baseline's when given), ``train tunnel``'s work phase by
+phase in one thread, and prints the median CPU seconds (``time.process_time``)
+of each: start-up imports, reading the labels, the decode of every frame, the
+imports of the fitting machinery and of the model writer, each step's fit (and
+transform), the training output and scores, the model write.  The phases' sum
+is the work a two-core machine shares out; the decode and the imports run in
+reader threads beside each other in the command, the fit in one thread.
+
     python benchmarks/bench_train_tunnel.py --frames 1500 --repeats 5
+    python benchmarks/bench_train_tunnel.py --phases --repeats 3 --baseline /tmp/main-tree
     python benchmarks/bench_train_tunnel.py --repeats 3 --baseline /tmp/main-tree
     python benchmarks/bench_train_tunnel.py --no-busy --sample-rate 10
 """
@@ -44,6 +54,46 @@ _DECODE = (
     "for f in sorted(glob.glob(sys.argv[1] + '/img1/*.png')):\n"
     "    cv2.imdecode(np.fromfile(f, np.uint8), cv2.IMREAD_UNCHANGED)\n"
 )
+
+
+# one train tunnel, phase by phase in this thread: a JSON list of (phase, CPU seconds)
+_PHASES = """
+import json, sys, time
+marks, t0 = [], time.process_time()
+def mark(name):
+    global t0
+    t = time.process_time()
+    marks.append((name, t - t0))
+    t0 = t
+from tunnelsense.io import read_tour
+from tunnelsense.io._sources import decode_tours
+mark("start-up imports")
+tours = [read_tour(sys.argv[1])]
+mark("read labels")
+frames, y, groups, n = decode_tours(tours, n_threads=0)
+X = list(frames)
+mark("decode")
+from tunnelsense._records import FrameSequence
+from tunnelsense.tunnel import make_indicator_pipeline
+from tunnelsense.tunnel._training import _summary
+mark("import fitting")
+import skops.io
+mark("import writer")
+X = FrameSequence(X)
+model = make_indicator_pipeline(random_state=0)
+for name, step in model.steps[:-1]:
+    X = step.fit_transform(X, y)
+    mark("fit " + name)
+name, last = model.steps[-1]
+last.fit(X, y)
+out = last.predict(X)
+summary = _summary(tours, model, out, y, None, None)
+mark("fit " + name + ", training scores")
+from tunnelsense.io._model import save_model
+save_model(model, sys.argv[2], summary=summary, overwrite=True)
+mark("write model")
+print(json.dumps(marks))
+"""
 
 
 def _busy():
@@ -84,6 +134,38 @@ def _round(runs, repeats):
             {k: statistics.median(v) for k, v in cpu.items()})
 
 
+def _phases(tour, model, baseline, repeats):
+    """Median CPU seconds of each phase (:data:`_PHASES`), this tree beside
+    ``baseline``'s, interleaved; prints them with the load average."""
+    import json
+    import subprocess
+
+    trees = {"this tree": Path(__file__).resolve().parents[1]}
+    if baseline is not None:
+        trees["baseline"] = Path(baseline).resolve()
+    cpu = {k: {} for k in trees}
+    before = machine_load()
+    for r in range(repeats):
+        names = list(trees)
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            env = {**os.environ, "PYTHONPATH": str(trees[name])}
+            done = subprocess.run([sys.executable, "-P", "-c", _PHASES, str(tour),
+                                   str(model)], env=env, check=True,
+                                  capture_output=True, text=True)
+            for phase, seconds in json.loads(done.stdout.splitlines()[-1]):
+                cpu[name].setdefault(phase, []).append(seconds)
+    print(f"train tunnel phase by phase, one thread, CPU seconds, medians of {repeats} "
+          f"({before} before, {machine_load()} after):")
+    print(f"  {'phase':34s}" + "".join(f"{k:>12s}" for k in trees))
+    for phase in cpu["this tree"]:
+        print(f"  {phase:34s}" + "".join(
+            f"{statistics.median(cpu[k].get(phase, [float('nan')])):12.2f}"
+            for k in trees))
+    print(f"  {'sum':34s}" + "".join(
+        f"{sum(statistics.median(v) for v in cpu[k].values()):12.2f}" for k in trees))
+    return 0
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--frames", type=int, default=1500)
@@ -96,6 +178,8 @@ def main(argv=None):
                    "two busy processes")
     p.add_argument("--sample-rate", type=float, default=None, metavar="HZ",
                    help="also run train --sample-rate HZ (this tree)")
+    p.add_argument("--phases", action="store_true", help="CPU seconds of each phase "
+                   "of the work, in one thread (with --baseline, of both trees)")
     args = p.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="bench-train-"))
     tour = work / f"light-{args.frames}"
@@ -104,6 +188,8 @@ def main(argv=None):
         from tunnelsense.io import write_tour
 
         write_tour(make_tunnel_tour(args.frames, scenario="light", random_state=0), tour)
+    if args.phases:
+        return _phases(tour, work / "m.skops", args.baseline, args.repeats)
     runs = _runs(tour, work / "m.skops", args.baseline, args.sample_rate)
     rounds = []
     label = "as it is"

@@ -87,3 +87,35 @@ def test_shifted_distances_plus_row_norms_are_the_exact_distances(max_abs, d,
     e = shifted_sq_distances(X, C)
     assert np.array_equal(e + (X * X).sum(1)[:, None], full)
     assert np.array_equal(e.argmin(1), full.argmin(1))
+
+
+@pytest.mark.parametrize("n_distinct", [1, 5, 39, 40, 41, 200])
+def test_fit_kmeans_returns_the_distinct_rows_when_at_most_k(n_distinct,
+                                                             global_random_seed):
+    # rows repeated from a few distinct ones (one of them differing from another in
+    # one column only): at most k distinct rows are the centres, more are clustered
+    rng = np.random.default_rng(global_random_seed)
+    base = rng.integers(0, 8, (n_distinct, 32)) / 8.0
+    if n_distinct > 1:
+        base[1] = base[0]
+        base[1, 31] = base[0, 31] + 1.0
+    X = base[rng.integers(0, n_distinct, 5000)]
+    X[:n_distinct] = base
+    C = fit_kmeans(X, 40, random_state=0)
+    if n_distinct <= 40:
+        assert np.array_equal(C, np.unique(base, axis=0))
+    else:
+        assert len(C) == 40
+
+
+def test_distinct_row_count_exact_on_colliding_sums():
+    from tunnelsense.tunnel._kmeans import _at_most_distinct
+
+    # two rows whose weighted sums are equal for the weights drawn, yet distinct:
+    # counted exactly, not by their sums
+    w = np.random.default_rng(0).integers(1, 1024, 2).astype(np.float64)
+    U = np.array([[w[1], 0.0], [0.0, w[0]]] * 10)
+    assert (U[0] @ w) == (U[1] @ w)
+    assert _at_most_distinct(U, 2) and not _at_most_distinct(U, 1)
+    assert not _at_most_distinct(np.arange(20.0).reshape(10, 2), 9)
+    assert _at_most_distinct(np.arange(20.0).reshape(10, 2), 10)

@@ -153,9 +153,8 @@ def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng,
     if n <= max(max_full_samples, 4 * n_clusters):
         rows = X if sample_indices is None else X[sample_indices]
         U = to_grid(rows, quantum)
-        distinct = np.unique(U, axis=0)
-        if len(distinct) <= n_clusters:
-            return distinct
+        if _at_most_distinct(U, n_clusters):
+            return np.unique(U, axis=0)
     if n <= max_full_samples:
         seeds = kmeans_plusplus(U, n_clusters, rng)
         return lloyd(U, seeds)
@@ -167,6 +166,24 @@ def _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples, rng,
     batch = max(int(batch_size), 3 * n_clusters)
     return minibatch_kmeans(take, n, n_clusters, batch_size=batch,
                             n_steps=n_steps, rng=rng)
+
+
+def _at_most_distinct(U, k) -> bool:
+    """Whether the rows of ``U`` hold at most ``k`` distinct rows.
+
+    Equal rows have equal weighted sums, so more than ``k`` distinct weighted sums
+    prove more than ``k`` distinct rows: that (the usual answer) takes one product
+    and a sort of ``len(U)`` numbers instead of sorting the rows themselves;
+    otherwise the rows are counted exactly.  The weights are integers below 2**10
+    and the rows grid integers (:func:`~tunnelsense.tunnel._kmeans_grid.to_grid`),
+    so every sum is an integer below 2**53, exact in any order of summation.
+    """
+    if len(U) <= k:
+        return True
+    weights = np.random.default_rng(0).integers(1, 1024, U.shape[1]).astype(np.float64)
+    if len(np.unique(U @ weights)) > k:
+        return False
+    return len(np.unique(U, axis=0)) <= k
 
 
 def rank_positive_centers(positive_centers, negative_centers, *, quantum=None):
