@@ -220,7 +220,8 @@ _LINALG = """
 import sys
 import numpy as np
 from tunnelsense._deferred import defer
-names = ["scipy.sparse.csgraph", "scipy.sparse.linalg", "scipy.linalg"]
+names = ["scipy.sparse.csgraph", "scipy.sparse.linalg", "scipy.linalg", "narwhals",
+         "narwhals.stable", "narwhals.stable.v2"]
 assert set(names) <= set(defer())
 import sklearn.pipeline  # imports names of each (a stand-in serves what it can)
 from scipy.sparse import coo_matrix
@@ -234,6 +235,13 @@ import scipy.sparse.linalg
 assert np.allclose(scipy.linalg.svd(np.eye(2))[1], [1.0, 1.0])
 tree = scipy.sparse.csgraph.minimum_spanning_tree(graph)
 vals = scipy.sparse.linalg.eigsh(np.diag([1.0, 2.0, 3.0, 4.0]), k=1)[0]
+# scikit-learn's validation looks at data frames through narwhals' stable API
+import pandas as pd
+from sklearn.preprocessing import StandardScaler
+scaler = StandardScaler().fit(pd.DataFrame({"a": [1.0, 3.0], "b": [2.0, 2.0]}))
+assert scaler.feature_names_in_.tolist() == ["a", "b"]
+import narwhals.stable.v2 as nw
+assert nw.from_native(pd.DataFrame({"a": [1]})).columns == ["a"]
 assert all(type(sys.modules[m]).__name__ == "module" for m in names)
 same = (scipy.sparse.csgraph.connected_components is connected_components
         and scipy.linalg.get_lapack_funcs is sys.modules["scipy.linalg"].get_lapack_funcs
@@ -242,7 +250,7 @@ print(n, labels.tolist(), tree.nnz, round(float(vals[0]), 6), same)
 """
 
 
-def test_deferred_linear_algebra_serves_then_imports_whole():
+def test_deferred_linear_algebra_and_data_frames_serve_then_import_whole():
     done = subprocess.run([sys.executable, "-c", _LINALG], capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr

@@ -22,6 +22,10 @@ operator at import (``sklearn.utils.fixes``): served from their modules, they sp
 SciPy's dense and sparse linear algebra packages (whose functions' wrappers parse
 their docstrings as they load), which detection does not use.  A served name that
 another SciPy release keeps elsewhere imports the whole package instead.
+scikit-learn's validation imports narwhals' stable API (``import
+narwhals.stable.v2 as nw``) to recognise data frames; a stand-in's look-up of a
+deferred submodule gives that submodule's stand-in, so the package loads (its
+deferred parents with it) only when a data frame is looked at.
 
 Only the ``tunnelsense`` command calls :func:`defer` (a library import never does): it
 changes how modules load in the whole process.
@@ -44,10 +48,11 @@ __all__ = ["DEFERRED", "NUMPY_PARTS", "SERVED", "defer", "defer_numpy_parts",
 #: (``scipy.special``: scikit-learn's array-API helpers import it for two functions
 #: that detection does not call; building its functions' array-API wrappers parses
 #: their docstrings, a tenth of scikit-learn's import.  The sparse graph and linear
-#: algebra packages and ``scipy.linalg``: see the module's docstring.)
+#: algebra packages, ``scipy.linalg`` and narwhals: see the module's docstring.)
 DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
             "scipy.spatial", "scipy.special", "scipy.sparse.csgraph",
-            "scipy.sparse.linalg", "scipy.sparse.linalg._isolve", "scipy.linalg")
+            "scipy.sparse.linalg", "scipy.sparse.linalg._isolve", "scipy.linalg",
+            "narwhals", "narwhals.stable", "narwhals.stable.v2")
 
 #: NumPy's submodules the command defers once NumPy is imported
 #: (:func:`defer_numpy_parts`): SciPy's array-API layer, imported with scikit-learn,
@@ -97,6 +102,9 @@ class _Deferred(types.ModuleType):
     """The stand-in of a module not imported yet (see the module's docstring)."""
 
     def __getattr__(self, attr):
+        child = sys.modules.get(f"{self.__name__}.{attr}")
+        if isinstance(child, _Deferred):  # ``import a.b.c as x`` of deferred ones
+            return child
         served = SERVED.get(self.__name__, {})
         if served and sys.modules.get(self.__name__) is self:
             if attr in served and served[attr] is None:
@@ -136,9 +144,17 @@ def _load(stand_in):
     module makes the later ones wait for the first and take its module.
     """
     name = stand_in.__name__
+    # deferred parents (stand-ins without a path) are imported with it
+    parts = name.split(".")
+    parents = [p for p in (".".join(parts[:i]) for i in range(1, len(parts)))
+               if isinstance(sys.modules.get(p), _Deferred) and p not in SERVED]
+    held = [sys.modules.pop(p) for p in parents]
     if sys.modules.get(name) is stand_in:
         sys.modules.pop(name, None)
     real = importlib.import_module(name)
+    for parent in held:
+        parent.__dict__.update({k: v for k, v in vars(sys.modules[parent.__name__]).items()
+                                if k not in ("__spec__", "__loader__")})
     # submodules imported through the stand-in (SERVED) are the package's too
     for child, module in list(sys.modules.items()):
         if child.rpartition(".")[0] == name and module is not None:
