@@ -216,6 +216,69 @@ def test_a_deferred_package_serves_named_submodules_then_imports_whole():
     assert done.stdout.split() == ["_Deferred", "_Deferred", "True", "True"]
 
 
+_LINALG = """
+import importlib.util
+import sys
+import numpy as np
+from tunnelsense._deferred import defer
+names = ["scipy.sparse.csgraph", "scipy.sparse.linalg", "scipy.linalg"]
+if importlib.util.find_spec("narwhals") is not None:  # scikit-learn >= 1.7 uses it
+    names += ["narwhals", "narwhals.stable", "narwhals.stable.v2"]
+assert set(names) <= set(defer())
+import sklearn.pipeline  # imports names of each (a stand-in serves what it can)
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components  # as the keypoint clusters do
+graph = coo_matrix((np.ones(2), ([0, 2], [1, 3])), shape=(5, 5))
+n, labels = connected_components(graph, directed=False)
+import scipy.linalg
+import scipy.sparse.csgraph
+import scipy.sparse.linalg
+# any other name: the whole package, the same objects as served before
+assert np.allclose(scipy.linalg.svd(np.eye(2))[1], [1.0, 1.0])
+tree = scipy.sparse.csgraph.minimum_spanning_tree(graph)
+vals = scipy.sparse.linalg.eigsh(np.diag([1.0, 2.0, 3.0, 4.0]), k=1)[0]
+# scikit-learn's validation looks at data frames through narwhals' stable API
+import pandas as pd
+from sklearn.preprocessing import StandardScaler
+scaler = StandardScaler().fit(pd.DataFrame({"a": [1.0, 3.0], "b": [2.0, 2.0]}))
+assert scaler.feature_names_in_.tolist() == ["a", "b"]
+if "narwhals" in names:
+    import narwhals.stable.v2 as nw
+    assert nw.from_native(pd.DataFrame({"a": [1]})).columns == ["a"]
+assert all(type(sys.modules[m]).__name__ == "module" for m in names)
+same = (scipy.sparse.csgraph.connected_components is connected_components
+        and scipy.linalg.get_lapack_funcs is sys.modules["scipy.linalg"].get_lapack_funcs
+        and scipy.sparse.linalg.cg is sys.modules["scipy.sparse.linalg"].cg)
+print(n, labels.tolist(), tree.nnz, round(float(vals[0]), 6), same)
+"""
+
+
+def test_deferred_linear_algebra_and_data_frames_serve_then_import_whole():
+    done = subprocess.run([sys.executable, "-c", _LINALG], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["3", "[0,", "0,", "1,", "1,", "2]", "2", "4.0",
+                                   "True"]
+
+
+_ELSEWHERE = """
+import sys
+from tunnelsense import _deferred
+# a served name kept elsewhere in this release: the whole package instead
+_deferred.SERVED["email"] = {"message_from_string": "email._not_a_module"}
+assert _deferred.defer(["email"]) == ["email"]
+from email import message_from_string
+print(type(sys.modules["email"]).__name__, message_from_string("Subject: x").get("subject"))
+"""
+
+
+def test_a_served_name_kept_elsewhere_imports_the_whole_package():
+    done = subprocess.run([sys.executable, "-c", _ELSEWHERE], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["module", "x"]
+
+
 _NUMPY_PARTS = """
 import gc, sys
 from tunnelsense._deferred import (

@@ -304,7 +304,7 @@ def test_any_shape_features_leave_out_the_proportions():
     """``features="invariant-any-shape"``: the invariant features with the two log
     aspect ratios at 0, so no stump splits on a sign's proportions, and a square
     sign is judged on its intensities as an upright one is."""
-    from tunnelsense.tunnel._appearance import _SHAPE_COLUMNS, _invariant_rows
+    from tunnelsense.tunnel._appearance_features import _SHAPE_COLUMNS, _invariant_rows
     from tunnelsense.tunnel._invariant import box_patches
 
     X, y = _frames(seed=3)

@@ -119,3 +119,34 @@ def test_at_most_counts_as_the_comparison_does():
         k = rng.integers(0, cdf[:, -1].max() + 3, (2, m))
         np.testing.assert_array_equal(_at_most(cdf, k),
                                       (cdf <= k[..., None]).sum(axis=-1))
+
+
+def test_median_of_all_patches_at_once_equals_each_patch_filtered_alone(
+        global_random_seed):
+    # one filter over a canvas of the patches (wider and narrower than OpenCV's
+    # fast path, patches 1-2 px thin left as they are, 16-bit and float patches
+    # clipped) gives each patch's own 3 x 3 median, edge replicated
+    from tunnelsense.tunnel._invariant import _median_3x3
+
+    rng = np.random.default_rng(global_random_seed)
+    for n_patches in (1, 2, 5, 30):
+        patches = []
+        for _ in range(n_patches):
+            h, w = (int(v) for v in rng.integers(1, 60, 2))
+            patch = rng.integers(0, 256, (h, w)).astype(np.uint8)
+            kind = rng.integers(0, 4)
+            if kind == 1:
+                patch = (patch.astype(np.uint16) * 3)
+            elif kind == 2:
+                patch = patch * 1.7 - 40.0
+            elif kind == 3:  # a view with strides, as a crop of a frame is
+                patch = np.pad(patch, 3)[2:-1, 1:-2]
+            patches.append(patch)
+        for got, patch in zip(_median_3x3(patches), patches, strict=True):
+            want = patch
+            if want.dtype != np.uint8:
+                want = np.clip(want, 0, 255).astype(np.uint8)
+            if min(want.shape) >= 3:
+                want = cv2.medianBlur(np.ascontiguousarray(want), 3)
+            assert got.dtype == np.uint8
+            np.testing.assert_array_equal(got, want)
