@@ -15,13 +15,12 @@ imports the whole package at the first look-up of any other name.
 scikit-learn's pipeline module imports ``FunctionTransformer`` from
 ``sklearn.preprocessing``, whose package imports SciPy's interpolation and optimization
 (a quarter of the pipeline's import), which no detection uses; the tunnel detector
-needs SciPy's assignment solver, its Delaunay triangulation and k-d tree and its
-connected components of a graph, each a compiled module of a package that imports
-much more.  scikit-learn looks up SciPy's conjugate-gradient solver and its linear
-operator at import (``sklearn.utils.fixes``): served from their modules, they spare
-SciPy's dense and sparse linear algebra packages (whose functions' wrappers parse
-their docstrings as they load), which detection does not use.  A served name that
-another SciPy release keeps elsewhere imports the whole package instead.
+needs SciPy's assignment solver and its Delaunay triangulation and k-d tree, each a
+compiled module of a package that imports much more.  A served name that another
+release keeps elsewhere imports the whole package instead.  (SciPy's sparse and dense
+linear algebra are not deferred: at the lowest SciPy allowed, a stand-in for them
+broke the later import of the whole package, e.g. ``scipy.sparse.linalg`` through
+``scipy.sparse``.)
 scikit-learn's validation imports narwhals' stable API (``import
 narwhals.stable.v2 as nw``) to recognise data frames; a stand-in's look-up of a
 deferred submodule gives that submodule's stand-in, so the package loads (its
@@ -47,11 +46,10 @@ __all__ = ["DEFERRED", "NUMPY_PARTS", "SERVED", "defer", "defer_numpy_parts",
 #: The modules the command defers: imported by scikit-learn at start, seldom needed.
 #: (``scipy.special``: scikit-learn's array-API helpers import it for two functions
 #: that detection does not call; building its functions' array-API wrappers parses
-#: their docstrings, a tenth of scikit-learn's import.  The sparse graph and linear
-#: algebra packages, ``scipy.linalg`` and narwhals: see the module's docstring.)
+#: their docstrings, a tenth of scikit-learn's import.  narwhals: see the module's
+#: docstring.)
 DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
-            "scipy.spatial", "scipy.special", "scipy.sparse.csgraph",
-            "scipy.sparse.linalg", "scipy.sparse.linalg._isolve", "scipy.linalg",
+            "scipy.spatial", "scipy.special",
             "narwhals", "narwhals.stable", "narwhals.stable.v2")
 
 #: NumPy's submodules the command defers once NumPy is imported
@@ -63,24 +61,13 @@ DEFERRED = ("scipy.stats", "pandas", "sklearn.preprocessing", "scipy.optimize",
 NUMPY_PARTS = ("numpy.f2py", "numpy.testing", "numpy.polynomial", "numpy.ctypeslib")
 
 #: Names a deferred package serves from one of its submodules without importing the
-#: package (see the module's docstring); ``None``: a name the package does not define
-#: itself (a submodule if there is one of that name, else no such attribute).
+#: package (see the module's docstring).
 SERVED = {
     "sklearn.preprocessing": {
         "FunctionTransformer": "sklearn.preprocessing._function_transformer",
     },
     # the tunnel detector's trajectory linking and keypoint clustering
     "scipy.optimize": {"linear_sum_assignment": "scipy.optimize._lsap"},
-    "scipy.sparse.csgraph": {
-        "connected_components": "scipy.sparse.csgraph._traversal",
-        "laplacian": "scipy.sparse.csgraph._laplacian",
-    },
-    "scipy.sparse.linalg": {"LinearOperator": "scipy.sparse.linalg._interface",
-                            "cg": "scipy.sparse.linalg._isolve"},
-    "scipy.sparse.linalg._isolve": {"cg": "scipy.sparse.linalg._isolve.iterative"},
-    # None: the optional extensions its BLAS and LAPACK modules try to import
-    "scipy.linalg": {"get_lapack_funcs": "scipy.linalg.lapack", "_cblas": None,
-                     "_clapack": None, "_flapack_64": None},
     "scipy.spatial": {"Delaunay": "scipy.spatial._qhull",
                       "QhullError": "scipy.spatial._qhull",
                       "cKDTree": "scipy.spatial._ckdtree"},
@@ -107,10 +94,6 @@ class _Deferred(types.ModuleType):
             return child
         served = SERVED.get(self.__name__, {})
         if served and sys.modules.get(self.__name__) is self:
-            if attr in served and served[attr] is None:
-                if _is_submodule(self, attr):
-                    return importlib.import_module(f"{self.__name__}.{attr}")
-                raise AttributeError(f"module {self.__name__!r} has no attribute {attr!r}")
             if attr in served:
                 try:
                     return getattr(importlib.import_module(served[attr]), attr)
