@@ -110,7 +110,10 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
     occluded_length : float or None, default=4.0
         Length (m) to which a vehicle cut short by an occluder is extended into the
         hidden scans (one classed ``"motorbike"`` to at most ``min_car_length``:
-        it is shorter than any car); None: no extension.
+        it is shorter than any car; so is one that ``region_depth="across"`` puts
+        in region II by its far side while it is shorter along the street than
+        ``min_car_length``: a car seen end on shows its width along the street, not
+        its length); None: no extension.
     max_pending_length : float or None, default=80.0
         Longest object-cluster (m along the track, from its first scan) the detector
         waits for.  One not yet final that reaches beyond it at a check (every 64th
