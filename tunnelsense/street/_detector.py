@@ -75,7 +75,10 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         between two valleys, rising from each by at least half the object's median
         body depth extent across the street (a car's step, measured on the object);
         each part is at least ``min_car_length`` long, and only objects whose median
-        body extent is at least ``roof_width`` are split.
+        body extent is at least ``roof_width`` are split.  The ridge is a corner (a
+        flank falls away from it): one whose near side stays within a quarter of
+        that step of it for half the step or more along the street is a face (a
+        hedge or wall seen between two vehicles in front of it), never split at.
     split_ratio : float, default=0.6
         Largest valley-to-peak height ratio that splits (see :func:`~tunnelsense.street.split_profile`).
     min_length : float, default=1.5
