@@ -146,11 +146,10 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         street narrower than the regions assume, reaching into region II, stays
         passing.  With ``split_merged`` it also cuts apart neighbours in bays at an
         angle joined into one object (see ``split_merged``).  For streets with
-        angled bays (not the default: where two neighbours in a row of bays at
-        right angles, seen end on, are joined into one object, it can count them as
-        one parked vehicle where the default counts none; and the echelon split
-        can cut a hedge right behind the kerb with motorbikes in front of it into
-        pieces that count as vehicles).  ``"span"``: any
+        angled bays (not the default: in a row of bays at right angles with
+        motorbikes beside the cars, a car seen only over a passing car's roof can
+        join a motorbike beside it across the hidden scans into one object that
+        counts as a parked vehicle where the default counts none).  ``"span"``: any
         object averaging in region I whose far side lies in region II belongs to
         region II (also traffic reaching into it).
     min_car_length : float, default=2.4
