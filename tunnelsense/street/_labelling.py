@@ -141,10 +141,10 @@ class _Labelling:
                 "extend": bool(est.occluded_length is not None and vehicle
                                and hidden_length > 0 and inside),
                 "vehicle": vehicle,
-                # reaching from the lane into the parking lane, shorter than a car
-                # along the street: standing across it, seen end on
-                "end_on": bool(reaching[o] and cum[last + 1] - cum[first]
-                               < est.min_car_length),
+                # parked for standing across the street ("across"), shorter than a
+                # car along it: seen end on
+                "end_on": bool(est.region_depth == "across" and reaching[o]
+                               and cum[last + 1] - cum[first] < est.min_car_length),
                 "region": region,
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
