@@ -38,7 +38,7 @@ def test_cars_in_echelon_are_split_into_one_object_each(echelon, off):
     s_on = street_scores(echelon.gt, d_on)["parked"]
     assert s_on["tp"] == 3 and s_on["fp"] == 0
     assert (d_on.label == "parked").sum() == 3 and d_on.length.max() < 5.0
-    # without splitting (the default region_depth="near" never splits so),
+    # without splitting (region_depth="near" never splits so),
     # neighbours joined where a scan cuts both
     assert street_scores(echelon.gt, d_off)["parked"]["tp"] < 3
     assert d_off.length.max() > 7.0
