@@ -220,6 +220,14 @@ an option.  Evaluation seeds 7001-7003, once, "across", street9 -> street10: bas
 plain, bays at 45 deg 0.926 -> 0.907, rows of 45-deg bays 0.781 -> 0.771, bays
 and rows at 90 deg unchanged; base motorbikes, hedges 0.893/0.964 -> 0.917/0.982
 (as "near"), the bays rows and walls unchanged (street_region_depth_table.md).
+
+2026-11-29: ``region_depth="across"`` became the default (so the figures above
+marked "across" are now the default's, and ``--set region_depth="near"`` gives
+the former default).  Evaluation seeds 7001-7003, base plain, once, "near" ->
+"across": bays at 90 deg 0.527/1.000 -> 0.964/1.000, bays at 45 deg 0.796/1.000
+-> 0.907/1.000, rows of 45-deg bays 0.542/0.981 -> 0.771/1.000, rows of 90-deg
+bays 0.191/1.000 -> 0.870/1.000; kerb 5.2 m, kerb 7.5 m, caravans, wet road,
+walls, hedges tight behind the kerb and parked bicycles identical.
 """
 
 import argparse
