@@ -201,6 +201,33 @@ at 90 deg 0.870/1.000 both (the default's figures unchanged); base motorbikes,
 bays 45 deg 0.746 -> 0.751, rows of 45-deg bays 0.686 -> 0.698, bays and rows at
 90 deg and walls unchanged, hedges right behind the kerb 0.917/0.982 ->
 0.893/0.964 (the hedge cut at its ridges, as on the tuning seeds).
+
+Measured 2026-11-29, ``region_depth="across"`` after (1) a vehicle it parks by its
+far side while shorter along the street than min_car_length (seen end on) is
+extended into hidden scans to at most min_car_length (it shows its width along
+the street), not occluded_length, and (2) the echelon split skips a ridge that is a
+face (the near side within travel/4 of it for travel/2 or more along the track),
+tuning seeds 101-105, before -> after: base motorbikes, rows of bays at 90 deg
+0.718/0.987 (3 FP) -> 0.721/0.991 (2), bays at 90 deg 0.790/0.996 (1) ->
+0.793/1.000 (0), hedges right behind the kerb 0.877/0.933 (17) -> 0.854/0.954 (11),
+walls 0.933/0.984 (4) -> 0.877/0.967 (8); base plain, rows of 45-deg bays
+0.780/1.000 -> 0.754/1.000; every other setting of both bases, and the default rows
+of the other bases, identical.  Against "near", "across" now loses no recall and
+adds no false object on any tuning row but base motorbikes, rows of bays at 90 deg
+(2 false objects, "near" 1: the second is an end-on car seen only over a passing
+car's roof, joined with a motorbike beside it across the hidden scans); it stays
+an option.  Evaluation seeds 7001-7003, once, "across", street9 -> street10: base
+plain, bays at 45 deg 0.926 -> 0.907, rows of 45-deg bays 0.781 -> 0.771, bays
+and rows at 90 deg unchanged; base motorbikes, hedges 0.893/0.964 -> 0.917/0.982
+(as "near"), the bays rows and walls unchanged (street_region_depth_table.md).
+
+2026-11-29: ``region_depth="across"`` became the default (so the figures above
+marked "across" are now the default's, and ``--set region_depth="near"`` gives
+the former default).  Evaluation seeds 7001-7003, base plain, once, "near" ->
+"across": bays at 90 deg 0.527/1.000 -> 0.964/1.000, bays at 45 deg 0.796/1.000
+-> 0.907/1.000, rows of 45-deg bays 0.542/0.981 -> 0.771/1.000, rows of 90-deg
+bays 0.191/1.000 -> 0.870/1.000; kerb 5.2 m, kerb 7.5 m, caravans, wet road,
+walls, hedges tight behind the kerb and parked bicycles identical.
 """
 
 import argparse

@@ -103,3 +103,21 @@ def test_two_cars_hidden_over_a_longer_stretch_than_a_car_stay_two():
     det = ScanClusterer(speed=speed, occluded_length=20.0).fit(run.scans).detect(
         run.scans)
     assert street_scores(run.gt, det)["parked"]["tp"] < 2
+
+
+def test_a_car_seen_end_on_is_not_stretched_into_hidden_scans():
+    speed = 11.0
+    # a car in a bay at right angles, seen end on (1.8 m along the street, 4.3 m
+    # across it, reaching from the lane into the parking lane); a van standing in
+    # the lane hid its first 0.2 m and 2.8 m before it
+    boxes = [dict(s0=3.0, s1=4.8, depth=2.6, width=4.3, top=1.45),
+             dict(s0=0.0, s1=3.2, depth=1.0, width=1.0, top=2.6)]
+    run = make_run(boxes, ["parked", None], n_scans=90, speed=speed)
+    est = ScanClusterer(speed=speed, regions=(3.0, 7.5), region_depth="across")
+    det = est.fit(run.scans).detect(run.scans)
+    assert street_scores(run.gt, det)["parked"]["tp"] == 1
+    car = det[det["label"] == "parked"]
+    assert len(car) == 1
+    # extended into the hidden scans no longer than the shortest car (its width
+    # is what shows along the street), not to occluded_length (4 m)
+    assert 1.8 <= car["length"].iloc[0] <= est.min_car_length + 0.2

@@ -38,7 +38,7 @@ def test_cars_in_echelon_are_split_into_one_object_each(echelon, off):
     s_on = street_scores(echelon.gt, d_on)["parked"]
     assert s_on["tp"] == 3 and s_on["fp"] == 0
     assert (d_on.label == "parked").sum() == 3 and d_on.length.max() < 5.0
-    # without splitting (the default region_depth="near" never splits so),
+    # without splitting (region_depth="near" never splits so),
     # neighbours joined where a scan cuts both
     assert street_scores(echelon.gt, d_off)["parked"]["tp"] < 3
     assert d_off.length.max() > 7.0
@@ -62,19 +62,38 @@ def test_split_near_side_needs_a_ridge_between_two_valleys():
 
 
 def test_split_echelon_leaves_shallow_objects_alone():
-    # a hedge's near side waves by a metre, but its body is 0.4 m deep
-    n = 60
+    # near sides of cars at 45 degrees, 0.2 m apart along the track: the end comes
+    # forward, the flank steps back; on a body 0.4 m deep (a hedge) no split
+    car = np.r_[np.linspace(4.6, 3.4, 7), np.linspace(3.6, 6.4, 15)]
+    side = np.r_[car[:-2], car[:-2], car[:-2]]
+    n = len(side)
     position = np.arange(n)
-    side = 6.0 + 0.6 * np.sin(np.arange(n) / 4.0)
     objects = np.zeros(n, dtype=np.int64)
     cum = np.arange(n + 2) * 0.2
     args = dict(min_length=2.4, depth=0.8)
     assert (split_echelon(objects, position, side, side + 0.4, np.r_[0], np.r_[n - 1],
                           cum, **args) == 0).all()
-    # the same near side on a body 2 m deep is split
+    # the same near side on a body 2 m deep is split, one object per car
     new = split_echelon(objects, position, side, side + 2.0, np.r_[0], np.r_[n - 1],
                         cum, **args)
-    assert len(np.unique(new)) > 1
+    assert len(np.unique(new)) == 3
+
+
+def test_a_face_between_two_vehicles_is_no_ridge():
+    along = np.arange(61) * 0.15
+    # motorbikes or cars 1.8 m long in front of a hedge 6.6 m deep, 0.9 m of hedge
+    # face seen between them: the near side steps back to the face and forward
+    # again (no flank falls away from the ridge)
+    unit = np.r_[np.full(12, 5.3), np.full(6, 6.6)]
+    side = np.r_[unit, unit, unit, np.full(6, 5.3)]
+    assert split_near_side(side, along, min_length=1.5, travel=0.6) == []
+    # a ridge as sharp as a car's corner (a flank falling away from it) is one
+    ridge = side.copy()
+    ridge[12:18] = np.linspace(5.6, 6.6, 6)
+    assert split_near_side(ridge, along, min_length=1.5, travel=0.6) == [18]
+    # ... but not with its top flat for travel / 2 along the track (a face)
+    ridge[15:18] = 6.6
+    assert split_near_side(ridge, along, min_length=1.5, travel=0.6) == []
 
 
 def test_cars_along_the_kerb_are_not_split():

@@ -181,6 +181,28 @@ def test_skops_trusts_the_fitted_detector(tmp_path):
     assert est.labels_ == ("passing", "parked", "roadside")
 
 
+def test_a_model_saved_with_region_depth_near_keeps_it(tmp_path):
+    # the default became "across"; a model saved with "near" (every model saved
+    # before) must load with its stored value and detect exactly as before: on a
+    # row of bays at right angles the two differ, so a reader falling back to the
+    # default would show here
+    from tunnelsense.io import load_model, save_model
+
+    fit = make_street_scans(300, scenario="sparse", random_state=11)
+    run = make_street_scans(1200, scenario="sparse", random_state=12,
+                            angled_row_fraction=1.0, bay_angle_deg=90.0,
+                            kerb_depth=7.5, parked_cluster_size=4.0)
+    near = make_parking_pipeline(region_depth="near").fit(fit.scans)
+    loaded = load_model(save_model(near, tmp_path / "near.skops"))
+    est = loaded.named_steps["cluster"]
+    assert est.region_depth == "near"
+    before = near.named_steps["cluster"].detect(run.scans)
+    assert est.detect(run.scans).equals(before)
+    across = make_parking_pipeline().fit(fit.scans).named_steps["cluster"]
+    assert across.region_depth == "across"
+    assert not across.detect(run.scans).equals(before)
+
+
 def _street_with_wall(n_scans):
     """A hedge 7 m away along the whole run (region III), sedans parked in region II
     and a vehicle in the next lane (region I) now and then, hiding both."""

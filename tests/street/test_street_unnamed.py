@@ -156,9 +156,10 @@ def test_cars_in_bays_at_right_angles_are_parked_by_their_far_side():
                             angled_row_fraction=1.0, bay_angle_deg=90.0, kerb_depth=7.5,
                             parked_cluster_size=4.0, **QUIET)
     assert (run.gt["label"] == "parked").sum() >= 15
-    across = _parked_recall(run, region_depth="across")
+    across = _parked_recall(run)  # the default, region_depth="across"
+    assert across == _parked_recall(run, region_depth="across")
     assert across["recall"] >= 0.85 and across["precision"] >= 0.95
-    assert _parked_recall(run)["recall"] < across["recall"] - 0.3  # "near"
+    assert _parked_recall(run, region_depth="near")["recall"] < across["recall"] - 0.3
 
 
 def test_a_body_across_the_street_is_no_traffic():

@@ -75,7 +75,10 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         between two valleys, rising from each by at least half the object's median
         body depth extent across the street (a car's step, measured on the object);
         each part is at least ``min_car_length`` long, and only objects whose median
-        body extent is at least ``roof_width`` are split.
+        body extent is at least ``roof_width`` are split.  The ridge is a corner (a
+        flank falls away from it): one whose near side stays within a quarter of
+        that step of it for half the step or more along the street is a face (a
+        hedge or wall seen between two vehicles in front of it), never split at.
     split_ratio : float, default=0.6
         Largest valley-to-peak height ratio that splits (see :func:`~tunnelsense.street.split_profile`).
     min_length : float, default=1.5
@@ -110,7 +113,10 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
     occluded_length : float or None, default=4.0
         Length (m) to which a vehicle cut short by an occluder is extended into the
         hidden scans (one classed ``"motorbike"`` to at most ``min_car_length``:
-        it is shorter than any car); None: no extension.
+        it is shorter than any car; so is one that ``region_depth="across"`` puts
+        in region II by its far side while it is shorter along the street than
+        ``min_car_length``: a car seen end on shows its width along the street, not
+        its length); None: no extension.
     max_pending_length : float or None, default=80.0
         Longest object-cluster (m along the track, from its first scan) the detector
         waits for.  One not yet final that reaches beyond it at a check (every 64th
@@ -121,12 +127,13 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         the memory of the online detector; batch runs the same checks, so both agree.
         None: wait for every object-cluster to end (memory then follows the longest
         one).  See ``docs/street.md`` for how the default was chosen.
-    region_depth : {"near", "across", "span", "mean"}, default="near"
+    region_depth : {"across", "near", "span", "mean"}, default="across"
         Depth deciding an object's region: ``"mean"`` its mean depth (the paper);
         ``"near"`` the same, but an object averaging beyond region II whose near side
         (median nearest depth of its intra-clusters above 0.3 m) is in it belongs to
         region II: a car half on the sidewalk, near side 6.2-6.6 m.
-        ``"across"`` (beyond the paper) also: an object averaging in region I whose
+        ``"across"`` (beyond the paper; the default) does what ``"near"`` does and
+        also: an object averaging in region I whose
         far side (median farthest depth of its intra-clusters above 0.3 m) lies in
         region II belongs to region II when its body stands across the street or
         obliquely to it, as traffic never does: its near side moves
@@ -135,18 +142,20 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         several cars joined), or it is shorter along the street than
         ``min_car_length`` and its cross-sections are at least ``roof_width`` deep
         (a car in a bay at right angles, seen end on: its near end in the traffic
-        lane, its body reaching into the parking lane).  A vehicle driving along
-        the street keeps its near side and is as long as a car, so the traffic of a
-        street narrower than the regions assume, reaching into region II, stays
-        passing.  With ``split_merged`` it also cuts apart neighbours in bays at an
-        angle joined into one object (see ``split_merged``).  For streets with
-        angled bays (not the default: where two neighbours in a row of bays at
-        right angles, seen end on, are joined into one object, it can count them as
-        one parked vehicle where the default counts none; and the echelon split
-        can cut a hedge right behind the kerb with motorbikes in front of it into
-        pieces that count as vehicles).  ``"span"``: any
+        lane, its body reaching into the parking lane).  With ``split_merged`` it
+        also cuts apart neighbours in bays at an angle joined into one object (see
+        ``split_merged``).  It assumes that traffic drives along the street: a
+        vehicle driving past keeps its near side and is as long as a car, so the
+        traffic of a street narrower than the regions assume, reaching into region
+        II, stays passing.  It is the default because a street may have bays at an
+        angle to the kerb whatever the regions say, and an object standing along
+        the street is labelled by it as by ``"near"``.  Its known cost: in a row of bays at right angles
+        with motorbikes beside the cars, a car seen only over a passing car's roof
+        can join a motorbike beside it across the hidden scans into one object that
+        counts as a parked vehicle where ``"near"`` counts none.  ``"span"``: any
         object averaging in region I whose far side lies in region II belongs to
-        region II (also traffic reaching into it).
+        region II (also traffic reaching into it).  Models saved with another value
+        keep it.
     min_car_length : float, default=2.4
         Shortest car (m, city cars 2.5 m); shorter, a vehicle must be a motorbike.
     min_raised_fraction : float, default=0.2

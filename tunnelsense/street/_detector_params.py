@@ -86,7 +86,7 @@ class _ScanClustererParams(BaseEstimator):
         bridge_occluded=True,
         occluded_length=4.0,
         max_pending_length=80.0,
-        region_depth="near",
+        region_depth="across",
         min_car_length=2.4,
         min_raised_fraction=0.2,
         min_roof_height=0.5,

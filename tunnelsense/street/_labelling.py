@@ -78,7 +78,8 @@ class _Labelling:
                                     self.far[clusters], first, last, self.cum,
                                     min_length=est.min_car_length, depth=est.roof_width)
         prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
-        region_depth = self._region_depth(objects, clusters, prof)
+        region_depth, reaching = self._region_depth(objects, clusters, prof,
+                                                    reaching=True)
         self.object_id[clusters] = -1  # final, waiting for its id
         cum, follows = self.cum, self.follows
         for o in range(prof.n):
@@ -140,6 +141,10 @@ class _Labelling:
                 "extend": bool(est.occluded_length is not None and vehicle
                                and hidden_length > 0 and inside),
                 "vehicle": vehicle,
+                # parked for standing across the street ("across"), shorter than a
+                # car along it: seen end on
+                "end_on": bool(est.region_depth == "across" and reaching[o]
+                               and cum[last + 1] - cum[first] < est.min_car_length),
                 "region": region,
                 "depth": mean_depth, "top": float(prof.top[o]),
                 "n_points": int(prof.n_points[o]),
@@ -279,6 +284,7 @@ class _Labelling:
             out.append({
                 "key": (self.base + lo, depth), "first": self.base + lo,
                 "last": self.base + hi, "before": 0, "after": 0, "extend": False,
+                "end_on": False,
                 "vehicle": True, "region": region, "depth": depth, "top": top,
                 "n_points": len(pts), "clusters": np.empty(0, np.int64),
                 "features": features,

@@ -156,6 +156,19 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
     return new
 
 
+def _face_length(s, start, end, i, tol):
+    """Length (m along the track) of the run of scans around ``i`` whose near side
+    ``s`` stays within ``tol`` of ``s[i]`` (scan ``k`` covers ``start[k]..end[k]``)."""
+    near = s >= s[i] - tol
+    lo = i
+    while lo > 0 and near[lo - 1]:
+        lo -= 1
+    hi = i
+    while hi < len(s) - 1 and near[hi + 1]:
+        hi += 1
+    return float(end[hi] - start[lo])
+
+
 def split_near_side(side, along, *, min_length, travel):
     """Where to split an object whose near side shows two vehicles in echelon.
 
@@ -170,7 +183,11 @@ def split_near_side(side, along, *, min_length, travel):
     The split point is the scan of the highest ridge that rises at least ``travel``
     above the nearest near side on both sides, leaving at least ``min_length``
     metres on each; its scan goes with the side it continues.  Applied recursively
-    to both parts.
+    to both parts.  A ridge is a corner: the near side falls away from it along a
+    flank on one side and steps forward at the next vehicle's end on the other.
+    One whose near side stays within ``travel / 4`` of it for ``travel / 2`` metres
+    or more along the track is a face along the street (a hedge or wall seen
+    between two vehicles in front of it), never a split point.
 
     Parameters
     ----------
@@ -214,6 +231,10 @@ def split_near_side(side, along, *, min_length, travel):
     room = ((along[seen[idx]] - along[0] >= min_length)
             & (along[n] - along[seen[idx] + 1] >= min_length))
     rise = np.where(room, rise, -np.inf)
+    for j in np.flatnonzero(rise >= travel):
+        if _face_length(s, along[seen], along[seen + 1], int(idx[j]),
+                        travel / 4) >= travel / 2:
+            rise[j] = -np.inf  # a face along the street (a hedge), no corner
     j = int(np.argmax(rise))
     if not rise[j] >= travel:
         return []

@@ -219,13 +219,15 @@ class _RunState(_Labelling, ScanWindow):
         return dict(horizon=self.horizon, step=HORIZON_STEP,
                     bridge_gap=self.est.occluded_length)
 
-    def _region_depth(self, objects, clusters, prof):
+    def _region_depth(self, objects, clusters, prof, *, reaching=False):
         """The depth that decides every object's region: the mean depth, or (``"near"``)
         the near side for the boundary of region III (a car half on the sidewalk), and
         (``"span"``) the far side for the boundary of region I (a body reaching into
-        the parking lane from the traffic lane's side)."""
+        the parking lane from the traffic lane's side).  With ``reaching`` also, per
+        object, whether its far side gave it (it reaches from region I into II)."""
         if self.est.region_depth == "mean":
-            return prof.depth
+            return (prof.depth, np.zeros(prof.n, dtype=bool)) if reaching else prof.depth
+        across = np.zeros(prof.n, dtype=bool)
         side = near_side(objects, self.side[clusters], prof.n)
         lo, hi = self.edges(prof.first).T
         with np.errstate(invalid="ignore"):
@@ -248,7 +250,7 @@ class _RunState(_Labelling, ScanWindow):
                         width=est.motorbike_width, min_car_length=est.min_car_length,
                         depth=est.roof_width, longest=est.van_length)
             depth = np.where(across, far, depth)
-        return depth
+        return (depth, across) if reaching else depth
 
     def _overdue(self, prof, root, region, final):
         """Object-clusters (roots) not final that reach back beyond the limit."""
@@ -316,8 +318,10 @@ class _RunState(_Labelling, ScanWindow):
             kind = vehicle_class(q["features"], **est._class_params()) if q[
                 "vehicle"] else ""
             if q["extend"]:
-                # a motorbike is shorter than the shortest car: not extended beyond
-                first, last = self._extend(q, est.occluded_length if kind != "motorbike"
+                # a motorbike is shorter than the shortest car, and a vehicle seen end
+                # on shows its width along the street: not extended beyond it
+                short = kind == "motorbike" or q["end_on"]
+                first, last = self._extend(q, est.occluded_length if not short
                                            else min(est.occluded_length,
                                                     est.min_car_length))
             next_id += 1
