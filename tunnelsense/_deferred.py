@@ -162,16 +162,21 @@ def defer(names=DEFERRED) -> list[str]:
     >>> defer(["json"])  # imported already: left alone
     []
     """
-    deferred = []
+    deferred, tops = [], {}
+    for name in names:  # the top-level packages' specs, before any stand-in
+        tops.setdefault(name.partition(".")[0], _real_spec(name.partition(".")[0]))
     for name in names:
         if name in sys.modules:
             continue
-        try:  # the top-level package only: a submodule's look-up imports its parent
-            top = importlib.util.find_spec(name.partition(".")[0])
-        except (ImportError, ValueError):
-            continue
+        top = tops[name.partition(".")[0]]
         if top is None:
             continue
+        parts = name.split(".")[1:]
+        base = Path(top.origin or "").parent
+        if parts and not ((base.joinpath(*parts) / "__init__.py").is_file() or any(
+                p.suffix in (".py", ".so", ".pyd")
+                for p in base.joinpath(*parts[:-1]).glob(f"{parts[-1]}.*"))):
+            continue  # no such submodule in this release: its import fails as usual
         path = None
         if name in SERVED:  # its submodules load from its folder, found without
             # importing the parent (``tunnelsense --version`` imports none of it)
@@ -188,6 +193,16 @@ def defer(names=DEFERRED) -> list[str]:
         sys.modules[name] = stand_in
         deferred.append(name)
     return deferred
+
+
+def _real_spec(top):
+    """The spec of the top-level package ``top`` (not its stand-in's), or None."""
+    try:  # the top-level package only: a submodule's look-up imports its parent
+        if isinstance(sys.modules.get(top), _Deferred):
+            return importlib.machinery.PathFinder.find_spec(top)
+        return importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        return None
 
 
 def start_command() -> list[str]:

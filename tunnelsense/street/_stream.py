@@ -223,7 +223,9 @@ class _RunState(_Labelling, ScanWindow):
         """The depth that decides every object's region: the mean depth, or (``"near"``)
         the near side for the boundary of region III (a car half on the sidewalk), and
         (``"span"``) the far side for the boundary of region I (a body reaching into
-        the parking lane from the traffic lane's side).  With ``reaching`` also, per
+        the parking lane from the traffic lane's side), or (``"across"``, the default)
+        that far side only for a body standing across the street or obliquely (not
+        along it, as traffic drives).  With ``reaching`` also, per
         object, whether its far side gave it (it reaches from region I into II)."""
         if self.est.region_depth == "mean":
             return (prof.depth, np.zeros(prof.n, dtype=bool)) if reaching else prof.depth
