@@ -109,7 +109,7 @@ def test_fit_kmeans_returns_the_distinct_rows_when_at_most_k(n_distinct,
 
 
 def test_distinct_row_count_exact_on_colliding_sums():
-    from tunnelsense.tunnel._kmeans import _at_most_distinct
+    from tunnelsense.tunnel._kmeans_fit import _at_most_distinct
 
     # two rows whose weighted sums are equal for the weights drawn, yet distinct:
     # counted exactly, not by their sums
