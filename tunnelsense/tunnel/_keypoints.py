@@ -47,6 +47,7 @@ from tunnelsense.tunnel._keypoints_canonical import (  # noqa: F401 (pickles)
 from tunnelsense.tunnel._keypoints_depth import (  # noqa: F401 (check_served_depth)
     _check_depth,
     _pixel_dtype,
+    check_band_reaches_boxes,
     check_served_depth,
 )
 from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
@@ -316,6 +317,9 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                     f"low must not exceed high; got low={self.low}, high={self.high}"
                 )
             self.low_, self.high_ = float(self.low), float(self.high)
+            if self.radiometry == "raw" and boxes is not None:
+                check_band_reaches_boxes(records, boxes, self.low_, self.high_,
+                                         self.pixel_dtype_)
         self.n_frames_fit_ = len(records)
         return self
 
