@@ -12,6 +12,7 @@ import numpy as np
 
 __all__ = [
     "approach_fraction",
+    "approach_r",
     "curve_fit_r",
     "motion_fit_r",
     "path_travel",
@@ -238,3 +239,33 @@ _MEASURES = {
     "quadratic": lambda x, y, t: curve_fit_r(x, y),
     "quadratic-motion": _path_or_motion_r,
 }
+
+
+def approach_r(t, h) -> float:
+    """How steadily a trajectory's object approaches: minus Pearson's r between the
+    times ``t`` (frame numbers) and the inverse rectangle heights ``1 / h``.
+
+    An object of fixed size at range ``Z`` is ``f H / Z`` pixels tall, so ``1 / h``
+    is proportional to its range, which falls linearly in time as the camera
+    drives toward it at a steady speed: 1 for a steady approach, -1 for a steady
+    recession, near 0 for an object that keeps its range.  A rotation of the
+    camera (vibration, pitch, yaw) moves every image point but changes no size,
+    so a far sign whose positions the camera's shake scatters still approaches
+    steadily.  A ratio of sizes: the same at any focal length, resolution or
+    sign size.  0 for fewer than three points or heights that do not change or
+    are not positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(10.0)
+    >>> round(approach_r(t, 700.0 / (40.0 - 0.8 * t)), 3)  # driving toward a sign
+    1.0
+    >>> approach_r(t, [12.0] * 10)  # a vehicle ahead keeping its distance
+    0.0
+    """
+    t = np.asarray(t, dtype=np.float64)
+    h = np.asarray(h, dtype=np.float64)
+    if len(t) < 3 or np.any(h <= 0):
+        return 0.0
+    return 0.0 - pearson_r(t, 1.0 / h)  # 0.0, not -0.0, when it keeps its range

@@ -36,6 +36,7 @@ from tunnelsense.tunnel._linking import (
 from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
     _MEASURES,
     approach_fraction,
+    approach_r,
     curve_fit_r,
     motion_fit_r,
     path_travel,
@@ -150,6 +151,9 @@ class PCCStream(StreamState):
         self.min_travel = float(getattr(verifier, "min_travel", 0.0))
         approach = getattr(verifier, "min_approach", None)
         self.min_approach = None if approach is None else float(approach)
+        # models saved before the parameter existed check the path alone
+        scale = getattr(verifier, "min_scale_r", None)
+        self.min_scale_r = None if scale is None else float(scale)
         self.vote = float(verifier.vote)
         self.release = release
         self.tour = None
@@ -171,6 +175,9 @@ class PCCStream(StreamState):
             long_enough = (n >= floor
                            and approach_fraction(traj.hs) >= self.min_approach)
         motion_ok = long_enough and abs(r) >= self.min_r
+        if (long_enough and not motion_ok and self.min_scale_r is not None
+                and approach_r(traj.ts, traj.hs) >= self.min_scale_r):
+            motion_ok = True  # a steady approach, whatever the path's jitter
         if motion_ok and self.min_travel > 0:
             motion_ok = path_travel(traj.xs, traj.ys, traj.hs) >= self.min_travel
         indicator = [a and motion_ok for a in traj.app]
