@@ -181,6 +181,39 @@ def test_frames_of_another_bit_depth_are_refused():
         wide.transform(X)
 
 
+def test_a_fixed_band_missing_every_sign_pixel_is_refused_naming_the_units():
+    """The paper's 8-bit band on 14-bit counts: refused at fit, naming the band,
+    the frames' pixel type and where the signs' pixels lie."""
+    X, y = labelled_frames(0)
+    wide = FrameSequence.from_array(
+        np.stack([r.image.astype(np.uint16) * 64 for r in X]), tour="lab")
+    match = (r"fixed keypoint band \[160, 190\] \(low, high\) holds none of the "
+             r"pixels inside the indicator boxes y: those of the uint16 training "
+             r"frames lie in \[\d+, \d+\]")
+    with pytest.raises(ValueError, match=match):
+        IntensityKeypointSampler().fit(wide, y)
+    # the same band in the frames' units is served; so are 8-bit levels in
+    # 16-bit words (the band then holds the signs' pixels)
+    assert IntensityKeypointSampler(160 * 64, 190 * 64).fit(wide, y).low_ == 160 * 64
+    words = FrameSequence.from_array(
+        np.stack([r.image.astype(np.uint16) for r in X]), tour="lab")
+    out = IntensityKeypointSampler().fit_transform(words, y)
+    assert sum(len(r.payload["keypoints"]) for r in out) > 0
+    # without boxes nothing is checked (no sign to miss)
+    assert IntensityKeypointSampler().fit(wide).pixel_dtype_ == "uint16"
+
+
+def test_the_paper_preset_on_14_bit_frames_says_why_it_cannot_be_fitted():
+    from tunnelsense import to_xy
+    from tunnelsense.datasets import make_tunnel_tour
+    from tunnelsense.tunnel import make_indicator_pipeline
+
+    X, y, _ = to_xy([make_tunnel_tour(40, random_state=1, bit_depth=14,
+                                      indicator_spacing_m=40.0)])
+    with pytest.raises(ValueError, match=r"band \[160, 190\] \(low, high\).*uint16"):
+        make_indicator_pipeline(preset="paper", random_state=0).fit(X, y)
+
+
 def test_fit_refuses_frames_of_two_bit_depths(tmp_path):
     """Lazily decoded frames too: the learned band would mix two scales."""
     import cv2

@@ -260,3 +260,49 @@ def test_motion_fit_counts_time_in_frame_numbers():
     x, y = 320 - 2100 / z, 240 - 700 / z  # image position ~ 1 / Z
     assert motion_fit_r(t, x, y) > 0.999
     assert motion_fit_r(np.arange(10.0), x, y) < motion_fit_r(t, x, y) - 0.005
+
+
+def shaken_sign(n, z_first, z_last, jitter, first=1):
+    """A sign approached from ``z_first`` to ``z_last`` metres (700 px focal
+    length, a 1 m sign), its image position shaken by ``jitter`` (n, 2) pixels,
+    the camera's vibration; its height (the box's) is whole pixels."""
+    z = np.linspace(z_first, z_last, n)
+    h = np.round(700.0 / z)
+    return [(first + k, [300 - 2.2 * 700.0 / z[k] + jitter[k, 0],
+                         200 - 0.6 * 700.0 / z[k] + jitter[k, 1], h[k] / 2, h[k]], True)
+            for k in range(n)]
+
+
+def test_min_scale_r_passes_a_far_sign_under_camera_vibration():
+    """The trajectory of a far sign shaken by 2.5 px a frame fits no smooth path,
+    but its size grows steadily; a vehicle ahead (jittering, keeping or opening
+    its distance) passes neither way."""
+    rng = np.random.default_rng(3)
+    n = 25
+    sign = shaken_sign(n, 50.0, 35.0, rng.normal(0.0, 2.5, (n, 2)))
+    ahead = [(k + 1, [60 + rng.normal(0, 2.5), 40 + rng.normal(0, 2.5), 10,
+                      20 + rng.integers(-1, 2)], True) for k in range(n)]
+    z = np.linspace(30.0, 45.0, n)  # a vehicle pulling away
+    away = [(k + 1, [150 + rng.normal(0, 2.5) - 0.2 * k, 90 + rng.normal(0, 2.5),
+                     700.0 / z[k], np.round(1400.0 / z[k])], True) for k in range(n)]
+    X = track_frames({1: sign, 2: ahead, 3: away})
+    found = {}
+    for min_scale_r in (None, 0.95):
+        out = PCCVerifier(criterion="quadratic-motion", min_travel=0.25,
+                          min_scale_r=min_scale_r).fit(X).predict(X)
+        found[min_scale_r] = {int(d[4]) for r in out for d in r.payload["detections"]}
+    assert found == {None: set(), 0.95: {1}}
+
+
+def test_approach_r_is_a_ratio_of_sizes():
+    from tunnelsense.tunnel._pcc_measures import approach_r
+
+    t = np.arange(1.0, 21.0)
+    h = 700.0 / np.linspace(50.0, 30.0, 20)
+    assert approach_r(t, h) == pytest.approx(1.0)
+    assert approach_r(t, 3 * h) == pytest.approx(1.0)  # another resolution or size
+    assert approach_r(t, h[::-1]) == pytest.approx(-1.0)  # receding
+    assert approach_r(t, np.full(20, 14.0)) == 0.0
+    assert approach_r(t[:2], h[:2]) == 0.0
+    with pytest.raises(ValueError, match="min_scale_r"):
+        PCCVerifier(min_scale_r=0.0).fit(track_frames({1: line(12)}))

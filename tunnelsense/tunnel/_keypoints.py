@@ -11,9 +11,7 @@ can also learn it that way from labelled frames (the math is in
 
 from __future__ import annotations
 
-import copy
 import numbers
-from functools import partial
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -27,122 +25,34 @@ from tunnelsense._payload import (
     where,
 )
 from tunnelsense._records import (
-    DecodedImage,
-    FrameRecord,
     FrameSequence,
     check_frames,
     decode_once,
 )
-from tunnelsense.exceptions import InputFormatError
-from tunnelsense.tunnel._common import one_frame_shape, require_boxes
-from tunnelsense.tunnel._contrast import (
-    background_cells,
-    contrast_band,
-    sample_contrast_keypoints,
-)
+from tunnelsense.tunnel._common import one_frame_shape
 from tunnelsense.tunnel._intensity import (
     background_levels,
-    beyond_tolerance,
     cell_means,
     indicator_band,
-    normalize_frame,
-    resample_frame,
     sample_keypoints,
+)
+from tunnelsense.tunnel._keypoints_canonical import (  # noqa: F401 (pickles)
+    _canonical_pixels,
+    canonical_frame,
+    keypoint_frames,
+    learn_contrast_band,
+    learn_grey_band,
+    reference_levels,
+)
+from tunnelsense.tunnel._keypoints_depth import (  # noqa: F401 (check_served_depth)
+    _check_depth,
+    _pixel_dtype,
+    check_band_reaches_boxes,
+    check_served_depth,
 )
 from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
 __all__ = ["IntensityKeypointSampler", "indicator_band", "sample_keypoints"]
-
-#: The 8-bit picture a 16-bit camera's frames are mapped to with
-#: ``radiometry="contrast"``: the background level at grey level 100 and the
-#: training signs' median local contrast 75 grey levels above it (the paper's
-#: camera: lining about 100, signs in [160, 190]), so every later stage (histograms
-#: over [0, 256), appearance patches) reads 8-bit grey levels whatever the depth
-CANONICAL_LEVEL, CANONICAL_SIGN = 100.0, 175.0
-
-
-def _check_depth(image, index, record, expected, band=None):
-    """Refuse a frame whose pixel type is not ``expected``, the units of the band.
-
-    ``band`` is the fitted band (in ``transform``), or None (in ``fit``, where the
-    other frames set ``expected``).
-    """
-    if image.dtype == expected:
-        return image
-    told = (
-        f"the other frames are {expected}: fit on frames of one bit depth"
-        if band is None
-        else f"the sampler was fitted on {expected} frames: its intensity band "
-        f"[{band[0]:g}, {band[1]:g}] is in {expected} grey levels"
-    )
-    raise InputFormatError(
-        f"{where(record, index)}: a {image.dtype} frame, "
-        f"but {told}. A 16-bit camera's raw counts are not 8-bit levels times 257 "
-        "(the camera's gain decides); fit the detector on frames of this depth, or "
-        "convert the frames to the fitted depth yourself"
-    )
-
-
-def check_served_depth(model, record, source):
-    """Refuse, before any output is written, a source whose first frame has another
-    pixel type than the frames ``model`` (a fitted indicator pipeline) was fitted
-    on, naming the file and both types; a model without a fitted sampler of known
-    depth passes (its own ``predict`` decides)."""
-    step = getattr(model, "named_steps", {}).get("keypoints")
-    fitted = getattr(step, "pixel_dtype_", None)
-    image = record.image
-    if fitted is None or str(image.dtype) == fitted:
-        return
-    origin = getattr(record.source, "origin", record.source)  # decoded: its file
-    path = getattr(origin, "path", None) or str(source)
-    raise InputFormatError(
-        f"{path}: frame {record.frame} is {image.dtype}, but the detector was fitted "
-        f"on {fitted} frames (its intensity band is in {fitted} grey levels). A "
-        "16-bit camera's raw counts are not 8-bit levels times 257 (the camera's "
-        "gain decides); fit the detector on frames of this depth, or convert the "
-        "frames to the fitted depth yourself"
-    )
-
-
-def to_canonical_8bit(image, level, spread, ref_level, ref_spread):
-    """A frame of any depth mapped affinely so that its background ``(level,
-    spread)`` becomes ``(ref_level, ref_spread)``, rounded and clipped to 8 bits.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> img = np.array([[7000, 7400, 7800, 9800]], np.uint16)
-    >>> to_canonical_8bit(img, 7400.0, 800.0, 100.0, 30.0)
-    array([[ 85, 100, 115, 190]], dtype=uint8)
-    """
-    g = ref_spread / spread
-    out = ref_level + (image.astype(np.float32) - np.float32(level)) * np.float32(g)
-    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
-
-
-def _pixel_dtype(records) -> str:
-    """The pixel type of the frames (one decode at most when none is decoded)."""
-    kinds = set()
-    for r in records:
-        source = r.source
-        if isinstance(source, np.ndarray):
-            kinds.add(str(source.dtype))
-        elif hasattr(source, "array"):  # DecodedImage
-            kinds.add(str(source.array.dtype))
-    if not kinds and len(records):
-        kinds.add(str(records[0].image.dtype))
-    if len(kinds) > 1:
-        raise InputFormatError(
-            f"the frames mix pixel types ({', '.join(sorted(kinds))}); fit on frames "
-            "of one bit depth: the intensity band is in grey levels of that depth"
-        )
-    return kinds.pop() if kinds else "uint8"
-
-
-def _canonical_pixels(sampler, pixels):
-    """The frame ``pixels`` as the fitted ``sampler`` hands it to the later stages
-    (its canonical size and radiometry): what a pickled canonical frame remakes."""
-    return sampler._canonical(pixels, 0, None)[0]
 
 
 class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
@@ -395,70 +305,21 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
                                   small=None if _cells is None else _cells[i])
                 for i, r in enumerate(records)
             ]).reshape(-1, 2)
-            self.ref_level_, self.ref_spread_ = (
-                float(v) for v in np.median(levels, axis=0)
-            )
-            # the spread of one camera's frames varies with the scene (lamps,
-            # vehicles, lining; about 12 % from frame to frame): a gain within its
-            # typical variation is left alone
-            self.gain_tolerance_ = (
-                float(np.median(np.abs(np.log(levels[:, 1] / self.ref_spread_))))
-                if self.gain_tolerance == "learned" else float(self.gain_tolerance)
-            )
+            self.ref_level_, self.ref_spread_, self.gain_tolerance_ = (
+                reference_levels(levels, self.gain_tolerance))
         if self.radiometry == "contrast":
-            if self.band != "learned":
-                raise ValueError(
-                    "radiometry='contrast' learns its band of local contrast from the "
-                    "indicators: set band='learned' (and pass the boxes y)"
-                )
-            require_boxes(boxes, "IntensityKeypointSampler(radiometry='contrast')",
-                          "to learn the contrast band from")
-            # the frame's levels as computed above (the same call on the same image)
-            images = [
-                self._canonical(_check_depth(
-                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r,
-                    levels=tuple(float(v) for v in levels[i]),
-                    made=None if _made is None else _made.setdefault(i, {}))[0]
-                for i, r in enumerate(records) if len(boxes[i])
-            ]
-            low, high = contrast_band(images, [b for b in boxes if len(b)],
-                                      self.n_sigma, unit=self.ref_spread_)
-            if self.pixel_dtype_ != "uint8":
-                # deeper frames: the later stages read an 8-bit picture whose
-                # background level and sign contrast are set by the training
-                # frames (the band, in units of the spread, is unchanged)
-                self.raw_level_, self.raw_spread_ = self.ref_level_, self.ref_spread_
-                self.ref_level_ = CANONICAL_LEVEL
-                self.ref_spread_ = float((CANONICAL_SIGN - CANONICAL_LEVEL)
-                                         / max(0.5 * (low + high), 1e-3))
-            self.contrast_low_ = round(float(self.min_contrast * low), 6)
-            self.contrast_high_ = round(float(self.max_contrast * high), 6)
-            self.low_ = round(self.ref_level_ + self.contrast_low_ * self.ref_spread_, 6)
-            self.high_ = round(self.ref_level_ + self.contrast_high_ * self.ref_spread_, 6)
+            learn_contrast_band(self, records, boxes, levels, _made)
         elif self.band == "learned":
-            require_boxes(
-                boxes, "IntensityKeypointSampler(band='learned')", "to learn the band from"
-            )
-            images = [
-                self._canonical(_check_depth(
-                    check_image(r.image, where(r, i)), i, r, self.pixel_dtype_), i, r)[0]
-                for i, r in enumerate(records) if len(boxes[i])
-            ]
-            low, high = indicator_band(
-                images, [b for b in boxes if len(b)], self.n_sigma,
-                estimator=self.band_estimator,
-            )
-            if self.min_contrast < 1.0:
-                level = (self.ref_level_ if self.radiometry == "frame" else
-                         float(np.median([background_levels(im)[0] for im in images])))
-                low = round(level + self.min_contrast * (low - level), 6)
-            self.low_, self.high_ = low, high
+            learn_grey_band(self, records, boxes)
         else:
             if self.low > self.high:
                 raise ValueError(
                     f"low must not exceed high; got low={self.low}, high={self.high}"
                 )
             self.low_, self.high_ = float(self.low), float(self.high)
+            if self.radiometry == "raw" and boxes is not None:
+                check_band_reaches_boxes(records, boxes, self.low_, self.high_,
+                                         self.pixel_dtype_)
         self.n_frames_fit_ = len(records)
         return self
 
@@ -517,104 +378,11 @@ class IntensityKeypointSampler(TransformerMixin, BaseEstimator):
         """:meth:`transform`; ``cells`` (or None), per frame, ``cell_means`` of its
         decoded image; ``made`` (or None), by frame index, the canonical frames
         the fit made (``_canonical``'s ``made``)."""
-        kw = dict(
-            row_stride=self.row_stride,
-            col_stride=self.col_stride,
-            row_offset=self.row_offset,
-            col_offset=self.col_offset,
-        )
-        band = (self.low_, self.high_)
-        fitted = getattr(self, "pixel_dtype_", None)  # None: fitted before it existed
-        out = []
-        # the canonical frame from a frame's own pixels, by this fit (a snapshot:
-        # a later fit of this sampler does not change it)
-        remake = partial(_canonical_pixels, copy.copy(self))
-        for i, r in enumerate(records):
-            r = decode_once(r)  # the later stages of this pass read the same array
-            image = check_image(r.image, where(r, i))
-            if fitted is not None:
-                _check_depth(image, i, r, fitted, band)
-            raw = image
-            image, scale, background = self._canonical(
-                image, i, r, small=None if cells is None else cells[i],
-                made=None if made is None else made.pop(i, None))
-            if background is None:
-                keypoints = sample_keypoints(image, self.low_, self.high_, **kw)
-            else:
-                unit = self.ref_spread_
-                keypoints = sample_contrast_keypoints(
-                    image, background, self.contrast_low_ * unit,
-                    self.contrast_high_ * unit, **kw)
-            extra = {
-                KEYPOINTS: keypoints,
-                KEYPOINT_BAND: band,
-                FRAME_SCALE: (1.0, 1.0) if scale is None else scale,
-            }
-            if image is not raw:  # the later stages read the canonical frame
-                # a frame from a file keeps its file as origin, so a stage that
-                # releases the image can decode the frame (its own pixels) again;
-                # pickled (to a worker process) or copied, it is made again from
-                # them, not read as the file's pixels
-                source = (DecodedImage(r.source.origin, image, remake)
-                          if isinstance(r.source, DecodedImage) else image)
-                r = FrameRecord(r.tour, r.frame, source, r.payload)
-            out.append(r.evolve(**extra))
-        return FrameSequence(out)
+        return keypoint_frames(self, records, cells, made)
 
     def _canonical(self, image, index, record, *, small=None, levels=None, made=None):
-        """The frame in the training frames' size and radiometry, the scale
-        ``(sx, sy)`` applied (None when the size is kept) and, for
-        ``radiometry="contrast"``, the mapped frame's background cells (else None).
-
-        ``small`` (``cell_means(image)``) and ``levels`` (``background_levels(image)``),
-        when given, are used for a frame of the training size instead of computing
-        them again.  ``made`` (a dict, or None) carries a mapped frame from one call
-        to a later one on the same frame (fit, then transform): the first stores
-        the grey-level map's four numbers and its result, a later one whose map
-        has the same four numbers takes that result instead of mapping again (the
-        same pixels: the map is a function of them alone).
-        """
-        scale = None
-        shape = getattr(self, "frame_shape_", None)
-        if shape is not None and image.shape != tuple(shape):
-            h, w = image.shape
-            sy, sx = shape[0] / h, shape[1] / w
-            if abs(sx / sy - 1.0) > 0.02:
-                raise InputFormatError(
-                    f"{where(record, index)}: a {w}x{h} frame, but the detector was "
-                    f"fitted on {shape[1]}x{shape[0]} frames and serves other sizes of "
-                    "the same aspect ratio only (it resamples them to the training "
-                    "size); fit it on frames of this camera"
-                )
-            image = resample_frame(image, shape)
-            scale = (float(sx), float(sy))
-            small = levels = None  # they were those of the frame before resampling
-        background = None
-        if getattr(self, "ref_level_", None) is not None:
-            if getattr(self, "contrast_low_", None) is not None:
-                background, level, spread = background_cells(image, small=small)
-            elif levels is not None:
-                level, spread = levels
-            else:
-                level, spread = background_levels(image, small=small)
-            raw_spread = getattr(self, "raw_spread_", None)
-            tolerance = getattr(self, "gain_tolerance_", 0.0)
-            if raw_spread is not None and image.dtype != np.uint8:
-                # a deeper frame: the 8-bit picture (CANONICAL_LEVEL, CANONICAL_SIGN)
-                spread = beyond_tolerance(spread, raw_spread, tolerance)
-                image = to_canonical_8bit(image, level, spread, self.ref_level_,
-                                          self.ref_spread_)
-            else:
-                spread = beyond_tolerance(spread, self.ref_spread_, tolerance)
-                key = (level, spread, self.ref_level_, self.ref_spread_)
-                if made and made.get("key") == key:
-                    image = made["image"]
-                else:
-                    image = normalize_frame(image, level, spread, self.ref_level_,
-                                            self.ref_spread_)
-                    if made is not None:
-                        made.update(key=key, image=image)
-            if background is not None:  # the same affine map as the frame's
-                background = (self.ref_level_
-                              + (background - level) * (self.ref_spread_ / spread))
-        return image, scale, background
+        """:func:`~tunnelsense.tunnel._keypoints_canonical.canonical_frame` by this
+        fit: the frame in the training frames' size and radiometry, the scale
+        applied (or None) and the background cells (or None)."""
+        return canonical_frame(self, image, index, record, small=small,
+                               levels=levels, made=made)

@@ -142,6 +142,19 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         no function ``y(x)`` fits it, while its motion in time is smooth; a
         cluster jittering in place fits neither.  ``payload["motion_r"]`` holds the
         chosen measure (signed r for ``"pearson"``).
+    min_scale_r : float or None, default=None
+        A trajectory whose path measure falls short of ``min_r`` still passes
+        the motion check when its object approaches steadily:
+        :func:`~tunnelsense.tunnel._pcc_measures.approach_r` (minus Pearson's r
+        between time and the inverse rectangle height, which is proportional to
+        the object's range) at least this.  A vibrating camera moves every image
+        point by the same small angle, independently from frame to frame: a far
+        sign's positions scatter by a few pixels about its path, which its
+        trajectory then fits poorly, while its size, which no rotation of the
+        camera changes, still grows as the camera approaches.  ``min_length`` (or
+        ``min_approach``), ``min_travel`` and the vote still apply.  A ratio of
+        sizes, the same at any resolution.  ``None``, the paper's rule, checks
+        the path alone.
     frame_rate : float or None, default=30.0
         The frame rate (frames per second) ``min_length`` is counted in.  A tour's
         frames carry its frame rate (``payload["frame_rate"]``, set by
@@ -180,11 +193,14 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_travel": [Interval(numbers.Real, 0, None, closed="left")],
         "min_approach": [Interval(numbers.Real, 0, 1, closed="neither"), None],
         "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "min_scale_r": [Interval(numbers.Real, 0, 1, closed="right"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
-                 min_travel=0.0, min_approach=None, frame_rate=30.0):
+                 min_travel=0.0, min_approach=None, min_scale_r=None,
+                 frame_rate=30.0):
         self.frame_rate = frame_rate
+        self.min_scale_r = min_scale_r
         self.min_approach = min_approach
         self.min_travel = min_travel
         self.min_r = min_r

@@ -1,7 +1,7 @@
-"""Motion verification (sections 3.6-3.7), the math and the stream state.
+"""Motion verification (sections 3.6-3.7): the stream state.
 
-:func:`pearson_r` (eq. 5) and :func:`straightness` measure how well a trajectory's
-centres fit a line.  :class:`PCCStream` is the state :class:`PCCVerifier` runs over
+The measures of a trajectory's path (:func:`pearson_r`, eq. 5, and the others) are
+in :mod:`tunnelsense.tunnel._pcc_measures`.  :class:`PCCStream` is the state :class:`PCCVerifier` runs over
 the frames of each tour: it gathers every open trajectory, decides one when it ends
 and releases a frame when every trajectory through it is decided.
 """
@@ -33,6 +33,16 @@ from tunnelsense.tunnel._linking import (
     REFERENCE_FRAME_RATE,
     rate_ratio,
 )
+from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
+    _MEASURES,
+    approach_fraction,
+    approach_r,
+    curve_fit_r,
+    motion_fit_r,
+    path_travel,
+    pearson_r,
+    straightness,
+)
 
 __all__ = [
     "PCCStream",
@@ -43,226 +53,6 @@ __all__ = [
     "pearson_r",
     "straightness",
 ]
-
-
-def pearson_r(x, y) -> float:
-    """Pearson correlation coefficient of the points ``(x_i, y_i)`` (eq. 5).
-
-    0 when either coordinate does not vary (a still cluster has no line; fewer than
-    two distinct positions).
-
-    Examples
-    --------
-    >>> pearson_r([0, 1, 2, 3], [5, 3, 1, -1])
-    -1.0
-    >>> pearson_r([1, 1, 1], [0, 1, 2])
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    x = x - x.mean()
-    y = y - y.mean()
-    sxx, syy = float(x @ x), float(y @ y)
-    scale = max(sxx, syy, 1.0)
-    if sxx <= 1e-12 * scale or syy <= 1e-12 * scale:
-        return 0.0
-    return float(np.clip((x @ y) / np.sqrt(sxx * syy), -1.0, 1.0))
-
-
-def straightness(x, y) -> float:
-    """How well the points ``(x_i, y_i)`` fit a line, whatever its direction.
-
-    ``1 - lambda_min / lambda_max`` of the points' covariance matrix: 1 for points
-    on a line, 0 for points spread alike in every direction (or fewer than two
-    distinct positions).  Unlike Pearson's r, which is 0 for a perfectly straight
-    horizontal or vertical line because one coordinate does not vary, it treats every
-    orientation alike.
-
-    Examples
-    --------
-    >>> straightness([0, 1, 2, 3], [5, 5, 5, 5])  # horizontal: Pearson r is 0 here
-    1.0
-    >>> round(straightness([0, 1, 0, 1], [0, 0, 1, 1]), 6)
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(x) < 2:
-        return 0.0
-    low, high = np.linalg.eigvalsh(np.cov(x, y, bias=True))
-    if high <= 1e-12:
-        return 0.0
-    return float(np.clip(1.0 - max(low, 0.0) / high, 0.0, 1.0))
-
-
-def curve_fit_r(x, y) -> float:
-    """Multiple correlation of a quadratic path through the points ``(x_i, y_i)``.
-
-    Pearson's r (eq. 5) generalized from a line to a parabola: ``y`` is fitted by
-    ``a0 + a1 x + a2 x^2`` by least squares and ``R = sqrt(1 - SS_res / SS_tot)``;
-    the same with ``x`` and ``y`` swapped, and the larger ``R`` is returned.  A path
-    that bends smoothly (an indicator's image path in a curving tunnel) keeps ``R``
-    close to 1 where a line fits it ever worse the longer the trajectory; as with
-    Pearson's r, a vehicle ahead that jitters in place, or drifts up and down the
-    image while keeping its column (approaching, receding), gets ``R`` far from 1,
-    because neither coordinate is a function of the other.  0 for fewer than four
-    points or when a coordinate does not vary.
-
-    Examples
-    --------
-    >>> t = [0., 1, 2, 3, 4, 5, 6, 7]
-    >>> round(curve_fit_r(t, [0.05 * v * v for v in t]), 6)  # a bending path
-    1.0
-    >>> import numpy as np
-    >>> a = np.arange(8) * np.pi / 4  # points around a circle: no path
-    >>> round(curve_fit_r(np.cos(a), np.sin(a)), 3)
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(x) < 4:
-        return 0.0
-    best = 0.0
-    for u, v in ((x, y), (y, x)):
-        u = u - u.mean()
-        v = v - v.mean()
-        scale = float(np.abs(u).max())
-        total = float(v @ v)
-        if scale <= 1e-9 or total <= 1e-12 * max(scale * scale, 1.0):
-            continue
-        u = u / scale
-        design = np.column_stack([np.ones_like(u), u, u * u])
-        coef, *_ = np.linalg.lstsq(design, v, rcond=None)
-        resid = v - design @ coef
-        best = max(best, 1.0 - float(resid @ resid) / total)
-    return float(np.sqrt(np.clip(best, 0.0, 1.0)))
-
-
-def motion_fit_r(t, x, y) -> float:
-    """Multiple correlation of a trajectory's motion in time: both coordinates of
-    the points ``(x_i, y_i)`` at times (frame numbers) ``t_i`` fitted by quadratics
-    in time.
-
-    ``x`` and ``y`` are each fitted by ``a0 + a1 t + a2 t^2`` by least squares and
-    ``R = sqrt(1 - (SS_res,x + SS_res,y) / (SS_tot,x + SS_tot,y))``: the share of
-    the points' whole scatter that a smooth motion explains.  Unlike
-    :func:`curve_fit_r`, which asks whether one coordinate is a function of the
-    other (and so measures the residual against the spread of that coordinate
-    alone), it does not depend on the direction of the motion: a short, nearly
-    horizontal stretch of a path, whose small vertical spread the camera's body
-    pitch (every image point moving up and down by the same angle) swamps, still
-    fits a smooth motion in time.  A cluster jittering in place, whatever the shape
-    of its jitter, fits no motion in time (``R`` near 0).  Over a long stretch of an
-    approaching sign's path (its image position grows as the inverse of its
-    distance) a quadratic in time fits worse than the path's shape does.  A ratio
-    of scatters: the same at any resolution and focal length.  0 for fewer than four
-    points, fewer than three distinct times, or points that do not move.
-
-    Examples
-    --------
-    >>> t = [0., 1, 2, 3, 4, 5, 6, 7]
-    >>> x = [300 - 2 * v for v in t]
-    >>> y = [200 + (1 if v % 2 else -1) * 0.8 for v in t]  # pitch wiggle, flat path
-    >>> round(curve_fit_r(x, y), 3) < 0.5, round(motion_fit_r(t, x, y), 2)
-    (True, 0.99)
-    >>> import numpy as np
-    >>> rng = np.random.default_rng(0)  # jitter in place
-    >>> motion_fit_r(t, 320 + rng.normal(0, 2, 8), 240 + rng.normal(0, 2, 8)) < 0.7
-    True
-    """
-    t = np.asarray(t, dtype=np.float64)
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    if len(t) < 4 or len(np.unique(t)) < 3:
-        return 0.0
-    u = t - t.mean()
-    u = u / float(np.abs(u).max())
-    design = np.column_stack([np.ones_like(u), u, u * u])
-    points = np.column_stack([x - x.mean(), y - y.mean()])
-    total = float((points * points).sum())
-    scale = float(np.abs(points).max())
-    if total <= 1e-12 * max(scale * scale, 1.0):
-        return 0.0
-    coef, *_ = np.linalg.lstsq(design, points, rcond=None)
-    resid = points - design @ coef
-    return float(np.sqrt(np.clip(1.0 - float((resid * resid).sum()) / total, 0.0, 1.0)))
-
-
-def path_travel(x, y, h) -> float:
-    """How far a trajectory travels, in units of its own size: the distance between
-    the mean centre of its first third and that of its last third, over the median
-    rectangle height.
-
-    An object the camera approaches moves away from the vanishing point as it grows:
-    its travel relative to its size is its offset from the line of sight relative to
-    its size times the relative change of its distance, whatever the camera's
-    resolution or focal length (about 0.5 or more over ten frames for a sign on the
-    wall at 60 km/h, several over its whole path).  Something that keeps its place
-    in the image (the far end of a curving row of lamps, which the view follows)
-    travels by the jitter of its rectangle only, a small fraction of its height,
-    however straight that jitter lines up.  0 for fewer than two points.
-
-    Examples
-    --------
-    >>> round(path_travel([0, 3, 6, 9, 12, 15], [0, 1, 2, 3, 4, 5], [10] * 6), 3)
-    1.265
-    >>> round(path_travel([5, 6, 5, 6, 5, 6], [9, 10, 9, 10, 9, 10], [16] * 6), 3)
-    0.0
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    n = len(x)
-    if n < 2:
-        return 0.0
-    k = max(n // 3, 1)
-    d = np.hypot(x[-k:].mean() - x[:k].mean(), y[-k:].mean() - y[:k].mean())
-    return float(d / max(float(np.median(np.asarray(h, dtype=np.float64))), 1e-9))
-
-
-def approach_fraction(h) -> float:
-    """How much of its range a trajectory's object covered: ``1 - h_first / h_last``,
-    where ``h_first`` and ``h_last`` are the median rectangle heights of its first
-    and last thirds.
-
-    An object of fixed size seen at range ``Z`` is ``f H / Z`` pixels tall, so
-    ``1 - h_first / h_last = (Z_first - Z_last) / Z_first``: the fraction of the
-    first range the camera travelled towards it (from the middle of the first third
-    to that of the last), whatever the focal length, the resolution, the object's
-    size or the frame rate.  In a third of a second at 80 km/h the camera covers
-    about 0.15 of a sign's range from 50 m, and half of it from 15 m.  A cluster that keeps its range
-    (a vehicle ahead, a jitter in place) covers about 0, up or down by its
-    rectangle's jitter.  Negative when the object recedes; 0 for fewer than two
-    points or heights that are not positive.
-
-    Examples
-    --------
-    >>> approach_fraction([20, 21, 20, 30, 31, 32, 40, 39, 40])  # range halved
-    0.5
-    >>> approach_fraction([16, 17, 16, 17, 16, 17])
-    0.0
-    """
-    h = np.asarray(h, dtype=np.float64)
-    n = len(h)
-    if n < 2:
-        return 0.0
-    k = max(n // 3, 1)
-    first, last = float(np.median(h[:k])), float(np.median(h[-k:]))
-    if first <= 0 or last <= 0:
-        return 0.0
-    return float(1.0 - first / last)
-
-
-def _path_or_motion_r(x, y, t):
-    return max(curve_fit_r(x, y), motion_fit_r(t, x, y))
-
-
-#: the measures of ``PCCVerifier(criterion=...)``, each of ``(x, y, t)``
-_MEASURES = {
-    "pearson": lambda x, y, t: pearson_r(x, y),
-    "principal": lambda x, y, t: straightness(x, y),
-    "quadratic": lambda x, y, t: curve_fit_r(x, y),
-    "quadratic-motion": _path_or_motion_r,
-}
 
 
 class _Released:
@@ -361,6 +151,9 @@ class PCCStream(StreamState):
         self.min_travel = float(getattr(verifier, "min_travel", 0.0))
         approach = getattr(verifier, "min_approach", None)
         self.min_approach = None if approach is None else float(approach)
+        # models saved before the parameter existed check the path alone
+        scale = getattr(verifier, "min_scale_r", None)
+        self.min_scale_r = None if scale is None else float(scale)
         self.vote = float(verifier.vote)
         self.release = release
         self.tour = None
@@ -382,6 +175,9 @@ class PCCStream(StreamState):
             long_enough = (n >= floor
                            and approach_fraction(traj.hs) >= self.min_approach)
         motion_ok = long_enough and abs(r) >= self.min_r
+        if (long_enough and not motion_ok and self.min_scale_r is not None
+                and approach_r(traj.ts, traj.hs) >= self.min_scale_r):
+            motion_ok = True  # a steady approach, whatever the path's jitter
         if motion_ok and self.min_travel > 0:
             motion_ok = path_travel(traj.xs, traj.ys, traj.hs) >= self.min_travel
         indicator = [a and motion_ok for a in traj.app]
