@@ -12,6 +12,14 @@ from tunnelsense.exceptions import InputFormatError
 __all__ = ["check_band_reaches_boxes", "check_served_depth"]
 
 
+#: What both refusals of another bit depth advise (in ``transform``, and before a
+#: detector serves a source).
+_DEPTH_ADVICE = (
+    "A 16-bit camera's raw counts are not 8-bit levels times 257 (the camera's gain "
+    "decides); fit the detector on frames of this depth, or convert the frames to "
+    "the fitted depth yourself")
+
+
 def _check_depth(image, index, record, expected, band=None):
     """Refuse a frame whose pixel type is not ``expected``, the units of the band.
 
@@ -27,11 +35,7 @@ def _check_depth(image, index, record, expected, band=None):
         f"[{band[0]:g}, {band[1]:g}] is in {expected} grey levels"
     )
     raise InputFormatError(
-        f"{where(record, index)}: a {image.dtype} frame, "
-        f"but {told}. A 16-bit camera's raw counts are not 8-bit levels times 257 "
-        "(the camera's gain decides); fit the detector on frames of this depth, or "
-        "convert the frames to the fitted depth yourself"
-    )
+        f"{where(record, index)}: a {image.dtype} frame, but {told}. {_DEPTH_ADVICE}")
 
 
 def check_served_depth(model, record, source):
@@ -48,11 +52,8 @@ def check_served_depth(model, record, source):
     path = getattr(origin, "path", None) or str(source)
     raise InputFormatError(
         f"{path}: frame {record.frame} is {image.dtype}, but the detector was fitted "
-        f"on {fitted} frames (its intensity band is in {fitted} grey levels). A "
-        "16-bit camera's raw counts are not 8-bit levels times 257 (the camera's "
-        "gain decides); fit the detector on frames of this depth, or convert the "
-        "frames to the fitted depth yourself"
-    )
+        f"on {fitted} frames (its intensity band is in {fitted} grey levels). "
+        f"{_DEPTH_ADVICE}")
 
 
 def _pixel_dtype(records) -> str:
