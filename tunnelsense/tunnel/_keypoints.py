@@ -45,7 +45,6 @@ from tunnelsense.tunnel._keypoints_canonical import (  # noqa: F401 (pickles)
     reference_levels,
 )
 from tunnelsense.tunnel._keypoints_depth import (  # noqa: F401 (check_served_depth)
-    _check_depth,
     _pixel_dtype,
     check_band_reaches_boxes,
     check_served_depth,

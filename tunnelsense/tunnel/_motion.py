@@ -6,10 +6,12 @@ still or wander.  Each trajectory is fitted with a straight line ``y = a0 + a1 x
 the Pearson correlation coefficient ``r`` of the fit (eq. 5) decides.  A keypoint
 cluster is an indicator iff its appearance label is positive, its trajectory is at
 least ``min_length`` long (or, optionally, shorter but showing an approach of
-``min_approach``), ``|r| >= min_r`` (and, optionally, it travels at least
-``min_travel`` times its own size); a trajectory is positive when more
-than ``vote`` (80 %) of the decisions it connects are positive.  The math and the
-stream state are in :mod:`tunnelsense.tunnel._pcc_stream`.
+``min_approach``), ``|r| >= min_r`` (or, optionally, its rectangles show a steady
+approach, ``min_scale_r``; and, optionally, it travels at least ``min_travel`` times
+its own size); a trajectory is positive when more than ``vote`` (80 %) of the
+decisions it connects are positive.  The path measures are in
+:mod:`tunnelsense.tunnel._pcc_measures`, the stream state in
+:mod:`tunnelsense.tunnel._pcc_stream`.
 """
 
 from __future__ import annotations
@@ -58,7 +60,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     :meth:`start_stream` does online, so both give identical results.
 
     A cluster is an **indicator** iff its appearance label is positive, its
-    trajectory has at least ``min_length`` clusters and ``|r| >= min_r``.  The
+    trajectory has at least ``min_length`` clusters and ``|r| >= min_r`` (or, with
+    ``min_scale_r``, a steady approach).  The
     decision uses the whole trajectory, so it is final once the trajectory has ended
     (an online system reports it with that delay).  A **trajectory is positive** when
     more than ``vote`` of its clusters are indicators.  The detections are the clusters
@@ -97,7 +100,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         indicators (the paper's 80 %).
     min_travel : float, default=0.0
         Least travel of an indicator's trajectory in units of its own size
-        (:func:`~tunnelsense.tunnel._pcc_stream.path_travel`: the distance between
+        (:func:`~tunnelsense.tunnel._pcc_measures.path_travel`: the distance between
         the mean centres of its first and last thirds over its median rectangle
         height); 0, the paper's, checks nothing.  A sign the camera approaches moves
         away from the vanishing point as it grows; a bright object that keeps its
@@ -108,7 +111,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         Least fraction of its range the camera covers towards the object of a
         trajectory shorter than ``min_length`` (after scaling to the tour's frame
         rate) for it to count as long enough:
-        :func:`~tunnelsense.tunnel._pcc_stream.approach_fraction`, ``1 - h_first /
+        :func:`~tunnelsense.tunnel._pcc_measures.approach_fraction`, ``1 - h_first /
         h_last`` of its rectangle heights (medians of its first and last thirds),
         which is ``(Z_first - Z_last) / Z_first`` for an object of fixed size at
         range ``Z``.  Such a trajectory still needs at least 7 points (or
@@ -152,9 +155,10 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         sign's positions scatter by a few pixels about its path, which its
         trajectory then fits poorly, while its size, which no rotation of the
         camera changes, still grows as the camera approaches.  ``min_length`` (or
-        ``min_approach``), ``min_travel`` and the vote still apply.  A ratio of
-        sizes, the same at any resolution.  ``None``, the paper's rule, checks
-        the path alone.
+        ``min_approach``), ``min_travel`` and the vote still apply, and
+        ``payload["motion_r"]`` still holds the path measure (below ``min_r`` for
+        a trajectory this passes).  In (0, 1].  A ratio of sizes, the same at any
+        resolution.  ``None``, the paper's rule, checks the path alone.
     frame_rate : float or None, default=30.0
         The frame rate (frames per second) ``min_length`` is counted in.  A tour's
         frames carry its frame rate (``payload["frame_rate"]``, set by

@@ -3,7 +3,8 @@
 :func:`pearson_r` (eq. 5) and :func:`straightness` measure how well a trajectory's
 centres fit a line, :func:`curve_fit_r` and :func:`motion_fit_r` a quadratic path
 or motion, :func:`path_travel` and :func:`approach_fraction` how far it travels and
-how much of its range the camera covers.  Array in, number out.
+how much of its range the camera covers, :func:`approach_r` how steadily its
+rectangles grow.  Array in, number out.
 """
 
 from __future__ import annotations
