@@ -240,7 +240,8 @@ def defer_numpy_parts() -> list[str]:
 
 def start_imports() -> list[str]:
     """In the command's own process, before its heavy imports: defer
-    :data:`NUMPY_PARTS`, hold SciPy's linear algebra (:func:`hold_linear_algebra`)
+    :data:`NUMPY_PARTS`, hold SciPy's linear algebra and asyncio
+    (:func:`hold_linear_algebra`)
     and collect garbage seldom until :func:`end_imports`.
 
     Outside the command (:func:`start_command` not called) it does nothing.
@@ -261,8 +262,8 @@ def start_imports() -> list[str]:
 
 
 def hold_linear_algebra() -> list[str]:
-    """In the command's own process, hold SciPy's linear algebra packages
-    (:mod:`tunnelsense._deferred_held`); return those held.
+    """In the command's own process, hold SciPy's linear algebra packages and
+    asyncio (:data:`tunnelsense._deferred_held.HELD`); return those held.
 
     Their parents are imported then (SciPy and its sparse package, which
     scikit-learn imports first thing anyway) and each held package bound as its
@@ -275,7 +276,7 @@ def hold_linear_algebra() -> list[str]:
     from tunnelsense._deferred_held import bind, hold
 
     held = hold()
-    if held:
+    if any(name.startswith("scipy.") for name in held):
         importlib.import_module("scipy.sparse")
         bind(held)
     return held

@@ -4,7 +4,7 @@ scikit-learn imports SciPy's sparse linear algebra as it starts
 (``sklearn.utils.fixes`` looks up its conjugate-gradient solver, and SciPy's sparse
 graph package its linear operator), and with it SciPy's dense linear algebra, whose
 functions' wrappers parse their docstrings as they load: a sixth of the command's
-imports, for names that detection never calls.  :func:`hold` puts the package's real
+imports, for names that detection never calls (and joblib's asyncio, see :data:`HELD`).  :func:`hold` puts the package's real
 module object in ``sys.modules`` and binds it as its parent's attribute, as an import
 does, but does not run its ``__init__`` yet:
 
@@ -40,7 +40,8 @@ import types
 __all__ = ["HELD", "hold"]
 
 #: The packages the command holds, each with the names it serves and their
-#: submodules (ordered: a package before its subpackages).  ``scipy.sparse.linalg._isolve``
+#: submodules (ordered: a package before its subpackages; a top-level package has no
+#: parent to bind it to).  ``scipy.sparse.linalg._isolve``
 #: is held with nothing to serve: its ``__init__`` imports every iterative solver, one
 #: of which looks up a dozen names of ``scipy.linalg``; only the conjugate gradient of
 #: its ``iterative`` module is served.
@@ -49,6 +50,9 @@ HELD = {
     "scipy.sparse.linalg": {"LinearOperator": "scipy.sparse.linalg._interface",
                             "cg": "scipy.sparse.linalg._isolve.iterative"},
     "scipy.sparse.linalg._isolve": {},
+    # joblib's memory imports asyncio for its coroutines, which detection has none of
+    # (not psutil: joblib's process pool imports a name of it at once)
+    "asyncio": {},
 }
 
 #: Per held package: its lock, the thread running its ``__init__`` and what it serves.
