@@ -29,6 +29,7 @@ __all__ = [
     "REFERENCE_FRAME_RATE",
     "LinkerStream",
     "assign_pairs",
+    "gated_responses",
     "link_log_likelihood",
     "rate_ratio",
 ]
@@ -91,6 +92,34 @@ def link_log_likelihood(
         a = 0.5 * float(np.abs(last_hist - hist).sum())
         ll -= 0.5 * (a / appearance_sigma) ** 2
     return ll - gap_penalty * (gap - 1)
+
+
+def gated_responses(px, py, last_size, cx, cy, size, gate, min_gate, max_scale_change):
+    """The responses :func:`link_log_likelihood` may score above ``-inf`` for a
+    trajectory predicted at ``(px, py)`` whose last scale is ``last_size``: list of int.
+
+    The others lie outside its gates for certain: a scale ratio out of range (the same
+    division and comparisons), or a distance to the prediction whose square exceeds
+    the gate's by more than a relative 1e-6 (the function's ``hypot`` may differ from
+    the squares' sum in the last bits, never by that much).  Scoring only these gives
+    the same links as scoring every pair.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.tunnel._linking import gated_responses
+    >>> cx, cy, size = np.array([10.0, 60.0, 11.0]), np.array([10.0, 10.0, 9.0]), np.array([8.0, 8.0, 80.0])
+    >>> gated_responses(10.0, 10.0, 8.0, cx, cy, size, 1.0, 12.0, 4.0)
+    [0]
+    """
+    if not last_size > 0:  # every ratio infinite: leave it to the function
+        return list(range(len(cx)))
+    ratio = size / last_size
+    limit = np.maximum(np.maximum(size, last_size) * gate, min_gate)
+    dx, dy = cx - px, cy - py
+    out = (dx * dx + dy * dy > limit * limit * (1.0 + 1e-6)) | (size > 0) & (
+        (ratio < 1.0 / max_scale_change) | (ratio > max_scale_change))
+    return np.flatnonzero(~out).tolist()
 
 
 class _Track:
@@ -202,10 +231,12 @@ class LinkerStream(StreamState):
             size = [math.sqrt(w * h) for _, _, w, h in bl]
             pairs = []
             kw = self.kw
+            arrays = np.array(cx), np.array(cy), np.array(size)
             for ti, t in enumerate(alive):
                 px, py = t.predict(frame)
                 gap = frame - t.last
-                for j in range(m):
+                for j in gated_responses(px, py, t.size, *arrays, kw["gate"],
+                                         kw["min_gate"], kw["max_scale_change"]):
                     ll = link_log_likelihood(
                         (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
                         None if hists is None else hists[j], gap, **kw,
