@@ -6,7 +6,7 @@ from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel import TrajectoryLinker
 from tunnelsense.tunnel._linking import (
     assign_pairs,
-    gated_responses,
+    gated_pairs,
     link_log_likelihood,
 )
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
@@ -225,30 +225,34 @@ def test_an_invalid_frame_rate_is_refused_naming_it(bad):
 
 @pytest.mark.parametrize("gate, min_gate, max_scale_change", [
     (1.0, 12.0, 4.0), (2.5, 3.0, 1.5), (0.5, 20.0, 1.2)])
-def test_gated_responses_keep_every_response_the_score_does_not_reject(
+def test_gated_pairs_keep_every_pair_the_score_does_not_reject(
         gate, min_gate, max_scale_change, global_random_seed):
-    """Only responses whose score is ``-inf`` are left out; responses on the gate's
-    edge (distance equal to it, in either coordinate's direction) are kept."""
+    """Only pairs whose score is ``-inf`` are left out; responses on the gate's edge
+    (distance equal to it, along an axis) are kept."""
     rng = np.random.default_rng(global_random_seed)
     kw = dict(gate=gate, min_gate=min_gate, max_scale_change=max_scale_change)
     left_out = 0
-    for _ in range(300):
-        m = int(rng.integers(1, 30))
-        px, py = rng.uniform(0, 640, 2)
-        last = float(rng.choice([0.0, *rng.uniform(0.5, 60.0, 5)]))
+    for _ in range(100):
+        n, m = int(rng.integers(1, 6)), int(rng.integers(1, 30))
+        px, py = rng.uniform(0, 640, (2, n))
+        last = rng.uniform(0.5, 60.0, n)
+        last[rng.random(n) < 0.2] = 0.0
         size = rng.uniform(0.0, 70.0, m)
         size[rng.random(m) < 0.1] = 0.0
-        angle = rng.uniform(0, 2 * np.pi, m)
-        # distances around the gate, some on its edge exactly
-        limit = np.maximum(np.maximum(size, last) * gate, min_gate)
+        # responses around the first trajectory's gate, some on its edge exactly
+        limit = np.maximum(np.maximum(size, last[0]) * gate, min_gate)
         d = limit * rng.choice([0.5, 1.0, 1.0 + 1e-12, 1.5], m)
-        cx, cy = px + d * np.cos(angle), py + d * np.sin(angle)
+        angle = rng.uniform(0, 2 * np.pi, m)
+        cx, cy = px[0] + d * np.cos(angle), py[0] + d * np.sin(angle)
         axis = rng.random(m) < 0.2
-        cx[axis], cy[axis] = px + limit[axis], py
-        kept = set(gated_responses(px, py, last, cx, cy, size, **kw))
-        for j in range(m):
-            ll = link_log_likelihood((px, py), last, None, (cx[j], cy[j]), size[j],
-                                     None, 1, **kw)
-            assert j in kept or ll == -np.inf, (j, ll)
-        left_out += m - len(kept)
-    assert left_out > 0  # the gate does leave responses out
+        cx[axis], cy[axis] = px[0] + limit[axis], py[0]
+        rows, cols = gated_pairs(px, py, last, cx, cy, size, **kw)
+        kept = list(zip(rows, cols, strict=True))
+        assert kept == sorted(set(kept))  # row-major, each pair once
+        for i in range(n):
+            for j in range(m):
+                ll = link_log_likelihood((px[i], py[i]), last[i], None, (cx[j], cy[j]),
+                                         size[j], None, 1, **kw)
+                assert (i, j) in kept or ll == -np.inf, (i, j, ll)
+        left_out += n * m - len(kept)
+    assert left_out > 0  # the gate does leave pairs out
