@@ -82,12 +82,15 @@ def _serving():
 def _look_up(module, attr):
     name = module.__name__
     state = _STATE[name]
+    # whether the package is partial here, then whose __init__ runs (read after:
+    # a thread that had not started the __init__ then imported none of it before)
+    partial = name in _serving() or _submodule_importing(name)
     owner = state["owner"]
     if owner is not None and owner != threading.get_ident():
         with state["lock"]:  # another thread runs the __init__: wait for it
             pass
         return getattr(module, attr)
-    if owner is not None or name in _serving() or _submodule_importing(name):
+    if owner is not None or partial:
         raise AttributeError(
             f"partially initialized module {name!r} has no attribute {attr!r}")
     source = state["served"].get(attr)
@@ -104,7 +107,13 @@ def _look_up(module, attr):
 
 
 def _submodule_importing(name):
-    """Whether a submodule of ``name`` is importing (its code not run to the end)."""
+    """Whether a submodule of ``name`` is importing (its code not run to the end).
+
+    The import system does not say by which thread: a look-up from one thread while
+    another imports a submodule of a held package directly (not through a served
+    name) finds the package partial too.  The command imports in its main thread
+    before its threads start.
+    """
     prefix = f"{name}."
     return any(key.startswith(prefix) and getattr(
         getattr(mod, "__spec__", None), "_initializing", False)
