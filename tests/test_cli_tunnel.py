@@ -335,37 +335,6 @@ def test_kill_then_resume(models, long_folder, full_long, tmp_path):
     assert companion.read_bytes() == full_companion
 
 
-def test_errors(tour_dirs, tmp_path):
-    with pytest.raises(FileNotFoundError, match="model file"):
-        run(["detect", "tunnel", "--model", str(tmp_path / "none.skops"), str(tour_dirs[0]),
-             "--out", str(tmp_path / "r.txt")])
-    import joblib
-
-    joblib.dump({"not": "a model"}, tmp_path / "bad.joblib")
-    with pytest.raises(ValueError, match="not a model"):
-        run(["detect", "tunnel", "--model", str(tmp_path / "bad.joblib"), str(tour_dirs[0]),
-             "--out", str(tmp_path / "r.txt"), "--trust-pickle"])
-    with pytest.raises(ValueError, match="pass --trust-pickle"):
-        run(["detect", "tunnel", "--model", str(tmp_path / "bad.joblib"), str(tour_dirs[0]),
-             "--out", str(tmp_path / "r.txt")])
-    assert not (tmp_path / "r.txt").exists()
-    with pytest.raises(FileNotFoundError, match="results file"):
-        run(["evaluate", "tunnel", str(tour_dirs[0]), str(tmp_path / "none.txt")])
-    with pytest.raises(ValueError, match="at least 2 tours"):
-        run(["train", "tunnel", str(tour_dirs[0]), "--model", str(tmp_path / "m.skops"), "--search"])
-    with pytest.raises(ValueError, match=r"\.skops"):
-        run(["train", "tunnel", str(tour_dirs[0]), "--model", str(tmp_path / "m.bin")])
-
-
-def test_demo_is_registered():
-    parser = argparse.ArgumentParser()
-    sub = parser.add_subparsers(dest="command")
-    cli_tunnel.register_top(sub)
-    args = parser.parse_args(["demo", "--frames", "60"])
-    assert args.frames == 60 and args.func is cli_tunnel._cmd_demo
-    assert np.isfinite(args.min_height)
-
-
 def _learned(estimator):
     return {k: v for k, v in vars(estimator).items() if k.endswith("_")
             and not k.startswith("_")}
@@ -408,85 +377,6 @@ def test_info_of_a_model_is_indented_one_fact_per_line(models, capsys):
     assert lines[first] == "      - frames: 120"
     assert "        name: tunnel-light-0" in lines[first:]
     assert not any("{" in line for line in lines)
-
-
-def test_evaluate_spells_a_missing_rate_n_a(tmp_path, capsys):
-    """A tour without indicators: rates of 0 of 0 are n/a (JSON null), never a number."""
-    from tunnelsense import Tour
-
-    write_tour(Tour.from_array("empty", np.zeros((3, 16, 16), np.uint8)), tmp_path / "t")
-    results = tmp_path / "r.txt"
-    results.write_text("")
-    assert main(["evaluate", "tunnel", str(tmp_path / "t"), str(results)]) == 0
-    text = capsys.readouterr().out
-    assert text.count("n/a") == 3 and "nan" not in text.lower()
-    assert "0.0 %" not in text and "100.0 %" not in text
-    assert main(["evaluate", "tunnel", str(tmp_path / "t"), str(results), "--json"]) == 0
-    scores = json.loads(capsys.readouterr().out)
-    assert scores["cluster"]["detection_rate"] is None
-    assert scores["trajectory"]["detection_rate"] is None
-
-
-def test_train_progress_names_each_stage(tmp_path, capsys):
-    from tunnelsense.tunnel import make_indicator_pipeline
-
-    tour = write_tour(make_tunnel_tour(60, random_state=5, first_indicator_m=20.0),
-                      tmp_path / "t")
-    assert main(["train", "tunnel", str(tour), "--model", str(tmp_path / "m.skops")]) == 0
-    err = capsys.readouterr().err.replace("\r", "\n")
-    assert "decoding frames: 100%" in err and "60/60" in err
-    for name, _ in make_indicator_pipeline().steps:
-        assert f"fitting {name}:" in err, name
-    assert "fitted: 100%" in err and "6/6" in err
-
-
-def test_train_sample_rate_decodes_and_fits_a_sample_in_time(tmp_path, capsys):
-    """By default (and with --sample-rate all) every frame is fitted; --sample-rate 6
-    fits every 5th frame of the 30 fps tour, the model that of those frames (the model
-    card and the report say so); a rate that is not a positive number is refused by
-    name before anything is read."""
-    from tunnelsense import to_xy
-    from tunnelsense.io import describe_model, load_model
-    from tunnelsense.tunnel import make_indicator_pipeline
-
-    def read_model_summary(path):
-        return describe_model(path)["summary"]
-
-    tour = write_tour(make_tunnel_tour(60, random_state=5, first_indicator_m=20.0),
-                      tmp_path / "t")
-    model = tmp_path / "m.skops"
-    for extra in ([], ["--sample-rate", "all"]):
-        assert main(["train", "tunnel", str(tour), "--model", str(model), "--force",
-                     *extra]) == 0
-        captured = capsys.readouterr()
-        assert "60/60" in captured.err.replace("\r", "\n")
-        assert "fitted on" not in captured.out
-        summary = read_model_summary(model)
-        assert summary["sample_rate"] is None and summary["frames_fitted"] == 60
-    assert main(["train", "tunnel", str(tour), "--model", str(model), "--force",
-                 "--sample-rate", "6"]) == 0
-    assert "fitted on 12 frames (6 a second of each tour)" in capsys.readouterr().out
-    summary = read_model_summary(model)
-    assert summary["sample_rate"] == 6.0 and summary["frames_fitted"] == 12
-    X, y, _ = to_xy([read_tour(tour)])
-    assert X[0].payload["frame_rate"] == 30.0
-    fitted = make_indicator_pipeline(random_state=0,
-                                     verifier__n_jobs=os.cpu_count() or 1)
-    fitted.fit(X[::5], y[::5])
-    trained = load_model(model)
-    assert lines_of(fitted.predict(X)) == lines_of(trained.predict(X))
-    assert trained["keypoints"].low_ == fitted["keypoints"].low_
-    assert trained["keypoints"].high_ == fitted["keypoints"].high_
-    for bad in ("0", "-3", "nan", "fast"):
-        with pytest.raises(SystemExit):
-            main(["train", "tunnel", str(tour), "--model", str(tmp_path / "x.skops"),
-                  "--sample-rate", bad])
-        assert "--sample-rate: expected a positive number" in capsys.readouterr().err
-    # a search fits every frame: not with a sample
-    assert main(["train", "tunnel", str(tour), str(tour), "--model",
-                 str(tmp_path / "x.skops"), "--search", "--sample-rate", "6"]) == 1
-    assert "--sample-rate: --search fits every frame" in capsys.readouterr().err
-    assert not (tmp_path / "x.skops").exists()
 
 
 def test_missing_frames_gap_reads_a_recorder_s_gaps(tour_dirs, models, tmp_path):

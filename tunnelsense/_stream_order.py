@@ -45,7 +45,7 @@ def check_next_key(last, record):
     --------
     >>> import numpy as np
     >>> from tunnelsense import FrameRecord
-    >>> from tunnelsense._streaming import check_next_key
+    >>> from tunnelsense._stream_order import check_next_key
     >>> img = np.zeros((2, 2), np.uint8)
     >>> check_next_key(("a", 1), FrameRecord("a", 2, img))
     ('a', 2)
@@ -93,7 +93,7 @@ def tour_groups(records, *, sort_tours=False):
     --------
     >>> import numpy as np
     >>> from tunnelsense import FrameRecord
-    >>> from tunnelsense._streaming import tour_groups
+    >>> from tunnelsense._stream_order import tour_groups
     >>> img = np.zeros((2, 2), np.uint8)
     >>> X = [FrameRecord(t, f, img) for t, f in [("b", 2), ("a", 1), ("b", 1)]]
     >>> [g.tolist() for g in tour_groups(X)]

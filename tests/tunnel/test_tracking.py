@@ -4,7 +4,11 @@ import pytest
 from tunnelsense import FrameRecord
 from tunnelsense.exceptions import InputFormatError
 from tunnelsense.tunnel import TrajectoryLinker
-from tunnelsense.tunnel._linking import assign_pairs, link_log_likelihood
+from tunnelsense.tunnel._linking import (
+    assign_pairs,
+    gated_pairs,
+    link_log_likelihood,
+)
 from tunnelsense.utils import record_stage_checks, sklearn_api_checks
 
 IMG = np.zeros((120, 160), np.uint8)
@@ -217,3 +221,38 @@ def test_an_invalid_frame_rate_is_refused_naming_it(bad):
     X = at_rate(frames_of(moving(10, step=(0.5, 0))), bad)
     with pytest.raises(InputFormatError, match=r'payload\["frame_rate"\].*positive finite'):
         TrajectoryLinker().fit_transform(X)
+
+
+@pytest.mark.parametrize("gate, min_gate, max_scale_change", [
+    (1.0, 12.0, 4.0), (2.5, 3.0, 1.5), (0.5, 20.0, 1.2)])
+def test_gated_pairs_keep_every_pair_the_score_does_not_reject(
+        gate, min_gate, max_scale_change, global_random_seed):
+    """Only pairs whose score is ``-inf`` are left out; responses on the gate's edge
+    (distance equal to it, along an axis) are kept."""
+    rng = np.random.default_rng(global_random_seed)
+    kw = dict(gate=gate, min_gate=min_gate, max_scale_change=max_scale_change)
+    left_out = 0
+    for _ in range(100):
+        n, m = int(rng.integers(1, 6)), int(rng.integers(1, 30))
+        px, py = rng.uniform(0, 640, (2, n))
+        last = rng.uniform(0.5, 60.0, n)
+        last[rng.random(n) < 0.2] = 0.0
+        size = rng.uniform(0.0, 70.0, m)
+        size[rng.random(m) < 0.1] = 0.0
+        # responses around the first trajectory's gate, some on its edge exactly
+        limit = np.maximum(np.maximum(size, last[0]) * gate, min_gate)
+        d = limit * rng.choice([0.5, 1.0, 1.0 + 1e-12, 1.5], m)
+        angle = rng.uniform(0, 2 * np.pi, m)
+        cx, cy = px[0] + d * np.cos(angle), py[0] + d * np.sin(angle)
+        axis = rng.random(m) < 0.2
+        cx[axis], cy[axis] = px[0] + limit[axis], py[0]
+        rows, cols = gated_pairs(px, py, last, cx, cy, size, **kw)
+        kept = list(zip(rows, cols, strict=True))
+        assert kept == sorted(set(kept))  # row-major, each pair once
+        for i in range(n):
+            for j in range(m):
+                ll = link_log_likelihood((px[i], py[i]), last[i], None, (cx[j], cy[j]),
+                                         size[j], None, 1, **kw)
+                assert (i, j) in kept or ll == -np.inf, (i, j, ll)
+        left_out += n * m - len(kept)
+    assert left_out > 0  # the gate does leave pairs out

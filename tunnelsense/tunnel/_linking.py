@@ -29,6 +29,7 @@ __all__ = [
     "REFERENCE_FRAME_RATE",
     "LinkerStream",
     "assign_pairs",
+    "gated_pairs",
     "link_log_likelihood",
     "rate_ratio",
 ]
@@ -91,6 +92,42 @@ def link_log_likelihood(
         a = 0.5 * float(np.abs(last_hist - hist).sum())
         ll -= 0.5 * (a / appearance_sigma) ** 2
     return ll - gap_penalty * (gap - 1)
+
+
+def gated_pairs(px, py, last_size, cx, cy, size, gate, min_gate, max_scale_change):
+    """The (trajectory, response) pairs :func:`link_log_likelihood` may score above
+    ``-inf``: two lists of int, in row-major order.
+
+    Trajectory ``i`` is predicted at ``(px[i], py[i])`` and its last scale is
+    ``last_size[i]``; response ``j`` is centred at ``(cx[j], cy[j])`` with scale
+    ``size[j]`` (all arrays).  The pairs left out lie outside the gates for
+    certain: a scale ratio out of range (the same division and comparisons), or a
+    distance to the prediction whose square exceeds the gate's by more than a
+    relative 1e-6 (the function's ``hypot`` may differ from the squares' sum in the
+    last bits, never by that much).  A trajectory without a positive scale keeps
+    every response (left to the function).  Scoring only these pairs gives the same
+    links as scoring every pair.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.tunnel._linking import gated_pairs
+    >>> cx, cy = np.array([10.0, 60.0, 11.0]), np.array([10.0, 10.0, 9.0])
+    >>> size = np.array([8.0, 8.0, 80.0])
+    >>> gated_pairs(np.array([10.0, 60.0]), np.array([10.0, 10.0]), np.array([8.0, 8.0]),
+    ...             cx, cy, size, 1.0, 12.0, 4.0)
+    ([0, 1], [0, 1])
+    """
+    last = np.asarray(last_size, dtype=np.float64)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = size / last
+    limit = np.maximum(np.maximum(size, last) * gate, min_gate)
+    dx, dy = cx - np.asarray(px)[:, None], cy - np.asarray(py)[:, None]
+    out = (dx * dx + dy * dy > limit * limit * (1.0 + 1e-6)) | (size > 0) & (
+        (ratio < 1.0 / max_scale_change) | (ratio > max_scale_change))
+    out &= last > 0
+    rows, cols = np.nonzero(~out)
+    return rows.tolist(), cols.tolist()
 
 
 class _Track:
@@ -202,13 +239,18 @@ class LinkerStream(StreamState):
             size = [math.sqrt(w * h) for _, _, w, h in bl]
             pairs = []
             kw = self.kw
-            for ti, t in enumerate(alive):
-                px, py = t.predict(frame)
-                gap = frame - t.last
-                for j in range(m):
+            if alive:
+                predicted = [t.predict(frame) for t in alive]
+                rows, cols = gated_pairs(
+                    np.array([p[0] for p in predicted]),
+                    np.array([p[1] for p in predicted]),
+                    np.array([t.size for t in alive]), np.array(cx), np.array(cy),
+                    np.array(size), kw["gate"], kw["min_gate"], kw["max_scale_change"])
+                for ti, j in zip(rows, cols, strict=True):
+                    t = alive[ti]
                     ll = link_log_likelihood(
-                        (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
-                        None if hists is None else hists[j], gap, **kw,
+                        predicted[ti], t.size, t.hist, (cx[j], cy[j]), size[j],
+                        None if hists is None else hists[j], frame - t.last, **kw,
                     )
                     if ll > -math.inf:
                         pairs.append((ll, ti, j))
