@@ -14,7 +14,11 @@ offset of its place, 10 x index):
 
 For every sign at least 14 px tall in some frame that no positive trajectory holds,
 it prints, over the frames the sign is in view: frames with a sampled keypoint on it,
-with a verified keypoint, with a cluster centred on it, with that cluster's
+with a verified keypoint (of those: frames in which the clusters of the sign's
+keypoints also hold keypoints off the sign, ``merged``; with one brighter than every
+keypoint on the sign, ``merged brighter``, so the contrast box follows the other
+object; in which one of those clusters has a box over 1.5 times the sign's width or
+height, ``box > 1.5 sign``), with a cluster centred on it, with that cluster's
 appearance positive, with that cluster an indicator; and the trajectories of its
 clusters (clusters on the sign, length, motion r, positive).  Reading it: no
 verified keypoint -> keypoints/verifier; keypoints but no cluster centred on the
@@ -91,7 +95,19 @@ def sign_stages(out, gt):
             d["in view"] += 1
             d["sampled"] += bool(_inside(p.get("sampled_keypoints", p["keypoints"]),
                                          box).any())
-            d["verified"] += bool(_inside(p["keypoints"], box).any())
+            kp = np.asarray(p["keypoints"]).reshape(-1, 3)
+            on_kp = _inside(kp, box)
+            d["verified"] += bool(on_kp.any())
+            if on_kp.any():
+                # what shares the sign's clusters, and how far their boxes spread
+                labels = np.asarray(p["cluster_labels"])
+                off = np.isin(labels, labels[on_kp]) & ~on_kp
+                d["merged"] += bool(off.any())
+                d["merged brighter"] += bool(off.any()
+                                             and kp[off, 2].max() > kp[on_kp, 2].max())
+                own = boxes[np.unique(labels[on_kp])]
+                d["box > 1.5 sign"] += bool(((own[:, 2] > 1.5 * box[2])
+                                             | (own[:, 3] > 1.5 * box[3])).any())
             on = np.flatnonzero((cx >= box[0]) & (cx < box[0] + box[2])
                                 & (cy >= box[1]) & (cy < box[1] + box[3]))
             if not len(on):

@@ -1,8 +1,9 @@
 """Keypoint clustering (section 3.3): the frame stage :class:`MSTClusterer`.
 
-The math (the minimum spanning tree cut as connected components of the neighbour
-graph, the clusters' rectangles) is in :mod:`tunnelsense.tunnel._mst`, with the
-tabular core :class:`~tunnelsense.tunnel._mst.MSTClustererCore`.
+The math is in :mod:`tunnelsense.tunnel._mst` (the minimum spanning tree cut as
+connected components of the neighbour graph, and the tabular core
+:class:`~tunnelsense.tunnel._mst.MSTClustererCore`) and
+:mod:`tunnelsense.tunnel._mst_boxes` (the clusters' rectangles).
 """
 
 from __future__ import annotations
@@ -22,13 +23,8 @@ from tunnelsense._payload import (
 from tunnelsense._records import check_frames
 from tunnelsense.tunnel._common import FrameModeMixin
 from tunnelsense.tunnel._contrast import contrast_region_boxes
-from tunnelsense.tunnel._mst import (
-    DENSE_MAX_POINTS,
-    MSTClustererCore,
-    cluster_boxes,
-    mst_partition,
-    region_boxes,
-)
+from tunnelsense.tunnel._mst import DENSE_MAX_POINTS, MSTClustererCore, mst_partition
+from tunnelsense.tunnel._mst_boxes import cluster_boxes, region_boxes
 from tunnelsense.utils._sklearn_compat import StrOptions, _fit_context
 
 __all__ = [
