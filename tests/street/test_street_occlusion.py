@@ -121,3 +121,16 @@ def test_a_car_seen_end_on_is_not_stretched_into_hidden_scans():
     # extended into the hidden scans no longer than the shortest car (its width
     # is what shows along the street), not to occluded_length (4 m)
     assert 1.8 <= car["length"].iloc[0] <= est.min_car_length + 0.2
+
+
+def test_a_wet_road_under_a_passing_van_proves_nothing_behind_it():
+    speed = 11.0
+    # a van passing close (its body 0.35 m above the road) hides the first 3 m of a
+    # parked car; the beams under the van meet a wet road and return nothing: they
+    # did not pass the car's depth, so the car is hidden there, not absent
+    boxes = [dict(s0=2.0, s1=6.4, depth=4.6, top=sedan),
+             dict(s0=-1.0, s1=5.0, depth=1.2, width=1.8, top=2.3, bottom=0.35)]
+    for wet in ((), ((-2.0, 12.0),)):
+        run = make_run(boxes, ["parked", None], n_scans=70, speed=speed, wet=wet)
+        det = ScanClusterer(speed=speed).fit(run.scans).detect(run.scans)
+        assert street_scores(run.gt, det)["parked"]["tp"] == 1, wet
