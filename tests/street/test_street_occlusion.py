@@ -155,6 +155,31 @@ def test_a_motorbike_cut_by_the_runs_end_is_reported():
     assert (est.detect(low.scans)["label"] == "parked").sum() == 0
 
 
+def test_a_flat_face_cut_by_the_runs_start_is_no_vehicle():
+    speed = 11.0
+    fit = make_run([dict(s0=4.0, s1=8.4, depth=5.0, width=1.8, top=sedan)], ["parked"],
+                   n_scans=80, speed=speed)
+    est = ScanClusterer(speed=speed).fit(fit.scans)
+
+    def cut(box):
+        run = make_run([box], ["parked"], n_scans=40, speed=speed)
+        return Run(run.name, run.scans, run.gt.assign(first_scan=0), run.info)
+
+    # a wall or hedge face 2.2 m high standing on the footway, of which the run's
+    # first scans see its last 0.6-1.5 m: no roof, nothing raised or hanging
+    for seen in (0.6, 1.0, 1.5):
+        det = est.detect(cut(dict(s0=-5.0, s1=seen, depth=5.5, width=0.2,
+                                  bottom=0.0, top=2.2)).scans)
+        assert (det["label"] == "parked").sum() == 0
+    # a car and a van cut there the same way are still found
+    for seen in (0.6, 1.5):
+        for box in (dict(s0=seen - 4.4, s1=seen, depth=5.0, width=1.8, top=sedan),
+                    dict(s0=seen - 5.0, s1=seen, depth=5.0, width=1.9, bottom=0.3,
+                         top=2.3)):
+            run = cut(box)
+            assert street_scores(run.gt, est.detect(run.scans))["parked"]["tp"] == 1
+
+
 def test_a_motorbike_is_not_stretched_where_beams_pass_over_the_occluder():
     speed = 11.0
     # a low passing car (1.3 m high, 1.0-2.8 m deep) hides the road for 4 m before a

@@ -114,13 +114,14 @@ class _Labelling:
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
                 min_across_top=est.min_across_top, inside=passed_ok,
                 where_seen=est.seen_evidence)
+            of = objects == o if prof.n > 1 else slice(None)
+            mine = clusters[of]
             vehicle = any(
                 is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth, hidden, cum,
                            self.near, **vehicle_test)
-                for hidden in self._completions(hidden_length, cut,
-                                                cum[last + 1] - cum[first]))
-            of = objects == o if prof.n > 1 else slice(None)
-            mine = clusters[of]
+                for hidden in self._completions(
+                    hidden_length, cut, cum[last + 1] - cum[first],
+                    cut and not self._flat(mine, position[of], first, last)))
             if (not vehicle and est.object_ends and parked and hidden_length == 0
                     and est.min_across_length is not None
                     and cum[last + 1] - cum[first] < est.min_length):
@@ -175,17 +176,20 @@ class _Labelling:
         return bool(not follows[lo] or (hi == n and ended)
                     or (hi < n and not follows[hi]))
 
-    def _completions(self, hidden, cut, length):
+    def _completions(self, hidden, cut, length, body):
         """The hidden lengths (m) to test an object of ``length`` seen metres with:
         ``hidden`` metres its occluders hide and, when the data cut it (``cut``),
         what the cut may hide: as much as any decision looks at (``cap``: a car or
-        van), or just enough for the shortest vehicle (``min_length``: a
-        motorbike).  The object is cut, not absent: it is a vehicle when the evidence
-        seen so far makes it one under any of these."""
+        van) when its seen part shows a ``body`` a flat vertical face lacks (a
+        roof, or a body raised between wheels or hanging: :meth:`_flat` fails; a
+        wall's or hedge's face cut there shows none), or just enough for the
+        shortest vehicle (``min_length``: a motorbike, whose test asks for a
+        raised or hanging body itself).  The object is cut, not absent: it is a
+        vehicle when the evidence seen so far makes it one under any of these."""
         if not cut:
             return (hidden,)
-        return (hidden, hidden + self.cap,
-                max(hidden, self.est.min_length - length))
+        car = (hidden + self.cap,) if body else ()
+        return (hidden, *car, max(hidden, self.est.min_length - length))
 
     def _scan_flags(self, mine, pos, first, last):
         """The OR of the evidence flags of clusters ``mine`` in every scan."""
