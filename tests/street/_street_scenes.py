@@ -20,13 +20,14 @@ def geometry(n_beams=361, mount_height=2.0):
     return LaserGeometry(np.deg2rad(-90.0), inc, 0.05, 30.0, mount_height)
 
 
-def cast(geom, n_beams, boxes, s, tilt=0.0):
-    """Ranges of one scan at along-track position ``s``."""
+def cast(geom, n_beams, boxes, s, tilt=0.0, wet=False):
+    """Ranges of one scan at along-track position ``s`` (``wet``: the road returns
+    nothing)."""
     theta = geom.angles(n_beams) + tilt  # true beam angles
     h = geom.mount_height
     c, sn = np.cos(theta), np.sin(theta)
     with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(sn < 0, -h / sn, np.inf)  # road
+        r = np.where((sn < 0) & (not wet), -h / sn, np.inf)  # road
         for b in boxes:
             if not (b["s0"] <= s <= b["s1"]):
                 continue
@@ -83,10 +84,14 @@ def oblique_car(s0, near, *, length=4.4, width=1.8, angle=45.0, top=1.45):
 
 
 def make_run(boxes, labels, *, n_scans, speed=11.0, rate=75.0, tilt=0.0, name="r",
-             n_beams=361, mount_height=2.0):
+             n_beams=361, mount_height=2.0, wet=()):
+    """A run past ``boxes``; ``wet``: along-track intervals ``(s0, s1)`` where the
+    road returns nothing (a wet road)."""
     geom = geometry(n_beams, mount_height)
     stamps = np.arange(n_scans) / rate
-    ranges = np.stack([cast(geom, n_beams, boxes, speed * t, tilt) for t in stamps])
+    ranges = np.stack([cast(geom, n_beams, boxes, speed * t, tilt,
+                            any(a <= speed * t <= b for a, b in wet))
+                       for t in stamps])
     rows = []
     for i, (b, lab) in enumerate(zip(boxes, labels, strict=True)):
         if lab is None:

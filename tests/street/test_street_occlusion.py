@@ -121,3 +121,90 @@ def test_a_car_seen_end_on_is_not_stretched_into_hidden_scans():
     # extended into the hidden scans no longer than the shortest car (its width
     # is what shows along the street), not to occluded_length (4 m)
     assert 1.8 <= car["length"].iloc[0] <= est.min_car_length + 0.2
+
+
+def motorbike(s0, depth, *, length=2.0, seat=0.9, screen=1.25, forward=True):
+    """A motorbike along the kerb: its body raised between the wheels, the seat
+    behind, the screen and handlebars in front (``forward``: along the track)."""
+    def top(off):
+        front = off >= 0.6 * length if forward else off <= 0.4 * length
+        return screen if front else seat
+
+    return dict(s0=s0, s1=s0 + length, depth=depth, width=0.7, bottom=0.35, top=top)
+
+
+def test_a_motorbike_cut_by_the_runs_end_is_reported():
+    speed = 11.0
+    # the run ends 0.9 m into a motorbike: only its raised rear and seat are seen
+    # (lower than a motorbike across the kerb reaches), the rest lies beyond
+    run = make_run([motorbike(4.0, 5.0)], ["parked"], n_scans=33, speed=speed)
+    assert run.gt["last_scan"].iloc[0] == 32
+    est = ScanClusterer(speed=speed).fit(run.scans)
+    det = est.detect(run.scans)
+    assert street_scores(run.gt, det)["parked"]["tp"] == 1
+    assert det[det["label"] == "parked"]["vehicle_class"].tolist() == ["motorbike"]
+    # the same at the run's start: it starts 0.9 m before the motorbike's end
+    run = make_run([motorbike(-1.1, 5.0, forward=False)], ["parked"], n_scans=40,
+                   speed=speed)
+    run = Run(run.name, run.scans, run.gt.assign(first_scan=0), run.info)
+    det = est.detect(run.scans)
+    assert street_scores(run.gt, det)["parked"]["tp"] == 1
+    # a low box standing on the ground (a planter) cut there is still no vehicle
+    low = make_run([dict(s0=4.0, s1=6.0, depth=5.0, width=0.7, top=0.4)], ["parked"],
+                   n_scans=33, speed=speed)
+    assert (est.detect(low.scans)["label"] == "parked").sum() == 0
+
+
+def test_a_flat_face_cut_by_the_runs_start_is_no_vehicle():
+    speed = 11.0
+    fit = make_run([dict(s0=4.0, s1=8.4, depth=5.0, width=1.8, top=sedan)], ["parked"],
+                   n_scans=80, speed=speed)
+    est = ScanClusterer(speed=speed).fit(fit.scans)
+
+    def cut(box):
+        run = make_run([box], ["parked"], n_scans=40, speed=speed)
+        return Run(run.name, run.scans, run.gt.assign(first_scan=0), run.info)
+
+    # a wall or hedge face 2.2 m high standing on the footway, of which the run's
+    # first scans see its last 0.6-1.5 m: no roof, nothing raised or hanging
+    for seen in (0.6, 1.0, 1.5):
+        det = est.detect(cut(dict(s0=-5.0, s1=seen, depth=5.5, width=0.2,
+                                  bottom=0.0, top=2.2)).scans)
+        assert (det["label"] == "parked").sum() == 0
+    # a car and a van cut there the same way are still found
+    for seen in (0.6, 1.5):
+        for box in (dict(s0=seen - 4.4, s1=seen, depth=5.0, width=1.8, top=sedan),
+                    dict(s0=seen - 5.0, s1=seen, depth=5.0, width=1.9, bottom=0.3,
+                         top=2.3)):
+            run = cut(box)
+            assert street_scores(run.gt, est.detect(run.scans))["parked"]["tp"] == 1
+
+
+def test_a_motorbike_is_not_stretched_where_beams_pass_over_the_occluder():
+    speed = 11.0
+    # a low passing car (1.3 m high, 1.0-2.8 m deep) hides the road for 4 m before a
+    # motorbike across the kerb (0.75 m along the street); the beams over its roof
+    # cross the motorbike's depth near the road and reach the kerb line behind:
+    # the motorbike is not in those scans
+    boxes = [dict(s0=4.0, s1=4.75, depth=4.6, width=1.9, bottom=0.35, top=1.25),
+             dict(s0=0.0, s1=4.3, depth=1.0, width=1.8, top=1.3)]
+    run = make_run(boxes, ["parked", None], n_scans=70, speed=speed, mount_height=2.4)
+    est = ScanClusterer(speed=speed, regions=(3.0, 7.5))
+    det = est.fit(run.scans).detect(run.scans)
+    parked = det[det["label"] == "parked"]
+    assert street_scores(run.gt, det)["parked"]["tp"] == 1
+    assert len(parked) == 1
+    assert parked["length"].iloc[0] <= 0.75 + 0.3
+
+
+def test_a_wet_road_under_a_passing_van_proves_nothing_behind_it():
+    speed = 11.0
+    # a van passing close (its body 0.35 m above the road) hides the first 3 m of a
+    # parked car; the beams under the van meet a wet road and return nothing: they
+    # did not pass the car's depth, so the car is hidden there, not absent
+    boxes = [dict(s0=2.0, s1=6.4, depth=4.6, top=sedan),
+             dict(s0=-1.0, s1=5.0, depth=1.2, width=1.8, top=2.3, bottom=0.35)]
+    for wet in ((), ((-2.0, 12.0),)):
+        run = make_run(boxes, ["parked", None], n_scans=70, speed=speed, wet=wet)
+        det = ScanClusterer(speed=speed).fit(run.scans).detect(run.scans)
+        assert street_scores(run.gt, det)["parked"]["tp"] == 1, wet

@@ -28,6 +28,7 @@ __all__ = [
     "HORIZON_STEP",
     "History",
     "horizon",
+    "road_crossing",
     "kerb_steps",
     "RoiPoints",
     "SPEED_WINDOW",
@@ -289,11 +290,50 @@ def roi_points(ranges, geometry, history, *, tilt_compensation=True, max_tilt=10
     sensor = restore_points(np.zeros((len(r), 1)), angles[:1], geometry.mount_height,
                             tilt, offset)[1][:, 0]
     passes = np.isfinite(far_depth)
+    far_depth, far_height = road_crossing(far_depth, far_height, sensor, min_height)
     beyond = np.column_stack([passes[scan, up] & (beam + 1 < n_beams),
                               passes[scan, down] & (beam > 0)])
     return RoiPoints(scan, beam, points, above, below, tilt, horizon(
         np.where(passes, far_depth, depth), np.where(passes, far_height, height),
         sensor), sensor, beyond, kerb_steps(depth, height))
+
+
+def road_crossing(depth, height, sensor, tolerance):
+    """Move the far end of beams that return nothing back to where they meet the road.
+
+    A beam with nothing within range counts as passing everything up to its far end
+    (:func:`horizon`); but one whose line dips more than ``tolerance`` below the
+    road before that end met the road surface on its way (a wet or dark road that
+    returned nothing): it proves nothing past the point where its line crosses
+    ``-tolerance``, and ends there.
+
+    Parameters
+    ----------
+    depth, height : ndarray of shape (n_scans, n_beams)
+        Far ends of the beams (NaN: a beam that returned).
+    sensor : ndarray of shape (n_scans,)
+        Height of the sensor (m) in the same frame.
+    tolerance : float
+        How far below the road plane (m) the road surface may lie.
+
+    Returns
+    -------
+    depth, height : ndarray of shape (n_scans, n_beams)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import road_crossing
+    >>> d, h = road_crossing(np.array([[8.0, 8.0]]), np.array([[-2.0, 1.0]]),
+    ...                      np.array([2.0]), 0.1)
+    >>> d.round(2).tolist(), h.round(2).tolist()
+    ([[4.2, 8.0]], [[-0.1, 1.0]])
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        below = height < -tolerance
+        s = sensor[:, None]
+        scale = np.where(below, (s + tolerance) / (s - height), 1.0)
+    return depth * scale, np.where(below, -tolerance, height)
 
 
 def horizon(depth, height, sensor, step=HORIZON_STEP, n_depths=None):

@@ -35,6 +35,7 @@ from tunnelsense.street._objects import (
 from tunnelsense.street._sections import lowest_marks
 from tunnelsense.street._splitting import split_echelon, split_objects
 from tunnelsense.street._vehicles import (
+    beams_below,
     end_match,
     hidden_ends,
     is_vehicle,
@@ -86,13 +87,17 @@ class _Labelling:
             first, last = int(prof.first[o]), int(prof.last[o])
             mean_depth = float(prof.depth[o])
             before = after = 0
+            hidden_length, cut = 0.0, False
             if (est.occluded_length is not None
                     and cum[last + 1] - cum[first] <= est.max_length):
-                before, after = hidden_ends(self.near, follows, first, last,
-                                            mean_depth - est.occlusion_margin, cum,
-                                            self.cap)
-            hidden_length = (cum[first] - cum[first - before]) + (
-                cum[last + 1 + after] - cum[last + 1])
+                before, after = hidden_ends(
+                    self.near, follows, first, last, mean_depth - est.occlusion_margin,
+                    cum, self.cap, beams_below(self.horizon, HORIZON_STEP, mean_depth,
+                                               float(prof.top[o]))
+                    if est.beam_occlusion else None)
+                hidden_length = (cum[first] - cum[first - before]) + (
+                    cum[last + 1 + after] - cum[last + 1])
+                cut = self._cut(first - before, last + 1 + after, ended)
             region = int(depth_region(region_depth[o], self.edges([first])[0]))
             parked = est.labels_[region] == "parked"  # motorbikes across park
             inside = follows[first] and last + 1 < len(self.records) and follows[last + 1]
@@ -109,10 +114,14 @@ class _Labelling:
                 min_across_raised=est.min_across_raised, top=float(prof.top[o]),
                 min_across_top=est.min_across_top, inside=passed_ok,
                 where_seen=est.seen_evidence)
-            vehicle = is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth,
-                                 hidden_length, cum, self.near, **vehicle_test)
             of = objects == o if prof.n > 1 else slice(None)
             mine = clusters[of]
+            vehicle = any(
+                is_vehicle(prof.profile(o)[0], prof.flags(o), mean_depth, hidden, cum,
+                           self.near, **vehicle_test)
+                for hidden in self._completions(
+                    hidden_length, cut, cum[last + 1] - cum[first],
+                    cut and not self._flat(mine, position[of], first, last)))
             if (not vehicle and est.object_ends and parked and hidden_length == 0
                     and est.min_across_length is not None
                     and cum[last + 1] - cum[first] < est.min_length):
@@ -156,6 +165,31 @@ class _Labelling:
             if est.carve_protrusions and not (vehicle and parked):
                 self.queue.extend(self._carve(mine, position[of], first, last))
         self.queue.sort(key=lambda q: q["key"])
+
+    def _cut(self, lo, hi, ended):
+        """Whether an object whose ends, with their hidden scans, are scans ``lo``
+        and ``hi - 1`` is cut by the data: it reaches the first or last scan of a
+        stretch of consecutive scans (the run's start or end, or scans missing).
+        The run's last scan cuts only once the run has ``ended`` (before, an object
+        reaching the newest scan is never final)."""
+        n, follows = len(self.records), self.follows
+        return bool(not follows[lo] or (hi == n and ended)
+                    or (hi < n and not follows[hi]))
+
+    def _completions(self, hidden, cut, length, body):
+        """The hidden lengths (m) to test an object of ``length`` seen metres with:
+        ``hidden`` metres its occluders hide and, when the data cut it (``cut``),
+        what the cut may hide: as much as any decision looks at (``cap``: a car or
+        van) when its seen part shows a ``body`` a flat vertical face lacks (a
+        roof, or a body raised between wheels or hanging: :meth:`_flat` fails; a
+        wall's or hedge's face cut there shows none), or just enough for the
+        shortest vehicle (``min_length``: a motorbike, whose test asks for a
+        raised or hanging body itself).  The object is cut, not absent: it is a
+        vehicle when the evidence seen so far makes it one under any of these."""
+        if not cut:
+            return (hidden,)
+        car = (hidden + self.cap,) if body else ()
+        return (hidden, *car, max(hidden, self.est.min_length - length))
 
     def _scan_flags(self, mine, pos, first, last):
         """The OR of the evidence flags of clusters ``mine`` in every scan."""

@@ -24,6 +24,8 @@ from tunnelsense.street._objects import (
 )
 
 __all__ = [
+    "HIDDEN_TOP_FRACTION",
+    "beams_below",
     "end_match",
     "extend_occluded",
     "hidden_ends",
@@ -34,35 +36,89 @@ __all__ = [
 
 #: Shortest visible part (m) of a vehicle cut short by an occluder.
 MIN_VISIBLE = 0.5
+#: Share of an object's top below which a beam crossing its depth proves it absent
+#: from that scan (:func:`hidden_ends`): the lowest part of a vehicle's body along
+#: its length (a car's bonnet or boot, a motorbike's seat) stands higher.
+HIDDEN_TOP_FRACTION = 0.5
 
 
-def hidden_ends(near, follows, first, last, depth, cum, cap):
+def hidden_ends(near, follows, first, last, depth, cum, cap, absent=None):
     """Scans right before ``first`` and after ``last`` (within one stretch of
     consecutive scans) whose nearest cluster is nearer than ``depth``; each walk stops
     once it covers ``cap`` metres (no decision looks farther).
+
+    With ``absent`` (per scan, whether a beam proves the object absent there:
+    :func:`beams_below`), a scan hides the object only where it is not absent: a
+    beam that passes over the occluder and crosses the object's depth low enough
+    (down to the kerb line behind it) says that the object is not there, so each
+    walk also stops at such a scan.
 
     Examples
     --------
     >>> import numpy as np
     >>> from tunnelsense.street._vehicles import hidden_ends
     >>> near = np.array([5.0, 2.0, 2.0, 5.0, 5.0])  # something nearer in scans 1, 2
-    >>> hidden_ends(near, np.array([False, True, True, True, True]), 3, 4, 4.0,
-    ...             np.arange(6) * 0.5, 4.0)
+    >>> follows = np.array([False, True, True, True, True])
+    >>> hidden_ends(near, follows, 3, 4, 4.0, np.arange(6) * 0.5, 4.0)
     (2, 0)
+    >>> # a beam over the occluder proves the object absent from scan 1
+    >>> absent = np.array([False, True, False, False, False])
+    >>> hidden_ends(near, follows, 3, 4, 4.0, np.arange(6) * 0.5, 4.0, absent)
+    (1, 0)
     """
+    if absent is None:
+        absent = np.zeros(len(near), dtype=bool)
     before = 0
     p = first - 1
-    while (p >= 0 and follows[p + 1] and near[p] < depth
+    while (p >= 0 and follows[p + 1] and near[p] < depth and not absent[p]
            and cum[first] - cum[p + 1] < cap):
         before += 1
         p -= 1
     after = 0
     p = last + 1
-    while (p < len(near) and follows[p] and near[p] < depth
+    while (p < len(near) and follows[p] and near[p] < depth and not absent[p]
            and cum[p] - cum[last + 1] < cap):
         after += 1
         p += 1
     return before, after
+
+
+def beams_below(horizon, step, depth, top, fraction=HIDDEN_TOP_FRACTION):
+    """Per scan, whether a beam crosses ``depth`` below ``fraction`` of ``top``: an
+    object that tall standing there would have returned it, so it is not there.
+
+    ``fraction`` of an object's top is the lowest part of a vehicle's body along
+    its length (a car's bonnet or boot, a motorbike's seat stand higher); beams
+    passing over a nearer occluder still prove this (they return from beyond
+    ``depth``, from the kerb line or the footway), and dropouts prove nothing (they
+    do not enter the horizon).
+
+    Parameters
+    ----------
+    horizon : ndarray of shape (n_scans, n_depths)
+        :func:`~tunnelsense.street._geometry.horizon` of the scans.
+    step : float
+        Its depth step (m).
+    depth : float
+        The object's depth (m).
+    top : float
+        The object's top height (m).
+    fraction : float, default=HIDDEN_TOP_FRACTION
+
+    Returns
+    -------
+    absent : ndarray of shape (n_scans,) of bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._vehicles import beams_below
+    >>> h = np.array([[1.6, 1.5], [1.6, 0.2], [0.1, np.inf]])  # 2nd: road seen at 2 m
+    >>> beams_below(h, 1.0, 2.0, 1.2).tolist()
+    [False, True, False]
+    """
+    j = min(max(int(np.ceil(depth / step)), 1), horizon.shape[1]) - 1
+    return horizon[:, j] < fraction * top
 
 
 def length_share(mask, lengths):
