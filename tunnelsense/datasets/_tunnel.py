@@ -36,6 +36,7 @@ from tunnelsense.datasets._tunnel_frame import (
     _sensor_noise,
     _tour_info,
 )
+from tunnelsense.datasets._tunnel_params import _resolve_params
 from tunnelsense.datasets._tunnel_scene import (
     _Z_FAR,
     INDICATOR,
@@ -44,7 +45,6 @@ from tunnelsense.datasets._tunnel_scene import (
     _indicator_positions,
     _lining_x,
     _make_vehicles,
-    _resolve_params,
 )
 from tunnelsense.datasets._tunnel_sensor import (
     Recording,
