@@ -285,9 +285,12 @@ def make_tunnel_tour(
     lag = (_lag_samples(p["thermal_time_constant_s"], fps)
            if p["thermal_time_constant_s"] > 0 else None)
 
-    scene = _Scene(cam, p, bg, lat, hgt, pitch, yaw, s_ego, W, H, warming, indicators,
-                   lamp_spacing, lamp_s, lamp_look, lamp_ids, panel_s, panel_look,
-                   panel_side, vehicles, ind_look, ind_ids, veh_ids, shadow_ids)
+    scene = _Scene(cam=cam, p=p, bg=bg, lat=lat, hgt=hgt, pitch=pitch, yaw=yaw,
+                   s_ego=s_ego, W=W, H=H, warming=warming, indicators=indicators,
+                   lamp_spacing=lamp_spacing, lamp_s=lamp_s, lamp_look=lamp_look,
+                   lamp_ids=lamp_ids, panel_s=panel_s, panel_look=panel_look,
+                   panel_side=panel_side, vehicles=vehicles, ind_look=ind_look,
+                   ind_ids=ind_ids, veh_ids=veh_ids, shadow_ids=shadow_ids)
 
     images = np.empty((n_frames, H, W),
                       dtype=np.uint8 if p["bit_depth"] == 8 else np.uint16)
