@@ -11,6 +11,7 @@ import numpy as np
 
 from tunnelsense.datasets._scenarios import TUNNEL_SCENARIOS
 from tunnelsense.datasets._tunnel_scene import _CROWN_HEIGHT, _Z_FAR
+from tunnelsense.datasets._tunnel_sensor import OVERLAYS
 
 __all__ = ["RANDOMIZED_RANGES"]
 
@@ -59,6 +60,7 @@ _DEFAULTS = {
     "response_gamma": 1.0,  # output curve 255 (I / 255) ** gamma (1: linear)
     "bit_depth": 8,  # 8: uint8 grey levels; 9-16: uint16 counts, levels x 2**(b-8)
     "panel_spacing_m": None,  # lit exit/escape panels on the signs' wall (None: none)
+    "overlay": "none",  # a mark burned into the picture: "none", "clock", "bar"
 }
 
 #: Ranges the ``"randomized"`` scenario draws from (uniform; the curve's sign and
@@ -295,6 +297,8 @@ def _resolve_params(scenario, overrides, seed=0):
     if isinstance(depth, bool) or not isinstance(depth, Integral) or not 8 <= depth <= 16:
         raise ValueError(f"bit_depth must be an int in [8, 16]; got {depth!r}")
     p["bit_depth"] = int(depth)
+    if p["overlay"] not in OVERLAYS:
+        raise ValueError(f"overlay must be one of {list(OVERLAYS)}; got {p['overlay']!r}")
     if p["indicator_side"] not in ("left", "right"):
         raise ValueError(
             f"indicator_side must be 'left' or 'right'; got {p['indicator_side']!r}"
