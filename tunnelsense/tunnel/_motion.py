@@ -64,7 +64,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
 
     A cluster is an **indicator** iff its appearance label is positive, its
     trajectory has at least ``min_length`` clusters and ``|r| >= min_r`` (or, with
-    ``min_scale_r``, a steady approach).  The
+    ``min_scale_r``, a steady approach; with ``max_focus_offset``, its path's line
+    must also pass near the frame's centre).  The
     decision uses the whole trajectory, so it is final once the trajectory has ended
     (an online system reports it with that delay).  A **trajectory is positive** when
     more than ``vote`` of its clusters are indicators.  The detections are the clusters
