@@ -78,6 +78,11 @@ conditions (:data:`CONDITIONS`) are physical parameters of
 * ``exit-panels-50``: the ``plain`` tours with lit emergency-exit panels (0.8 m
   wide x 0.4 m tall, 2 m high, lit to about the signs' levels) every 50 m on the
   signs' wall: no indicators, a detection on one is a false alarm.
+* ``overlay-clock`` / ``overlay-bar``: the ``plain`` tours with a mark burned into
+  every frame: the camera's name and a running clock in white text at the top
+  left, or a grey-scale bar (white to black) at the right edge, half the frame
+  high; ``heavy-overlay-bar``: the ``heavy`` tours with the bar.  A mark is no
+  indicator: a detection on one is a false alarm.
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -165,6 +170,9 @@ CONDITIONS = {
     "160x120": dict(scenario="light", sensor_scale=0.25, **CAMERA_A),
     "crawl": dict(scenario="light", speed_kmh=(3.0, 10.0), **CAMERA_A),
     "exit-panels-50": dict(scenario="light", panel_spacing_m=50.0, **CAMERA_A),
+    "overlay-clock": dict(scenario="light", overlay="clock", **CAMERA_A),
+    "overlay-bar": dict(scenario="light", overlay="bar", **CAMERA_A),
+    "heavy-overlay-bar": dict(scenario="heavy", overlay="bar", **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -181,7 +189,8 @@ SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "
                  "shake-0.3": "plain", "defocus-1.5": "plain", "gamma-0.7": "plain",
                  "gamma-1.4": "plain", "14-bit": "plain", "signs-0.7x": "plain",
                  "signs-1.3x": "plain", "1280x960": "plain", "160x120": "plain",
-                 "crawl": "plain", "exit-panels-50": "plain"}
+                 "crawl": "plain", "exit-panels-50": "plain", "overlay-clock": "plain",
+                 "overlay-bar": "plain", "heavy-overlay-bar": "heavy"}
 
 #: conditions whose frames another model must serve: fitted on the training tour of
 #: the condition itself (a model serves frames of the bit depth it was fitted on)

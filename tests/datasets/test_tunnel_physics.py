@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.datasets._tunnel_scene import RANDOMIZED_RANGES, _randomized
+from tunnelsense.datasets._tunnel_params import RANDOMIZED_RANGES, _randomized
 
 STILL = dict(first_indicator_m=60.0, lateral_jitter_m=0.0, pitch_jitter_deg=0.0,
              traffic_per_km=0.0, speed_kmh=80.0)

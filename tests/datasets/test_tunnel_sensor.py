@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tunnelsense.datasets import make_tunnel_tour
-from tunnelsense.datasets._tunnel_scene import RANDOMIZED_RANGES, _randomized
+from tunnelsense.datasets._tunnel_params import RANDOMIZED_RANGES, _randomized
 
 # no noise, no fixed pattern, nothing moving: the scene itself
 QUIET = dict(first_indicator_m=40.0, lateral_jitter_m=0.0, pitch_jitter_deg=0.0,

@@ -36,6 +36,7 @@ from tunnelsense.datasets._tunnel_frame import (
     _sensor_noise,
     _tour_info,
 )
+from tunnelsense.datasets._tunnel_params import _resolve_params
 from tunnelsense.datasets._tunnel_scene import (
     _Z_FAR,
     INDICATOR,
@@ -44,10 +45,10 @@ from tunnelsense.datasets._tunnel_scene import (
     _indicator_positions,
     _lining_x,
     _make_vehicles,
-    _resolve_params,
 )
 from tunnelsense.datasets._tunnel_sensor import (
     Recording,
+    burn_overlay,
     camera_output,
     defect_map,
     panel_layout,
@@ -190,7 +191,12 @@ def make_tunnel_tour(
         escape-route signs 0.8 m wide x 0.4 m tall centred 2.0 m high on the
         signs' wall, lit from inside to about the indicators' levels, every this
         many metres from a random stream of their own; they are no indicators
-        and in no ground truth, so a detection on one is a false alarm).
+        and in no ground truth, so a detection on one is a false alarm);
+        ``overlay`` ("none": a mark the camera or recorder burns into every
+        frame, "clock": its name and the time in white text at the top left,
+        "bar": a grey-scale bar, white to black, at the right edge, half the
+        frame high; drawn at the same fractions of any frame size, frozen with
+        the picture by a flat-field freeze; in no ground truth).
 
     Returns
     -------
@@ -285,9 +291,12 @@ def make_tunnel_tour(
     lag = (_lag_samples(p["thermal_time_constant_s"], fps)
            if p["thermal_time_constant_s"] > 0 else None)
 
-    scene = _Scene(cam, p, bg, lat, hgt, pitch, yaw, s_ego, W, H, warming, indicators,
-                   lamp_spacing, lamp_s, lamp_look, lamp_ids, panel_s, panel_look,
-                   panel_side, vehicles, ind_look, ind_ids, veh_ids, shadow_ids)
+    scene = _Scene(cam=cam, p=p, bg=bg, lat=lat, hgt=hgt, pitch=pitch, yaw=yaw,
+                   s_ego=s_ego, W=W, H=H, warming=warming, indicators=indicators,
+                   lamp_spacing=lamp_spacing, lamp_s=lamp_s, lamp_look=lamp_look,
+                   lamp_ids=lamp_ids, panel_s=panel_s, panel_look=panel_look,
+                   panel_side=panel_side, vehicles=vehicles, ind_look=ind_look,
+                   ind_ids=ind_ids, veh_ids=veh_ids, shadow_ids=shadow_ids)
 
     images = np.empty((n_frames, H, W),
                       dtype=np.uint8 if p["bit_depth"] == 8 else np.uint16)
@@ -321,7 +330,11 @@ def make_tunnel_tour(
         if defects is not None:  # stuck pixels and dead columns read the same
             img[defects[0], defects[1]] = defects[2]
             img[:, defects[3]] = 0.0
-        images[f] = camera_output(img, p["response_gamma"], p["bit_depth"])
+        out = camera_output(img, p["response_gamma"], p["bit_depth"])
+        if p["overlay"] != "none":  # a mark burned into the picture
+            burn_overlay(out, p["overlay"], f / fps,
+                         255.0 * 2 ** max(p["bit_depth"] - 8, 0))
+        images[f] = out
         rows.append(_gt_rows(f + 1, drawn, W, H))
         if progress is not None:
             progress(f + 1, n_frames)

@@ -33,8 +33,16 @@ class _Scene:
     """The tour's scene (camera, tunnel, signs, lamps, panels, traffic, the ego
     pose per frame), rendered frame by frame as radiance (``scene(f)``)."""
 
-    def __init__(self, *parts):
-        self.parts = parts
+    def __init__(self, *, cam, p, bg, lat, hgt, pitch, yaw, s_ego, W, H, warming,
+                 indicators, lamp_spacing, lamp_s, lamp_look, lamp_ids, panel_s,
+                 panel_look, panel_side, vehicles, ind_look, ind_ids, veh_ids,
+                 shadow_ids):
+        # keyword-only: 24 parts, several of the same type, are easily swapped
+        # by position; __call__ unpacks them in this order
+        self.parts = (cam, p, bg, lat, hgt, pitch, yaw, s_ego, W, H, warming,
+                      indicators, lamp_spacing, lamp_s, lamp_look, lamp_ids,
+                      panel_s, panel_look, panel_side, vehicles, ind_look, ind_ids,
+                      veh_ids, shadow_ids)
 
     def __call__(self, f, q=None):
         """The radiance image and drawn objects at frame ``f``; ``q`` (a fractional

@@ -19,20 +19,25 @@ was:
   frame (engine and road at 10-30 Hz, faster than a frame).
 
 And, drawing nothing at random, the camera's **output stage**: a non-linear
-response (a gamma curve on the grey levels) and the bit depth of the frames
-(14-bit counts in 16-bit words, as many FIR cameras record).
+response (a gamma curve on the grey levels), the bit depth of the frames
+(14-bit counts in 16-bit words, as many FIR cameras record) and a mark burned
+into the picture (a clock's text, a grey-scale bar: :func:`burn_overlay`).
 """
 
 from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 
 from tunnelsense._records import FrameRecord, FrameSequence
 
-__all__ = ["Recording", "camera_output", "defect_map", "dropped_frames", "nuc_freezes",
-           "panel_layout", "shake"]
+__all__ = ["OVERLAYS", "Recording", "burn_overlay", "camera_output", "defect_map",
+           "dropped_frames", "nuc_freezes", "panel_layout", "shake"]
+
+#: the marks a camera or recorder can burn into the picture (``overlay=``)
+OVERLAYS = ("none", "clock", "bar")
 
 #: spawn keys of the artefacts' random streams (children of the tour's seed)
 _NUC_STREAM, _DROP_STREAM, _DEFECT_STREAM, _SHAKE_STREAM = 7301, 7302, 7303, 7304
@@ -182,6 +187,45 @@ def camera_output(img, gamma, bit_depth):
     if bit_depth > 8:
         img *= np.float32(2 ** (bit_depth - 8))
     np.rint(img, out=img)
+    return img
+
+
+def burn_overlay(img, kind, time_s, full_scale):
+    """Burn the mark ``kind`` (:data:`OVERLAYS`) into the output frame ``img`` (in
+    place), at ``time_s`` seconds into the tour; ``full_scale`` is the output's
+    white.  ``"clock"``: the camera's name and a clock to the hundredth of a
+    frame second, in white text at the top left (as recorders stamp the time);
+    ``"bar"``: a grey-scale bar at the right edge, half the frame high, white at
+    its top to black at its bottom (as thermal cameras show their colour scale).
+    Sizes and places are fractions of the frame (drawn for 640 x 480), so every
+    sensor size shows the same picture.  ``"none"`` changes nothing.
+
+    Examples
+    --------
+    >>> img = np.zeros((480, 640), np.float32)
+    >>> bar = burn_overlay(img, "bar", 0.0, 255.0)[120:360, 624:634]
+    >>> float(bar[0, 0]), float(bar[-1, 0]), bar.shape
+    (255.0, 0.0, (240, 10))
+    """
+    if kind == "none":
+        return img
+    h, w = img.shape[:2]
+    if kind == "bar":
+        top, rows = h // 4, h // 2
+        ramp = np.rint(np.linspace(full_scale, 0.0, rows)).astype(img.dtype)
+        img[top : top + rows, w - round(16 * w / 640) : w - round(6 * w / 640)] = \
+            ramp[:, None]
+    elif kind == "clock":
+        centi = int(round(time_s * 100))
+        text = (f"CAM1 12:{centi // 6000 % 60:02d}:{centi // 100 % 60:02d}."
+                f"{centi % 100:02d}")
+        mask = np.zeros((h, w), np.uint8)  # text is drawn on 8 bits only
+        cv2.putText(mask, text, (round(10 * w / 640), round(25 * h / 480)),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.6 * h / 480, 255,
+                    max(1, round(2 * h / 480)))
+        img[mask > 0] = full_scale
+    else:
+        raise ValueError(f"overlay must be one of {list(OVERLAYS)}; got {kind!r}")
     return img
 
 

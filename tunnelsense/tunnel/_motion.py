@@ -8,7 +8,8 @@ cluster is an indicator iff its appearance label is positive, its trajectory is 
 least ``min_length`` long (or, optionally, shorter but showing an approach of
 ``min_approach``), ``|r| >= min_r`` (or, optionally, its rectangles show a steady
 approach, ``min_scale_r``; and, optionally, it travels at least ``min_travel`` times
-its own size); a trajectory is positive when more than ``vote`` (80 %) of the
+its own size, and its path traces back near the frame's middle,
+``max_focus_offset``); a trajectory is positive when more than ``vote`` (80 %) of the
 decisions it connects are positive.  The path measures are in
 :mod:`tunnelsense.tunnel._pcc_measures`, the stream state in
 :mod:`tunnelsense.tunnel._pcc_stream`.
@@ -36,6 +37,7 @@ from tunnelsense._streaming import StreamingMixin
 from tunnelsense.tunnel._pcc_stream import (
     PCCStream,
     curve_fit_r,
+    focus_offset,
     frame_payload,
     motion_fit_r,
     pearson_r,
@@ -43,7 +45,8 @@ from tunnelsense.tunnel._pcc_stream import (
 )
 from tunnelsense.utils._sklearn_compat import Interval, StrOptions, _fit_context
 
-__all__ = ["PCCVerifier", "curve_fit_r", "motion_fit_r", "pearson_r", "straightness"]
+__all__ = ["PCCVerifier", "curve_fit_r", "focus_offset", "motion_fit_r", "pearson_r",
+           "straightness"]
 
 
 class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
@@ -61,7 +64,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
 
     A cluster is an **indicator** iff its appearance label is positive, its
     trajectory has at least ``min_length`` clusters and ``|r| >= min_r`` (or, with
-    ``min_scale_r``, a steady approach).  The
+    ``min_scale_r``, a steady approach; with ``max_focus_offset``, its path's line
+    must also pass near the frame's centre).  The
     decision uses the whole trajectory, so it is final once the trajectory has ended
     (an online system reports it with that delay).  A **trajectory is positive** when
     more than ``vote`` of its clusters are indicators.  The detections are the clusters
@@ -159,6 +163,25 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         ``payload["motion_r"]`` still holds the path measure (below ``min_r`` for
         a trajectory this passes).  In (0, 1].  A ratio of sizes, the same at any
         resolution.  ``None``, the paper's rule, checks the path alone.
+    max_focus_offset : float or None, default=None
+        Largest offset of a trajectory's implied focus of expansion from the
+        frame's centre, in units of half the frame's width and height
+        (:func:`~tunnelsense.tunnel._pcc_measures.focus_offset`: the intercept of
+        its centres fitted on its rectangle heights; 0 at the centre, 1 on the
+        border).  An object the camera approaches moves away from where the road
+        goes as it grows, so its path, traced back to a zero height, ends near the
+        frame's middle -- shifted by the camera's yaw and pitch and by a curve,
+        by a few tenths of the half frame at most.  A mark burned into the
+        picture (a grey-scale bar, a clock's text) keeps its place while its
+        thresholded rectangle grows and shrinks with the frame's grey levels: its
+        path, however straight, traces back to the mark itself, near the border.
+        A far sign's heights hardly change and are noisy; its fit then falls back
+        towards its mean centre, itself near the focus.  A ratio of lengths in the
+        image: the same at any resolution or focal length.  ``min_length`` (or
+        ``min_approach``), ``min_r`` (or ``min_scale_r``), ``min_travel`` and the
+        vote still apply.  ``None`` checks nothing.  The frame's size is read from
+        the first frame of each tour (an image file is decoded for it when no
+        stage before has).
     frame_rate : float or None, default=30.0
         The frame rate (frames per second) ``min_length`` is counted in.  A tour's
         frames carry its frame rate (``payload["frame_rate"]``, set by
@@ -198,12 +221,14 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_approach": [Interval(numbers.Real, 0, 1, closed="neither"), None],
         "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "min_scale_r": [Interval(numbers.Real, 0, 1, closed="right"), None],
+        "max_focus_offset": [Interval(numbers.Real, 0, None, closed="left"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
                  min_travel=0.0, min_approach=None, min_scale_r=None,
-                 frame_rate=30.0):
+                 max_focus_offset=None, frame_rate=30.0):
         self.frame_rate = frame_rate
+        self.max_focus_offset = max_focus_offset
         self.min_scale_r = min_scale_r
         self.min_approach = min_approach
         self.min_travel = min_travel

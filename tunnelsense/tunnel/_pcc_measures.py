@@ -4,7 +4,7 @@
 centres fit a line, :func:`curve_fit_r` and :func:`motion_fit_r` a quadratic path
 or motion, :func:`path_travel` and :func:`approach_fraction` how far it travels and
 how much of its range the camera covers, :func:`approach_r` how steadily its
-rectangles grow.  Array in, number out.
+rectangles grow, :func:`focus_offset` where its path comes from.  Array in, number out.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ __all__ = [
     "approach_fraction",
     "approach_r",
     "curve_fit_r",
+    "focus_offset",
     "motion_fit_r",
     "path_travel",
     "pearson_r",
@@ -270,3 +271,50 @@ def approach_r(t, h) -> float:
     if len(t) < 3 or np.any(h <= 0):
         return 0.0
     return 0.0 - pearson_r(t, 1.0 / h)  # 0.0, not -0.0, when it keeps its range
+
+
+
+def focus_offset(x, y, width, height) -> float:
+    """Where a trajectory's path can come from: how near its line passes the
+    frame's centre, in units of half the frame.
+
+    An object the camera approaches along the road moves away from the focus of
+    expansion (where the road goes, near the frame's middle) along a line through
+    it: the line of its centres -- their principal axis, in the frame's
+    coordinates over half its ``width`` and ``height`` (0 at the centre, 1 on the
+    border) -- passes the centre at about the focus's own offset, a few tenths
+    at most (the camera's yaw and pitch; a curve or a crest turns the camera and
+    slides every point alike).  A mark burned into the picture (a grey-scale bar
+    at the edge, a clock's text) keeps its place while its thresholded rectangle
+    grows and shrinks with the frame's grey levels: its centres slide along the
+    mark, whose line passes the centre at the mark's own offset.  A far sign's
+    path is short and its rectangle small and noisy, but the sign itself is near
+    the focus, so any line through it passes near the centre.  Nothing is
+    extrapolated from the rectangles' heights (which change too little on a far
+    sign for that, while the camera's turning moves it).  A ratio of lengths in
+    the image: the same at any resolution or focal length.  The offset of the
+    mean centre for a still path, ``inf`` for no points.
+
+    Examples
+    --------
+    >>> z = np.array([60.0, 40, 30, 20, 12])  # a sign 4 m left, 0.3 m up
+    >>> round(focus_offset(320 - 700 * 4 / z, 240 - 700 * 0.3 / z, 640, 480), 6)
+    0.0
+    >>> bar = ([628.0, 628.2, 628.1, 628.3], [230.0, 236, 240, 246])  # at the edge
+    >>> round(focus_offset(*bar, 640, 480), 3)
+    0.963
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if len(x) == 0:
+        return float("inf")
+    u = (x - width / 2) / (width / 2)
+    v = (y - height / 2) / (height / 2)
+    mu, mv = float(u.mean()), float(v.mean())
+    du, dv = u - mu, v - mv
+    cov = np.array([[du @ du, du @ dv], [du @ dv, dv @ dv]])
+    if np.trace(cov) <= 1e-18:  # a still path: where it is
+        return float(np.hypot(mu, mv))
+    _, vecs = np.linalg.eigh(cov)
+    eu, ev = vecs[:, 1]  # the principal direction
+    return float(abs(mu * ev - mv * eu))

@@ -26,7 +26,7 @@ from tunnelsense._payload import (
     per_cluster,
     scaled_count,
 )
-from tunnelsense._records import FrameRecord, release_image
+from tunnelsense._records import DecodedImage, FrameRecord, release_image
 from tunnelsense._streaming import StreamState
 from tunnelsense.tunnel._linking import (
     MIN_TRAJECTORY_POINTS,
@@ -38,6 +38,7 @@ from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
     approach_fraction,
     approach_r,
     curve_fit_r,
+    focus_offset,
     motion_fit_r,
     path_travel,
     pearson_r,
@@ -48,7 +49,9 @@ __all__ = [
     "PCCStream",
     "approach_fraction",
     "curve_fit_r",
+    "focus_offset",
     "frame_payload",
+    "frame_size",
     "motion_fit_r",
     "pearson_r",
     "straightness",
@@ -154,6 +157,10 @@ class PCCStream(StreamState):
         # models saved before the parameter existed check the path alone
         scale = getattr(verifier, "min_scale_r", None)
         self.min_scale_r = None if scale is None else float(scale)
+        # models saved before the parameter existed check no focus of expansion
+        focus = getattr(verifier, "max_focus_offset", None)
+        self.max_focus_offset = None if focus is None else float(focus)
+        self.size = None  # (width, height) of the tour's frames, in the boxes' pixels
         self.vote = float(verifier.vote)
         self.release = release
         self.tour = None
@@ -180,6 +187,9 @@ class PCCStream(StreamState):
             motion_ok = True  # a steady approach, whatever the path's jitter
         if motion_ok and self.min_travel > 0:
             motion_ok = path_travel(traj.xs, traj.ys, traj.hs) >= self.min_travel
+        if motion_ok and self.max_focus_offset is not None:
+            offset = focus_offset(traj.xs, traj.ys, *self.size)
+            motion_ok = offset <= self.max_focus_offset
         indicator = [a and motion_ok for a in traj.app]
         fraction = sum(indicator) / n
         positive = fraction > self.vote
@@ -223,6 +233,8 @@ class PCCStream(StreamState):
             self.min_length = scaled_count(
                 self.length, rate_ratio(record, self.frame_rate), MIN_TRAJECTORY_POINTS
             )
+            if self.max_focus_offset is not None:  # every frame of a tour: one size
+                self.size = frame_size(record)
         entry = _Frame(tag, boxes, tracks)
         if len(boxes):
             cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
@@ -249,6 +261,23 @@ class PCCStream(StreamState):
                     self._decide(traj)
         out.extend(self._release())
         return out
+
+
+def frame_size(record):
+    """``(width, height)`` of a record's image, in the pixels of its cluster boxes.
+
+    The boxes are in the pixels of the image the stages read (the detector's
+    canonical frame when it resampled the frame: a decoded array); an image in
+    memory, or a file that knows its shape, is not decoded for it.
+    """
+    source = record.source
+    if isinstance(source, DecodedImage):
+        shape = source.array.shape
+    else:
+        shape = getattr(source, "shape", None)  # an array; an ImageFile
+        if shape is None:
+            shape = record.image.shape
+    return float(shape[1]), float(shape[0])
 
 
 def frame_payload(record, index):
