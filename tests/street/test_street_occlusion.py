@@ -180,6 +180,22 @@ def test_a_flat_face_cut_by_the_runs_start_is_no_vehicle():
             assert street_scores(run.gt, est.detect(run.scans))["parked"]["tp"] == 1
 
 
+def test_a_car_with_scans_dropped_is_one_car_not_two_cut_ones():
+    # a recorder that loses a scan or two inside a parked car: the parts on either
+    # side of the gap are not cut by the run, so none is completed into a vehicle
+    # of its own (one found car, no false object)
+    speed = 11.0
+    fit = make_run([dict(s0=4.0, s1=8.4, depth=5.0, width=1.8, top=sedan)], ["parked"],
+                   n_scans=80, speed=speed)
+    est = ScanClusterer(speed=speed).fit(fit.scans)
+    run = make_run([dict(s0=2.0, s1=6.4, depth=5.0, width=1.8, top=sedan)], ["parked"],
+                   n_scans=70, speed=speed)
+    scans = list(run.scans)
+    for dropped in (1, 2):
+        det = est.detect(scans[:25] + scans[25 + dropped:])
+        assert (det["label"] == "parked").sum() == 1
+
+
 def test_a_motorbike_is_not_stretched_where_beams_pass_over_the_occluder():
     speed = 11.0
     # a low passing car (1.3 m high, 1.0-2.8 m deep) hides the road for 4 m before a

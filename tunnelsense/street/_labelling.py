@@ -168,13 +168,12 @@ class _Labelling:
 
     def _cut(self, lo, hi, ended):
         """Whether an object whose ends, with their hidden scans, are scans ``lo``
-        and ``hi - 1`` is cut by the data: it reaches the first or last scan of a
-        stretch of consecutive scans (the run's start or end, or scans missing).
+        and ``hi - 1`` is cut by the data: it reaches the run's first or last scan.
         The run's last scan cuts only once the run has ``ended`` (before, an object
-        reaching the newest scan is never final)."""
-        n, follows = len(self.records), self.follows
-        return bool(not follows[lo] or (hi == n and ended)
-                    or (hi < n and not follows[hi]))
+        reaching the newest scan is never final).  Scans missing inside the run do
+        not cut: the parts of one vehicle on either side of a dropped scan are
+        each tested on what was seen of them, as if nothing lay beyond."""
+        return bool(self.base + lo == 0 or (hi == len(self.records) and ended))
 
     def _completions(self, hidden, cut, length, body):
         """The hidden lengths (m) to test an object of ``length`` seen metres with:
