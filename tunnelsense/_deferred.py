@@ -41,7 +41,7 @@ import types
 from pathlib import Path
 
 __all__ = ["DEFERRED", "NUMPY_PARTS", "SERVED", "defer", "defer_numpy_parts",
-           "end_imports", "hold_linear_algebra", "start_command", "start_imports"]
+           "end_imports", "start_command", "start_imports"]
 
 #: The modules the command defers: imported by scikit-learn at start, seldom needed.
 #: (``scipy.special``: scikit-learn's array-API helpers import it for two functions
@@ -240,9 +240,7 @@ def defer_numpy_parts() -> list[str]:
 
 def start_imports() -> list[str]:
     """In the command's own process, before its heavy imports: defer
-    :data:`NUMPY_PARTS`, hold SciPy's linear algebra and asyncio
-    (:func:`hold_linear_algebra`)
-    and collect garbage seldom until :func:`end_imports`.
+    :data:`NUMPY_PARTS` and collect garbage seldom until :func:`end_imports`.
 
     Outside the command (:func:`start_command` not called) it does nothing.
 
@@ -256,30 +254,7 @@ def start_imports() -> list[str]:
     if not _SAVED_THRESHOLDS:
         _SAVED_THRESHOLDS.append(gc.get_threshold())
         gc.set_threshold(IMPORT_GC_THRESHOLD, *_SAVED_THRESHOLDS[0][1:])
-    deferred = defer_numpy_parts()
-    hold_linear_algebra()
-    return deferred
-
-
-def hold_linear_algebra() -> list[str]:
-    """In the command's own process, hold SciPy's linear algebra packages and
-    asyncio (:data:`tunnelsense._deferred_held.HELD`); return those held.
-
-    Their parents are imported then (SciPy and its sparse package, which
-    scikit-learn imports first thing anyway) and each held package bound as its
-    parent's attribute, as its import would: at the lowest SciPy allowed,
-    ``scipy.sparse`` looks up none of its subpackages lazily.  Outside the command
-    it does nothing and returns ``[]``.
-    """
-    if not _IN_COMMAND:
-        return []
-    from tunnelsense._deferred_held import bind, hold
-
-    held = hold()
-    if any(name.startswith("scipy.") for name in held):
-        importlib.import_module("scipy.sparse")
-        bind(held)
-    return held
+    return defer_numpy_parts()
 
 
 def end_imports() -> None:
