@@ -102,6 +102,16 @@ def test_max_focus_offset_drops_a_burned_in_bar_and_keeps_signs():
     assert found == {None: {1, 2}, 0.5: {1}}
 
 
+def test_records_without_a_tour_name_are_checked_too():
+    # frames built by hand may carry no tour name (None): the frame size is still
+    # read from the first one, and the bar still dropped
+    sign = approached(np.linspace(50.0, 12.0, 20), -4.0, 0.3)
+    X = [FrameRecord(None, r.frame, r.source, r.payload)
+         for r in records({1: sign, 2: _bar()})]
+    out = PCCVerifier(max_focus_offset=0.5).fit(X).predict(X)
+    assert {int(d[4]) for r in out for d in r.payload["detections"]} == {1}
+
+
 def test_frame_size_is_that_of_the_boxes_pixels_without_decoding():
     rec = FrameRecord("t", 1, IMG, {})
     assert frame_size(rec) == (640.0, 480.0)

@@ -292,7 +292,10 @@ def focus_offset(x, y, width, height) -> float:
     the focus, so any line through it passes near the centre.  Nothing is
     extrapolated from the rectangles' heights (which change too little on a far
     sign for that, while the camera's turning moves it).  A ratio of lengths in
-    the image: the same at any resolution or focal length.  The offset of the
+    the image, the same at any resolution; the focus's own offset grows with the
+    focal length (``f tan(yaw) / (width / 2)``).  A path jittering in place has
+    no direction: its axis, and so its offset, may fall anywhere between 0 and
+    its mean centre's (``min_travel`` rejects such a path).  The offset of the
     mean centre for a still path, ``inf`` for no points.
 
     Examples

@@ -76,6 +76,9 @@ class _Released:
 
 _RELEASED = _Released()
 
+#: The tour before the first record: unlike any record's (whose tour may be None).
+_NO_TOUR = object()
+
 
 class _Frame:
     """A frame waiting for the trajectories through it to end."""
@@ -163,7 +166,7 @@ class PCCStream(StreamState):
         self.size = None  # (width, height) of the tour's frames, in the boxes' pixels
         self.vote = float(verifier.vote)
         self.release = release
-        self.tour = None
+        self.tour = _NO_TOUR  # a record's tour may be None
         self.open: dict = {}
         self.waiting: deque = deque()
         self._count = 0
@@ -214,7 +217,7 @@ class PCCStream(StreamState):
         for traj in self.open.values():
             self._decide(traj)
         self.open = {}
-        self.tour = None
+        self.tour = _NO_TOUR  # a record's tour may be None
         return self._release()
 
     def _push(self, record):

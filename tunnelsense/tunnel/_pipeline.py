@@ -98,10 +98,12 @@ PIPELINE_DEFAULTS = {
     # an approached object moves away from the focus of expansion, along a line
     # through it; a mark burned into the picture (a camera's grey-scale bar at the
     # edge) slides along itself as its thresholded rectangle changes: the line of a
-    # trajectory's centres must pass within half the half frame of the frame's
-    # centre (a focus up to about 13 degrees off the axis with a 700 px lens, 9
-    # with 1000 px); signs on every simulated condition passed within 0.25
-    "motion__max_focus_offset": 0.5,
+    # trajectory's centres must pass within 0.8 of the half frame of the
+    # frame's centre (a focus up to atan(0.4 W / f) off the axis across, atan(0.4 H /
+    # f) up or down: 20.1 and 15.3 degrees with a 700 px lens at 640 x 480, 9.7 and
+    # 7.3 with 1500 px); signs on every simulated condition passed within 0.25, a
+    # grey-scale bar at the right edge lies at 0.97
+    "motion__max_focus_offset": 0.8,
 }
 
 #: The paper's detector (Wang et al. 2013, sections 3.1-3.7), for
@@ -156,8 +158,8 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     (``motion__min_travel=0.25``), a shorter trajectory (7 points or more)
     accepted when the camera covered 0.3 of its range to it
     (``motion__min_approach=0.3``, a near sign seen from a fast car), the line of a
-    trajectory's centres passing within half the half frame of the frame's centre
-    (``motion__max_focus_offset=0.5``: a mark burned into the picture is no path),
+    trajectory's centres passing within 0.8 of the half frame of the frame's centre
+    (``motion__max_focus_offset=0.8``: a mark burned into the picture is no path),
     which keep the detector working on another camera and in a curving tunnel
     (``docs/validation.md``); frames of another size with the training frames'
     aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
