@@ -19,8 +19,9 @@ from tunnelsense.io._model import (
     _warn_versions,
     load_model,
 )
+from tunnelsense.io._model_checks import check_detector
 from tunnelsense.io._model_file import _as_key, read_metadata, verified_bytes
-from tunnelsense.io._model_strict import check_detector, read_strict
+from tunnelsense.io._model_strict import read_strict
 
 # the model path's check lives beside the other output checks, which import no
 # scikit-learn: a training command makes it before its frames are decoded
