@@ -10,7 +10,7 @@ _NAMES = {
     "TourKinematics": "_odometry",
     "make_tunnel_kinematics": "_odometry",
     "make_tunnel_odometry": "_odometry",
-    "simulate_indicator_detections": "_odometry",
+    "simulate_indicator_detections": "_indicator_detections",
     "simulate_to_folder": "_simulate",
     "STREET_SCENARIOS": "_street",
     "make_street_scans": "_street",
