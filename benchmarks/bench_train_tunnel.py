@@ -31,7 +31,16 @@ transform), the training output and scores, the model write.  The phases' sum
 is the work a two-core machine shares out; the decode and the imports run in
 reader threads beside each other in the command, the fit in one thread.
 
+With ``--threads``, it runs instead, ``--repeats`` times in fresh processes
+(interleaved with the baseline's when given), the whole command (``--jobs`` as
+the command's default) with a watcher thread that reads every thread's CPU time
+from ``/proc`` every 20 ms, and prints the median CPU seconds of the main
+thread (start-up, imports, the fit, the model write), of the reader threads
+(the decode) together, and the wall: how much of the wall is the main thread's
+fit alone, which no reader thread shares.
+
     python benchmarks/bench_train_tunnel.py --frames 1500 --repeats 5
+    python benchmarks/bench_train_tunnel.py --threads --repeats 3 --baseline /tmp/main-tree
     python benchmarks/bench_train_tunnel.py --phases --repeats 3 --baseline /tmp/main-tree
     python benchmarks/bench_train_tunnel.py --repeats 3 --baseline /tmp/main-tree
     python benchmarks/bench_train_tunnel.py --no-busy --sample-rate 10
@@ -56,7 +65,9 @@ _DECODE = (
 )
 
 
-# one train tunnel, phase by phase in this thread: a JSON list of (phase, CPU seconds)
+# one train tunnel, phase by phase in this thread: a JSON list of (phase, CPU seconds);
+# the fit is the command's (fit_indicator_detector, on frames decoded beforehand), its
+# steps told apart by its progress calls
 _PHASES = """
 import json, sys, time
 marks, t0 = [], time.process_time()
@@ -73,27 +84,101 @@ mark("read labels")
 frames, y, groups, n = decode_tours(tours, n_threads=0)
 X = list(frames)
 mark("decode")
-from tunnelsense._records import FrameSequence
-from tunnelsense.tunnel import make_indicator_pipeline
-from tunnelsense.tunnel._training import _summary
+from tunnelsense.tunnel import fit_indicator_detector
 mark("import fitting")
 import skops.io
 mark("import writer")
-X = FrameSequence(X)
-model = make_indicator_pipeline(random_state=0)
-for name, step in model.steps[:-1]:
-    X = step.fit_transform(X, y)
-    mark("fit " + name)
-name, last = model.steps[-1]
-last.fit(X, y)
-out = last.predict(X)
-summary = _summary(tours, model, out, y, None, None)
-mark("fit " + name + ", training scores")
+step = []
+def progress(stage, done, total):
+    if stage.startswith("fitting ") and stage != "fitting fitted":
+        if step:
+            mark("fit " + step[-1])
+        step.append(stage[len("fitting "):])
+model, summary = fit_indicator_detector(tours, n_jobs=0, progress=progress,
+                                        _decoding=(iter(X), y, groups, n))
+mark("fit " + step[-1] + ", training scores")
 from tunnelsense.io._model import save_model
 save_model(model, sys.argv[2], summary=summary, overwrite=True)
 mark("write model")
 print(json.dumps(marks))
 """
+
+
+# the whole command in this process, a watcher reading each thread's CPU seconds
+# (utime + stime in /proc/self/task) every 20 ms: a JSON dict of
+# {"main": s, "readers": s, "other": s, "wall": s}
+_THREADS = """
+import json, os, sys, threading, time
+tick = os.sysconf("SC_CLK_TCK")
+seen, done = {}, threading.Event()
+def cpu_of(tid):
+    with open(f"/proc/self/task/{tid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / tick
+def watch():
+    me = threading.get_native_id()
+    while True:
+        names = {t.native_id: t.name for t in threading.enumerate()}
+        for tid in os.listdir("/proc/self/task"):
+            tid = int(tid)
+            if tid == me:
+                continue
+            try:
+                seen[tid] = (names.get(tid, seen.get(tid, ("?",))[0]), cpu_of(tid))
+            except OSError:
+                pass
+        if done.wait(0.02):
+            return
+watcher = threading.Thread(target=watch, daemon=True)
+watcher.start()
+wall = time.perf_counter()
+sys.argv = ["tunnelsense", "train", "tunnel", sys.argv[1], "--model", sys.argv[2],
+            "--force", "--quiet"]
+from tunnelsense._cli import main
+code = main()  # as the command runs it (its start-up imports in threads)
+assert code == 0, code
+wall = time.perf_counter() - wall
+done.set()
+watcher.join()
+main_id = threading.main_thread().native_id
+seen[main_id] = ("main", cpu_of(main_id))
+out = {"main": 0.0, "readers": 0.0, "other": 0.0, "wall": wall}
+for name, seconds in seen.values():
+    key = "main" if name == "main" else "readers" if name.startswith("decode") else "other"
+    out[key] += seconds
+print(json.dumps(out))
+"""
+
+
+def _threads(tour, model, baseline, repeats):
+    """Median CPU seconds of the command's main thread and reader threads, and its
+    wall (:data:`_THREADS`), this tree beside ``baseline``'s, interleaved."""
+    import json
+    import subprocess
+
+    trees = {"this tree": Path(__file__).resolve().parents[1]}
+    if baseline is not None:
+        trees["baseline"] = Path(baseline).resolve()
+    got = {k: {} for k in trees}
+    before = machine_load()
+    for r in range(repeats):
+        names = list(trees)
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            env = {**os.environ, "PYTHONPATH": str(trees[name])}
+            done = subprocess.run([sys.executable, "-P", "-c", _THREADS, str(tour),
+                                   str(model)], env=env, check=True,
+                                  capture_output=True, text=True)
+            for key, seconds in json.loads(done.stdout.splitlines()[-1]).items():
+                got[name].setdefault(key, []).append(seconds)
+    print(f"train tunnel, whole command, CPU seconds by thread and wall, medians of "
+          f"{repeats} ({before} before, {machine_load()} after):")
+    print(f"  {'':34s}" + "".join(f"{k:>12s}" for k in trees))
+    for key, label in (("main", "main thread (imports, fit, write)"),
+                       ("readers", "reader threads (decode)"),
+                       ("other", "other threads"), ("wall", "wall")):
+        print(f"  {label:34s}" + "".join(
+            f"{statistics.median(got[k][key]):12.2f}" for k in trees))
+    return 0
 
 
 def _busy():
@@ -180,6 +265,9 @@ def main(argv=None):
                    help="also run train --sample-rate HZ (this tree)")
     p.add_argument("--phases", action="store_true", help="CPU seconds of each phase "
                    "of the work, in one thread (with --baseline, of both trees)")
+    p.add_argument("--threads", action="store_true", help="CPU seconds of the whole "
+                   "command's main thread and reader threads, and its wall (with "
+                   "--baseline, of both trees)")
     args = p.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="bench-train-"))
     tour = work / f"light-{args.frames}"
@@ -190,6 +278,8 @@ def main(argv=None):
         write_tour(make_tunnel_tour(args.frames, scenario="light", random_state=0), tour)
     if args.phases:
         return _phases(tour, work / "m.skops", args.baseline, args.repeats)
+    if args.threads:
+        return _threads(tour, work / "m.skops", args.baseline, args.repeats)
     runs = _runs(tour, work / "m.skops", args.baseline, args.sample_rate)
     rounds = []
     label = "as it is"

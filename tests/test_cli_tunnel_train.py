@@ -4,6 +4,8 @@ verb: no shared trained model (see test_cli_tunnel.py for detect and the model f
 import argparse
 import json
 import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -147,3 +149,39 @@ def test_train_sample_rate_decodes_and_fits_a_sample_in_time(tmp_path, capsys):
                  str(tmp_path / "x.skops"), "--search", "--sample-rate", "6"]) == 1
     assert "--sample-rate: --search fits every frame" in capsys.readouterr().err
     assert not (tmp_path / "x.skops").exists()
+
+
+_TRAIN_AS_COMMAND = """
+import gc, sys
+import tunnelsense._fitting as fitting
+import tunnelsense.io._sources as sources
+usual = gc.get_threshold()
+seen = {}
+decode_tours, fit_pipeline = sources.decode_tours, fitting.fit_pipeline
+def decoding(*args, **kwargs):  # the readers start while the command imports
+    seen["importing"] = gc.get_threshold()[0] > usual[0]
+    return decode_tours(*args, **kwargs)
+def fitting_(*args, **kwargs):
+    seen["fitting"] = gc.get_threshold() == usual and gc.get_freeze_count() > 0
+    return fit_pipeline(*args, **kwargs)
+sources.decode_tours, fitting.fit_pipeline = decoding, fitting_
+sys.argv = ["tunnelsense", "train", "tunnel", sys.argv[1], "--model", sys.argv[2],
+            "--quiet"]
+from tunnelsense._cli import main
+assert main() == 0  # as the command runs (its own process: start_command)
+print(seen["importing"], seen["fitting"])
+"""
+
+
+def test_train_as_the_command_collects_seldom_while_importing(tmp_path):
+    # as detect does: the garbage collector's threshold raised while the command
+    # imports, then what was imported frozen out of its reach and the usual
+    # thresholds back for the fit (a library call of the command does neither)
+    tour = write_tour(make_tunnel_tour(40, random_state=5, first_indicator_m=20.0),
+                      tmp_path / "t")
+    done = subprocess.run([sys.executable, "-c", _TRAIN_AS_COMMAND, str(tour),
+                           str(tmp_path / "m.skops")], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-2:] == ["True", "True"]
+    assert (tmp_path / "m.skops").is_file()

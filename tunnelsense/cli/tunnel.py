@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from tunnelsense._deferred import start_imports
+from tunnelsense._deferred import end_imports, start_imports
 from tunnelsense.cli import _common as common
 from tunnelsense.cli import _fleet as fleet
 from tunnelsense.cli._extras import require_extra
@@ -16,6 +16,7 @@ from tunnelsense.tunnel._search_grid import SEARCH_GRID
 
 
 def _cmd_train(args) -> int:
+    start_imports()  # before scikit-learn's import (the command only), as detect does
     from tunnelsense.io import read_tour
     from tunnelsense.io._sources import decode_tours
 
@@ -30,9 +31,12 @@ def _cmd_train(args) -> int:
     # the reader threads decode while the fitting machinery (scikit-learn) imports
     rate = args.sample_rate
     decoding = decode_tours(tours, n_threads=args.jobs, sample_rate=rate)
+    import skops.io  # noqa: F401  (the model writer's, also while the readers decode)
+
     from tunnelsense.tunnel import fit_indicator_detector
     from tunnelsense.tunnel._reports import format_tours, format_training
 
+    end_imports()  # everything is imported: the fit collects at the usual thresholds
     print(format_tours(tours))
     bars = common.stage_progress(args)
     model, summary = fit_indicator_detector(
