@@ -279,6 +279,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from cross_condition_street_table import CONDITIONS, FIT_SEED  # noqa: E402
 
@@ -326,7 +328,25 @@ SETTINGS = {
     "walls behind the footway": {"wall_fraction": 0.6},
     "hedges tight behind the kerb": {"tight_hedge_fraction": 0.6},
     "parked bicycles": {"bicycles_per_100m": 4.0},
+    # scans lost by a recorder or a network link (dropped from the records here:
+    # the simulator makes every scan); "lost" = (share of scans starting a loss,
+    # fewest and most scans lost in a row)
+    "scans lost 5 %": {"lost": (0.05, 1, 1)},
+    "scans lost in bursts of 3-10": {"lost": (0.01, 3, 10)},
 }
+
+
+def lose_scans(scans, lost, seed):
+    """The records of ``scans`` without those a recorder lost: every scan starts a
+    loss with probability ``lost[0]``, of ``lost[1]``-``lost[2]`` scans in a row
+    (its own random stream, so the scenes are those of the other rows)."""
+    rate, lo, hi = lost
+    rng = np.random.default_rng([seed, 14])
+    keep = np.ones(len(scans), dtype=bool)
+    for i in np.flatnonzero(rng.random(len(scans)) < rate):
+        keep[i:i + int(rng.integers(lo, hi + 1))] = False
+    keep[0] = True  # the run is there
+    return [s for s, k in zip(scans, keep, strict=True) if k]
 
 
 def passing_as_parked(gt, detected):
@@ -369,9 +389,13 @@ def main(argv=None):
         found = dict.fromkeys(VEHICLE_CLASSES, 0)
         correct = dict.fromkeys(VEHICLE_CLASSES, 0)
         for seed in seeds:
+            physical = {k: v for k, v in overrides.items() if k != "lost"}
             run = make_street_scans(args.scans, scenario=scenario, random_state=seed,
-                                    **{**base, **overrides})
-            detected = detector.detect(run.scans)
+                                    **{**base, **physical})
+            scans = run.scans
+            if "lost" in overrides:
+                scans = lose_scans(list(scans), overrides["lost"], seed)
+            detected = detector.detect(scans)
             s = street_scores(run.gt, detected)["parked"]
             tp, fp, fn = tp + s["tp"], fp + s["fp"], fn + s["fn"]
             p = street_scores(run.gt, detected)["passing"]

@@ -28,7 +28,8 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
 
     The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
     :meth:`detect` over scans of one or several runs (sorted by ``(run, scan)``;
-    objects never cross a run boundary or a gap in the scan numbers):
+    objects never cross a run boundary or a stretch of missing scans longer than
+    ``max_missing_length``):
 
     1. polar to ``(depth, height)`` with the sensor's ``mount_height``;
     2. tilt compensation from the returns of the road (robust vote, see
@@ -305,6 +306,21 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         through a gap in foliage lasts a scan or two, which at a low scan rate or a
         high speed may span ``min_gap_length`` (at 25 Hz and 40 km/h a scan covers
         0.44 m).
+    max_missing_length : float or None, default=1.5
+        Longest stretch (m along the street) of missing scans - scans a recorder or
+        a network link lost, seen as a jump in the scan numbers or a stamp gap of
+        1.5 scan periods or more - across which the objects of the scans on either
+        side are linked as if the scans followed each other (beyond the paper).  A
+        missing stretch is no evidence, not an empty street: its length is the
+        ego speed times the time it lasted (0 m while the car stands, whatever the
+        number of scans), and it counts to the length of an object across it (to
+        the scan after it).  The default is ``min_length``'s 1.5 m, the shortest
+        vehicle: a longer stretch could hold a whole motorbike or the whole gap
+        between two vehicles, so objects end there (the parts on either side are
+        not cut by the data: each is tested on what was seen of it).  Two vehicles
+        whose gap lies wholly inside a shorter stretch are linked into one object
+        (the height-profile split may still cut it).  None: objects end at every
+        missing scan.
 
     Attributes
     ----------
