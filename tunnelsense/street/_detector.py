@@ -143,7 +143,8 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         several cars joined), or it is shorter along the street than
         ``min_car_length`` and its cross-sections are at least ``roof_width`` deep
         (a car in a bay at right angles, seen end on: its near end in the traffic
-        lane, its body reaching into the parking lane).  With ``split_merged`` it
+        lane, its body reaching into the parking lane); with ``end_on_faces``
+        also a tall face seen end on (see there).  With ``split_merged`` it
         also cuts apart neighbours in bays at an angle joined into one object (see
         ``split_merged``).  It assumes that traffic drives along the street: a
         vehicle driving past keeps its near side and is as long as a car, so the
@@ -321,6 +322,17 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         whose gap lies wholly inside a shorter stretch are linked into one object
         (the height-profile split may still cut it).  None: objects end at every
         missing scan.
+    end_on_faces : bool, default=False
+        With ``region_depth="across"``, an object in region I whose face stands
+        taller than the region of interest along at least half its length, at
+        least ``motorbike_width`` but less than ``min_car_length`` long along the
+        street and not cut by the run's first or last scan, belongs to region II
+        (beyond the paper): a van in a bay at right angles to the kerb seen end on
+        shows its face only, taller than the sensor, its body out of sight behind
+        it.  Traffic drives along the street and is seen at least as long as it is,
+        unless it overtakes the probe car at more than twice its speed: off by
+        default because a probe car crawling in traffic (8 km/h) is overtaken so,
+        and a van driving past then looks like one seen end on.
 
     Attributes
     ----------
