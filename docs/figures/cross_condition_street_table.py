@@ -3,6 +3,7 @@
 Run::
 
     python docs/figures/cross_condition_street_table.py [--scans 3000] [--all-pairs]
+        [--seeds tuning|evaluation] [--set NAME=VALUE]
 
 Conditions are simulated streets (:func:`tunnelsense.datasets.make_street_scans`):
 
@@ -35,6 +36,7 @@ else.
 """
 
 import argparse
+import ast
 import time
 
 from tunnelsense.datasets import make_street_scans
@@ -106,13 +108,24 @@ def main(argv=None):
     parser.add_argument("--scans", type=int, default=3000, help="scans per run")
     parser.add_argument("--all-pairs", action="store_true",
                         help="fit on every condition (default: on plain only)")
+    parser.add_argument("--seeds", choices=["tuning", "evaluation"],
+                        default="evaluation",
+                        help="score on the tuning seeds (to choose settings) or the "
+                             "evaluation seeds (once, at the end)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a parameter of ours (a Python literal), repeatable")
     args = parser.parse_args(argv)
     start = time.perf_counter()
+    seeds = TUNING_SEEDS if args.seeds == "tuning" else EVALUATION_SEEDS
     runs = {c: [make_street_scans(args.scans, scenario=s, random_state=seed, **kw)
-                for seed in EVALUATION_SEEDS] for c, (s, kw) in CONDITIONS.items()}
+                for seed in seeds] for c, (s, kw) in CONDITIONS.items()}
     fits = list(CONDITIONS) if args.all_pairs else ["plain"]
-    print(f"evaluation seeds {EVALUATION_SEEDS}, fit seed {FIT_SEED}, "
-          f"{args.scans} scans per run")
+    changed = {}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        changed[name] = ast.literal_eval(value)
+    print(f"{args.seeds} seeds {seeds}, fit seed {FIT_SEED}, "
+          f"{args.scans} scans per run" + (f", set {changed}" if changed else ""))
     print("| fit on | evaluate on | ours recall | ours precision | paper recall "
           "| paper precision | " + " | ".join(f"{c} accuracy" for c in VEHICLE_CLASSES)
           + " |")
@@ -125,7 +138,7 @@ def main(argv=None):
                 if k.startswith("cluster__")}
         for b in CONDITIONS:
             row = []
-            for name, params in (("ours", {}), ("paper", PAPER)):
+            for name, params in (("ours", changed), ("paper", PAPER)):
                 if (key, b, name) not in cache:  # identical model: identical scores
                     cache[key, b, name] = score(pipeline, params, runs[b])
                     pipeline.set_params(**ours)

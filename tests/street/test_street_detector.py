@@ -94,14 +94,18 @@ def test_outputs_keep_samples_and_order(scene):
     assert [first.id, 1] in est.predict(scene.scans)[first.first_scan].tolist()
 
 
-def test_objects_break_at_scan_gaps_and_runs(scene):
+def test_objects_break_at_long_scan_gaps_and_runs(scene):
     est = ScanClusterer(speed=SPEED).fit(scene.scans)
     whole = est.detect(scene.scans)
     car = whole[whole.label == "parked"].iloc[0]
     mid = (car.first_scan + car.last_scan) // 2
-    X = [r for r in scene.scans if r.scan != mid]  # one scan missing
+    X = [r for r in scene.scans if r.scan != mid]  # one scan missing: linked across
     det = est.detect(X, all_objects=True)
+    assert ((det.first_scan < mid) & (det.last_scan > mid)).any()
+    # a missing stretch longer than max_missing_length ends the objects there
+    det = est.set_params(max_missing_length=None).detect(X, all_objects=True)
     assert not ((det.first_scan < mid) & (det.last_scan > mid)).any()
+    est.set_params(max_missing_length=1.5)
     # two copies of the run under two names: twice the objects, none across runs
     other = [ScanRecord("copy", r.scan, r.ranges, r.stamp, r.geometry).evolve(
         speed=r.payload["speed"]) for r in scene.scans]

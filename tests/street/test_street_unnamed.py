@@ -282,3 +282,34 @@ def test_cars_in_bays_at_45_degrees_are_counted_as_cars():
     cars = street_class_scores(run.gt, detected)["classes"]["car"]
     assert cars["matched"] >= 10
     assert cars["correct"] >= 0.9 * cars["matched"]
+
+
+def test_end_on_faces_parks_a_van_seen_end_on_not_one_driving_past():
+    from _street_scenes import make_run
+
+    from tunnelsense.street import ScanClusterer
+    from tunnelsense.street._classes import faces_end_on
+
+    speed = 11.0
+    # a van in a bay at right angles: 1.9 m along the street, its face 2.3 m high
+    # in the traffic lane (2.6 m from the sensor), its body out of sight behind it
+    van = dict(s0=3.0, s1=4.9, depth=2.6, width=5.0, bottom=0.3, top=2.3)
+    past = dict(van, s1=8.5, width=1.9)  # the same van driving along the street
+    est = ScanClusterer(speed=speed, end_on_faces=True)
+    for box, label in ((van, "parked"), (past, "passing")):
+        run = make_run([box], [label], n_scans=90, speed=speed)
+        det = est.fit(run.scans).detect(run.scans)
+        assert det["label"].tolist() == [label]
+    # off by default: a van overtaking a crawling probe car looks the same
+    run = make_run([van], ["parked"], n_scans=90, speed=speed)
+    assert ScanClusterer(speed=speed).fit(run.scans).detect(run.scans)[
+        "label"].tolist() == ["passing"]
+    # at the run's start the face may be a longer vehicle's rear cut short
+    run = make_run([dict(van, s0=-0.5, s1=1.4)], ["parked"], n_scans=90, speed=speed)
+    assert (est.detect(run.scans)["label"] == "parked").sum() == 0
+    cum = np.arange(60) * 0.15
+    wall = np.full(30, 0b10)
+    assert faces_end_on(np.arange(13), wall[:13], cum)
+    assert not faces_end_on(np.arange(13), np.zeros(13, int), cum)  # no tall face
+    assert not faces_end_on(np.arange(6), wall[:6], cum)  # 0.9 m: narrower than any
+    assert not faces_end_on(np.arange(30), wall, cum)  # 4.5 m along: driving past

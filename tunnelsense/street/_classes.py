@@ -25,8 +25,8 @@ import numpy as np
 from tunnelsense.street._census import VEHICLE_CLASSES
 from tunnelsense.street._vehicles import length_share
 
-__all__ = ["VEHICLE_CLASSES", "class_features", "stands_across", "vehicle_class",
-           "weighted_median"]
+__all__ = ["VEHICLE_CLASSES", "class_features", "faces_end_on", "stands_across",
+           "vehicle_class", "weighted_median"]
 
 #: Bits of the per-cluster evidence flags (see ``_objects.BODY_FLAGS``).
 ROOF_FLAG, WALL_FLAG = 0b0001, 0b0010
@@ -313,3 +313,58 @@ def stands_across(scan, side, far, cum, *, width=1.2, min_car_length=2.4, depth=
         return False
     extent = np.maximum.reduceat(far[body][order], starts) - near
     return bool(np.median(extent) >= depth)
+
+
+def faces_end_on(scan, flags, cum, *, width=1.2, min_car_length=2.4, share=0.5):
+    """Whether an object is the end face of a tall vehicle seen end on: a van in a bay
+    at right angles to the kerb, whose body behind its face is out of sight.
+
+    Its face stands taller than the region of interest (the wall evidence) along
+    at least ``share`` of its length, and it is at least ``width`` but less than
+    ``min_car_length`` long along the street.  Traffic drives along the street:
+    a vehicle that tall driving past is seen at least as long as it is (over
+    ``min_car_length``) unless it overtakes the probe car at more than twice its
+    speed.
+
+    Parameters
+    ----------
+    scan : ndarray of shape (n_clusters,) of int
+        Scan position of every intra-cluster of the object.
+    flags : ndarray of shape (n_clusters,) of int
+        The evidence flags of every intra-cluster.
+    cum : ndarray
+        Metres from the window's start to every scan position (``cum[p]``).
+    width : float, default=1.2
+        Shortest face (m along the street; ``motorbike_width``).
+    min_car_length : float, default=2.4
+        Shortest car (m along the street).
+    share : float, default=0.5
+        Smallest share of its length showing a face taller than the region.
+
+    Returns
+    -------
+    end_on : bool
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._classes import faces_end_on
+    >>> cum = np.arange(40) * 0.15
+    >>> s = np.arange(13)  # 1.95 m along the street, a tall face in every scan
+    >>> bool(faces_end_on(s, np.full(13, 0b10), cum))
+    True
+    >>> bool(faces_end_on(np.arange(30), np.full(30, 0b10), cum))  # 4.5 m: a van
+    False
+    """
+    scan = np.asarray(scan, dtype=np.int64)
+    first, last = int(scan.min()), int(scan.max())
+    cum = np.asarray(cum, dtype=np.float64)
+    length = float(cum[last + 1] - cum[first])
+    if not width <= length < min_car_length:
+        return False
+    wall = np.zeros(last - first + 1, dtype=bool)
+    wall[scan[(np.asarray(flags) & WALL_FLAG) > 0] - first] = True
+    metres = np.diff(cum[first:last + 2])
+    total = float(metres.sum())
+    seen = float(metres[wall].sum()) / total if total > 0 else float(wall.mean())
+    return bool(seen >= share)

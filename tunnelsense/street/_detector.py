@@ -28,7 +28,8 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
 
     The paper's pipeline (Fig. 6), run by :meth:`transform`, :meth:`predict` and
     :meth:`detect` over scans of one or several runs (sorted by ``(run, scan)``;
-    objects never cross a run boundary or a gap in the scan numbers):
+    objects never cross a run boundary or a stretch of missing scans longer than
+    ``max_missing_length``):
 
     1. polar to ``(depth, height)`` with the sensor's ``mount_height``;
     2. tilt compensation from the returns of the road (robust vote, see
@@ -142,7 +143,8 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         several cars joined), or it is shorter along the street than
         ``min_car_length`` and its cross-sections are at least ``roof_width`` deep
         (a car in a bay at right angles, seen end on: its near end in the traffic
-        lane, its body reaching into the parking lane).  With ``split_merged`` it
+        lane, its body reaching into the parking lane); with ``end_on_faces``
+        also a tall face seen end on (see there).  With ``split_merged`` it
         also cuts apart neighbours in bays at an angle joined into one object (see
         ``split_merged``).  It assumes that traffic drives along the street: a
         vehicle driving past keeps its near side and is as long as a car, so the
@@ -305,6 +307,32 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         through a gap in foliage lasts a scan or two, which at a low scan rate or a
         high speed may span ``min_gap_length`` (at 25 Hz and 40 km/h a scan covers
         0.44 m).
+    max_missing_length : float or None, default=1.5
+        Longest stretch (m along the street) of missing scans - scans a recorder or
+        a network link lost, seen as a jump in the scan numbers or a stamp gap of
+        1.5 scan periods or more - across which the objects of the scans on either
+        side are linked as if the scans followed each other (beyond the paper).  A
+        missing stretch is no evidence, not an empty street: its length is the
+        ego speed times the time it lasted (0 m while the car stands, whatever the
+        number of scans), and it counts to the length of an object across it (to
+        the scan after it).  The default is ``min_length``'s 1.5 m, the shortest
+        vehicle: a longer stretch could hold a whole motorbike or the whole gap
+        between two vehicles, so objects end there (the parts on either side are
+        not cut by the data: each is tested on what was seen of it).  Two vehicles
+        whose gap lies wholly inside a shorter stretch are linked into one object
+        (the height-profile split may still cut it).  None: objects end at every
+        missing scan.
+    end_on_faces : bool, default=False
+        With ``region_depth="across"``, an object in region I whose face stands
+        taller than the region of interest along at least half its length, at
+        least ``motorbike_width`` but less than ``min_car_length`` long along the
+        street and not cut by the run's first or last scan, belongs to region II
+        (beyond the paper): a van in a bay at right angles to the kerb seen end on
+        shows its face only, taller than the sensor, its body out of sight behind
+        it.  Traffic drives along the street and is seen at least as long as it is,
+        unless it overtakes the probe car at more than twice its speed: off by
+        default because a probe car crawling in traffic (8 km/h) is overtaken so,
+        and a van driving past then looks like one seen end on.
 
     Attributes
     ----------

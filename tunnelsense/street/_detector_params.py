@@ -61,6 +61,8 @@ class _ScanClustererParams(BaseEstimator):
         "flat_by_ground": ["boolean"],
         "min_gap_length": [Interval(numbers.Real, 0, None, closed="left")],
         "min_gap_scans": [Interval(numbers.Integral, 1, None, closed="left")],
+        "max_missing_length": [Interval(numbers.Real, 0, None, closed="left"), None],
+        "end_on_faces": ["boolean"],
     }
 
     def __init__(
@@ -107,6 +109,8 @@ class _ScanClustererParams(BaseEstimator):
         flat_by_ground=True,
         min_gap_length=0.5,
         min_gap_scans=3,
+        max_missing_length=1.5,
+        end_on_faces=False,
     ):
         self.cut = cut
         self.link_distance = link_distance
@@ -150,6 +154,8 @@ class _ScanClustererParams(BaseEstimator):
         self.flat_by_ground = flat_by_ground
         self.min_gap_length = min_gap_length
         self.min_gap_scans = min_gap_scans
+        self.max_missing_length = max_missing_length
+        self.end_on_faces = end_on_faces
 
     def _class_params(self):
         """The keywords of :func:`~tunnelsense.street.vehicle_class`."""

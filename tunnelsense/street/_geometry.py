@@ -81,8 +81,9 @@ class History:
         self.tilts = np.empty(0)  # known tilts only
         self.kerbs = np.empty(0)  # known kerb depths only
         self.last_speed = np.nan  # the last scan's speed that was known
+        self.period = np.empty(0)  # median scan period (s) of the last new scans
 
-    def steps(self, periods, speeds):
+    def steps(self, periods, speeds, counts=None):
         """Metres travelled per scan: the scan's own speed x recent median period.
 
         ``periods`` (s) and ``speeds`` (m/s) are per new scan, NaN where unknown;
@@ -92,6 +93,9 @@ class History:
         while it stands, and its full speed again as soon as it drives); a scan
         whose speed and recent ones are unknown (NaN, or negative) keeps the last
         known one.  NaN where no speed is known yet (none given, none before).
+        ``counts`` (optional, per new scan) is how many scan numbers its stamp
+        difference spans (more than one after missing scans); the median period
+        of every new scan is kept in ``period``.
 
         Examples
         --------
@@ -101,8 +105,11 @@ class History:
         >>> h.steps(np.full(4, 0.1), np.array([10.0, 0.0, 0.0, 0.0])).tolist()
         [1.0, 0.5, 0.0, 0.0]
         """
+        if counts is not None:  # a stamp difference over several scan numbers
+            periods = periods / counts
         periods = np.where(np.isfinite(periods) & (periods > 0), periods, np.nan)
         period = running_median(self.periods, periods)
+        self.period = np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds
         if not np.isscalar(speeds):
@@ -114,7 +121,7 @@ class History:
                     self.last_speed = speed[i]
                 else:
                     speed[i] = self.last_speed
-        return (speed * np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD))
+        return speed * self.period
 
     def fill_tilts(self, tilts):
         """Unknown (NaN) tilts become the median of the recent known ones (0 first)."""

@@ -171,8 +171,9 @@ class _Labelling:
         and ``hi - 1`` is cut by the data: it reaches the run's first or last scan.
         The run's last scan cuts only once the run has ``ended`` (before, an object
         reaching the newest scan is never final).  Scans missing inside the run do
-        not cut: the parts of one vehicle on either side of a dropped scan are
-        each tested on what was seen of them, as if nothing lay beyond."""
+        not cut: a stretch of them up to ``max_missing_length`` is linked across
+        (the object goes on), and at a longer one the objects on either side end,
+        each tested on what was seen of it, as if nothing lay beyond."""
         return bool(self.base + lo == 0 or (hi == len(self.records) and ended))
 
     def _completions(self, hidden, cut, length, body):

@@ -34,7 +34,7 @@ import numpy as np
 
 from tunnelsense._records import RUN_LABELS
 from tunnelsense._streaming import StreamState
-from tunnelsense.street._classes import stands_across
+from tunnelsense.street._classes import faces_end_on, stands_across
 from tunnelsense.street._clustering import (
     components,
     concat,
@@ -250,6 +250,17 @@ class _RunState(_Release, _Labelling, ScanWindow):
                         prof.position[mine], self.side[c], self.far[c], self.cum,
                         width=est.motorbike_width, min_car_length=est.min_car_length,
                         depth=est.roof_width, longest=est.van_length)
+                # (end_on_faces) a tall face shorter than a car along the street (a
+                # van end on, its body out of sight behind it), not at the run's edges
+                face = ((depth < lo) & ~across & (self.base + prof.first > 0)
+                        & (prof.last + 1 < len(self.records)) & est.end_on_faces)
+                for o in np.flatnonzero(face):
+                    mine = objects == o
+                    face[o] = faces_end_on(
+                        prof.position[mine], self.flags[clusters[mine]], self.cum,
+                        width=est.motorbike_width, min_car_length=est.min_car_length)
+                far = np.where(face, lo, far)
+                across |= face
             depth = np.where(across, far, depth)
         return (depth, across) if reaching else depth
 

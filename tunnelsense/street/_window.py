@@ -126,7 +126,8 @@ class ScanWindow:
 
     def _check_block(self, block):
         """Validate a block of scans (in scan order, checked by the stream); return
-        their scan numbers, periods and whether each follows the previous scan."""
+        their scan numbers, periods (stamp differences) and how many scan numbers
+        each advances from the previous scan (0 for a run's first)."""
         if self.geometry is None:
             self.geometry, self.n_beams = block[0].geometry, len(block[0].ranges)
             g = self.geometry
@@ -157,23 +158,44 @@ class ScanWindow:
                 f"stamps of run {self.name!r} are not sorted: scan {scans[i]} "
                 f"({stamps[i]}) comes after scan {prev[i]} ({prev_stamps[i]}); "
                 "expected non-decreasing stamps")
-        follows = scans == prev + 1
+        counts = scans - prev
         if self.last_scan is None:
-            follows[0] = False
+            counts[0] = 0
         self.last_scan, self.last_stamp = int(scans[-1]), float(stamps[-1])
-        return scans, periods, follows
+        return scans, periods, counts
+
+    def _missing(self, periods, counts, unit):
+        """Whether every new scan follows the previous one (directly, or across a
+        stretch of missing scans at most ``max_missing_length`` metres long), and
+        its step (m): ``unit`` (one scan) times the scans it advances when it
+        follows across missing ones (the missing metres count to it).  Scans are
+        missing where the scan numbers jump, or where the stamps do by 1.5 scan
+        periods or more while the numbers do not (a recorder that numbers what it
+        received)."""
+        period = self.history.period
+        with np.errstate(invalid="ignore"):
+            by_stamp = np.where((counts == 1) & (periods >= 1.5 * period),
+                                np.rint(periods / period), 1.0)
+        elapsed = np.maximum(counts, by_stamp)
+        bound = self.est.max_missing_length
+        follows = elapsed == 1
+        if bound is not None:
+            follows |= (elapsed > 1) & (unit * (elapsed - 1) <= bound + 1e-9)
+        follows &= counts > 0
+        return follows, np.where(follows, unit * elapsed, unit)
 
     def ingest(self, block):
         """Restore, cluster and link a block of consecutive scans of the run."""
         est = self.est
-        scans, periods, follows = self._check_block(block)
+        scans, periods, counts = self._check_block(block)
         if isinstance(est.speed, str):  # "paper"
             speeds = DEFAULT_SPEED
         elif est.speed is not None:
             speeds = float(est.speed)
         else:
             speeds = np.array([float(r.payload.get("speed", np.nan)) for r in block])
-        step = self.history.steps(periods, speeds)
+        step = self.history.steps(periods, speeds, np.maximum(counts, 1))
+        follows, step = self._missing(periods, counts, step)
         if not np.all(np.isfinite(step)):
             i = int(np.flatnonzero(~np.isfinite(step))[0])
             raise ValueError(

@@ -1,0 +1,152 @@
+"""Scans lost by a recorder or a network link: a missing stretch is no evidence.
+
+The parts of an object on either side of a stretch of missing scans are linked when
+the stretch (its metres: the ego speed times the time it lasted) is at most
+``max_missing_length``; across a longer one objects end, and neither part is
+completed as if the data cut it.
+"""
+
+import dataclasses
+import functools
+
+import numpy as np
+import pytest
+from _street_scenes import make_run, sedan
+
+from tunnelsense.datasets import make_street_scans
+from tunnelsense.metrics import street_scores
+from tunnelsense.street import ScanClusterer
+
+SPEED = 11.0  # m/s; 75 scans/s: 0.147 m a scan
+CAR = dict(s0=2.0, s1=6.4, depth=5.0, width=1.8, top=sedan)  # scans 14-43
+
+
+@functools.lru_cache(maxsize=1)
+def car_run():
+    return make_run([CAR], ["parked"], n_scans=70, speed=SPEED)
+
+
+def fitted(**params):
+    fit = make_run([dict(CAR, s0=4.0, s1=8.4)], ["parked"], n_scans=80, speed=SPEED)
+    return ScanClusterer(speed=SPEED, **params).fit(fit.scans)
+
+
+def without(scans, start, n):
+    return scans[:start] + scans[start + n:]
+
+
+@pytest.mark.parametrize("lost", [3, 5, 10])
+def test_a_car_with_scans_lost_inside_is_one_car_as_long_as_without(lost):
+    run = car_run()
+    est = fitted()
+    whole = est.detect(run.scans)
+    det = est.detect(without(list(run.scans), 25, lost))
+    parked = det[det["label"] == "parked"]
+    assert len(parked) == 1
+    assert street_scores(run.gt, det)["parked"]["tp"] == 1
+    # the missing metres count to its length: as long as seen whole
+    ref = whole.loc[whole["label"] == "parked", "length"].iloc[0]
+    assert parked["length"].iloc[0] == pytest.approx(ref, abs=0.05)
+    assert parked["vehicle_class"].iloc[0] == "car"
+
+
+def test_scans_lost_where_only_the_stamps_show_it():
+    # a recorder that numbers the scans it received: the numbers run on, the
+    # stamps jump by 11 periods; the same car as with the numbers jumping
+    run = car_run()
+    est = fitted()
+    kept = without(list(run.scans), 25, 10)
+    renumbered = [dataclasses.replace(r, scan=i) for i, r in enumerate(kept)]
+    det = est.detect(renumbered)
+    parked = det[det["label"] == "parked"]
+    assert len(parked) == 1
+    assert parked["length"].iloc[0] > 4.0
+
+
+def test_a_stretch_longer_than_the_bound_ends_the_objects_there():
+    # 10 scans lost are 1.47 m: linked under the default bound of 1.5 m, two
+    # objects ending at the stretch under a bound of 1.0 m (metres, not scans)
+    run = car_run()
+    scans = without(list(run.scans), 25, 10)
+    for bound, n_objects in ((1.5, 1), (1.0, 2), (None, 2)):
+        det = fitted(max_missing_length=bound).detect(scans, all_objects=True)
+        near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+        assert len(near) == n_objects
+        if n_objects == 2:  # one part ends before the stretch, one starts after it
+            assert sorted(near["last_scan"])[0] == 24
+            assert sorted(near["first_scan"])[1] == 35
+            # neither is completed as if the data cut it: at 1.6 m and 1.3 m seen,
+            # with no scans of the car's ends beside the stretch, no parked car
+            assert (near["length"] < 2.0).all()
+
+
+def test_the_bound_is_in_metres_not_scans():
+    # 5 scans lost at 25 scans/s are 2.2 m: beyond the bound, objects end there;
+    # at 75 scans/s (0.73 m) they are linked
+    slow = make_run([CAR], ["parked"], n_scans=30, speed=SPEED, rate=25.0)
+    est = ScanClusterer(speed=SPEED).fit(slow.scans)
+    det = est.detect(without(list(slow.scans), 8, 5), all_objects=True)
+    near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+    assert len(near) == 2
+    det = fitted().detect(without(list(car_run().scans), 25, 5), all_objects=True)
+    near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+    assert len(near) == 1
+
+
+def test_a_stretch_lost_while_the_car_stands_is_no_length():
+    # the probe car stands (0 m/s) while 30 scans are lost: 0 m, linked
+    run = car_run()
+    scans = list(run.scans)
+    stand = [dataclasses.replace(r, stamp=r.stamp + (2.0 if i >= 30 else 0.0),
+                                 scan=r.scan + (150 if i >= 30 else 0))
+             for i, r in enumerate(scans)]
+    stand = [r.evolve(speed=0.0) if 25 <= i < 30 else r for i, r in enumerate(stand)]
+    est = ScanClusterer().fit(car_run().scans)
+    det = est.detect(stand)
+    assert (det["label"] == "parked").sum() == 1
+
+
+@functools.lru_cache(maxsize=1)
+def simulated():
+    fit = make_street_scans(600, scenario="sparse", random_state=3)
+    run = make_street_scans(1500, scenario="dense", random_state=14)
+    return ScanClusterer().fit(fit.scans), run
+
+
+def test_five_percent_of_scans_lost_over_a_run_loses_no_car():
+    est, run = simulated()
+    rng = np.random.default_rng(0)
+    scans = list(run.scans)
+    kept = [s for s in scans if rng.random() >= 0.05]
+    assert len(kept) < 0.97 * len(scans)
+    whole = street_scores(run.gt, est.detect(run.scans))["parked"]
+    lost = street_scores(run.gt, est.detect(kept))["parked"]
+    unlinked = street_scores(
+        run.gt, est.set_params(max_missing_length=None).detect(kept))["parked"]
+    est.set_params(max_missing_length=1.5)
+    assert whole["tp"] >= 10
+    assert lost["tp"] >= whole["tp"]
+    assert lost["fp"] <= whole["fp"]
+    # without the links the drops cut cars apart: cars lost, parts left over
+    assert unlinked["tp"] < whole["tp"]
+    assert unlinked["fp"] > whole["fp"]
+
+
+def test_lost_scans_any_chunking_equals_batch():
+    est, run = simulated()
+    rng = np.random.default_rng(1)
+    scans = list(run.scans)
+    keep = np.ones(len(scans), dtype=bool)
+    for i in np.flatnonzero(rng.random(len(scans)) < 0.02):
+        keep[i:i + int(rng.integers(1, 16))] = False  # some beyond the bound
+    kept = [s for s, k in zip(scans, keep, strict=True) if k]
+    table = est.detect(kept, all_objects=True)
+    rows = [tuple(r) for r in table.itertuples(index=False)]
+    for chunk in (1, 13, 10_000):
+        state = est.start_stream()
+        out = []
+        for i in range(0, len(kept), chunk):
+            out.extend(state.push_many(kept[i:i + chunk]))
+        out.extend(state.close())
+        assert [r.scan for r in out] == [r.scan for r in kept]
+        assert [row for r in out for row in r.payload["finished_objects"]] == rows
