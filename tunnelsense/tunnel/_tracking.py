@@ -79,9 +79,10 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         few km/h or stopping, where ``max_gap`` frames cut a far sign's
         trajectory into pieces too short to show its path.  A ratio of lengths,
         the same at any speed, frame rate, resolution or focal length; the
-        trajectory's duration still ends at ``max_track_length``.  A noisy speed
-        (jittering positions) only shortens the bridge.  ``None`` (the paper's
-        rule) bridges ``max_gap`` frames whatever the motion.
+        trajectory's duration still ends at ``max_track_length``.  The jitter of
+        a nearly still object's positions inflates its fitted speed, which
+        shortens the bridge.  ``None`` (the paper's rule) bridges ``max_gap``
+        frames whatever the motion.
     max_track_length : int or None, default=300
         Longest duration of a trajectory, in frames (first to last, gaps included);
         a trajectory that reaches it ends and the object's next cluster starts a new
