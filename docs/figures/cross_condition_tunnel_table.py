@@ -83,6 +83,9 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   left, or a grey-scale bar (white to black) at the right edge, half the frame
   high; ``heavy-overlay-bar``: the ``heavy`` tours with the bar.  A mark is no
   indicator: a detection on one is a false alarm.
+* ``crawl-5``: camera A in a queue at a steady 5 km/h (about 5 cm per frame);
+  ``stop-and-go``: at 0.2-8 km/h, its speed wandering over tens of seconds, so
+  that it nearly stops (0.2 km/h, 2 mm per frame) for seconds with a sign in view.
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -173,6 +176,8 @@ CONDITIONS = {
     "overlay-clock": dict(scenario="light", overlay="clock", **CAMERA_A),
     "overlay-bar": dict(scenario="light", overlay="bar", **CAMERA_A),
     "heavy-overlay-bar": dict(scenario="heavy", overlay="bar", **CAMERA_A),
+    "crawl-5": dict(scenario="light", speed_kmh=5.0, **CAMERA_A),
+    "stop-and-go": dict(scenario="light", speed_kmh=(0.2, 8.0), **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -190,7 +195,8 @@ SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "
                  "gamma-1.4": "plain", "14-bit": "plain", "signs-0.7x": "plain",
                  "signs-1.3x": "plain", "1280x960": "plain", "160x120": "plain",
                  "crawl": "plain", "exit-panels-50": "plain", "overlay-clock": "plain",
-                 "overlay-bar": "plain", "heavy-overlay-bar": "heavy"}
+                 "overlay-bar": "plain", "heavy-overlay-bar": "heavy",
+                 "crawl-5": "plain", "stop-and-go": "plain"}
 
 #: conditions whose frames another model must serve: fitted on the training tour of
 #: the condition itself (a model serves frames of the bit depth it was fitted on)

@@ -81,6 +81,39 @@ def test_max_gap(missing, linked):
     assert (len(set(sum(ids(out), []))) == 1) is linked
 
 
+@pytest.mark.parametrize("speed", [1.0, 0.25, 0.05])
+def test_max_gap_travel_bridges_the_same_stretch_of_path_at_any_speed(speed):
+    # the object misses the same 2.5 px of its path (0.44 of its size, 5.66 px):
+    # 2 frames at 1 px per frame, 10 at 0.25, 50 at 0.05
+    missing = round(2.5 / speed) - 1
+    obj = moving(30 + missing, step=(speed, 0))
+    kept = [o for o in obj if not (15 <= o[0] < 15 + missing)]
+    n_tracks = {
+        travel: len(set(sum(ids(TrajectoryLinker(
+            max_gap=2, max_gap_travel=travel).fit_transform(frames_of(kept))), [])))
+        for travel in (None, 0.5, 0.4)
+    }
+    assert n_tracks[0.5] == 1  # 2.5 px are 0.44 sizes: bridged at any speed
+    assert n_tracks[0.4] == (1 if missing <= 2 else 2)  # beyond: max_gap frames only
+    assert n_tracks[None] == (1 if missing <= 2 else 2)
+
+
+def test_max_gap_travel_needs_a_speed_and_keeps_the_duration_limit():
+    still = moving(40, step=(0.0, 0.0))
+    # two positions: no speed to go by, max_gap frames only
+    two = [o for o in still if o[0] <= 2 or o[0] >= 20]
+    out = TrajectoryLinker(max_gap=3, max_gap_travel=0.5).fit_transform(frames_of(two))
+    assert len(set(sum(ids(out), []))) == 2
+    # a still object bridges any gap, up to max_track_length frames in all
+    three = [o for o in still if o[0] <= 3 or o[0] >= 20]
+    out = TrajectoryLinker(max_gap=3, max_gap_travel=0.5).fit_transform(frames_of(three))
+    assert len(set(sum(ids(out), []))) == 1
+    out = TrajectoryLinker(max_gap=3, max_gap_travel=0.5,
+                           max_track_length=30).fit_transform(frames_of(three))
+    assert sum(ids(out), []) == [1] * 14 + [2] * 10  # frames 1-3 and 20-30, then 31-40
+    assert out[13].payload["ended_tracks"].tolist() == [1]  # frame 30: it ends there
+
+
 def test_frame_gap_in_records_breaks_trajectories():
     obj = moving(10, step=(0.5, 0))
     X = frames_of(obj[:5]) + frames_of([(f + 10, b) for f, b in obj[5:]])

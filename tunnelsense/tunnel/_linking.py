@@ -25,6 +25,7 @@ from tunnelsense._streaming import StreamState
 
 __all__ = [
     "MIN_GAP",
+    "MIN_GAP_FIT_POINTS",
     "MIN_TRAJECTORY_POINTS",
     "REFERENCE_FRAME_RATE",
     "LinkerStream",
@@ -43,6 +44,9 @@ REFERENCE_FRAME_RATE = 30.0
 MIN_TRAJECTORY_POINTS = 7
 #: Fewest missed frames a trajectory may bridge when ``max_gap`` is scaled down.
 MIN_GAP = 1
+#: Fewest kept positions of a trajectory whose speed lets it bridge more than
+#: ``max_gap`` frames (``max_gap_travel``).
+MIN_GAP_FIT_POINTS = 3
 
 
 def link_log_likelihood(
@@ -153,11 +157,9 @@ class _Track:
         self.hist = hist
         self.last = frame
 
-    def predict(self, frame):
-        """Position at ``frame`` by a straight-line fit of the kept positions in time."""
+    def _fit(self):
+        """``(tm, xm, ym, vx, vy)``: the kept positions' straight-line fit in time."""
         k = len(self.frames)
-        if k == 1:
-            return self.xs[0], self.ys[0]
         t, xs, ys = self.frames, self.xs, self.ys
         tm = sum(t) / k
         xm = sum(xs) / k
@@ -165,15 +167,33 @@ class _Track:
         stt = sum((ti - tm) ** 2 for ti in t)
         vx = sum((ti - tm) * (xi - xm) for ti, xi in zip(t, xs, strict=True)) / stt
         vy = sum((ti - tm) * (yi - ym) for ti, yi in zip(t, ys, strict=True)) / stt
+        return tm, xm, ym, vx, vy
+
+    def predict(self, frame):
+        """Position at ``frame`` by a straight-line fit of the kept positions in time."""
+        if len(self.frames) == 1:
+            return self.xs[0], self.ys[0]
+        tm, xm, ym, vx, vy = self._fit()
         return xm + vx * (frame - tm), ym + vy * (frame - tm)
+
+    def gap_travel(self, frame):
+        """How far, in units of its size, the straight-line fit moves the trajectory
+        from its last response to ``frame``; infinite with fewer than
+        :data:`MIN_GAP_FIT_POINTS` positions kept (no speed to go by)."""
+        if len(self.frames) < MIN_GAP_FIT_POINTS:
+            return math.inf
+        _, _, _, vx, vy = self._fit()
+        return math.hypot(vx, vy) * (frame - self.last) / max(self.size, 1e-9)
 
 
 class LinkerStream(StreamState):
     """Stream state of :class:`TrajectoryLinker`: its pool of trajectories, one tour at a time.
 
     A record of another tour starts afresh.  A trajectory *ends* as soon as it can no
-    longer link a later frame: it missed more than ``max_gap`` frames, or its duration
-    reached ``max_track_length`` frames.
+    longer link a later frame: it missed more than ``max_gap`` frames (and, with
+    ``max_gap_travel``, its straight-line fit would have moved it by more than that
+    many times its size since its last response), or its duration reached
+    ``max_track_length`` frames.
     """
 
     def __init__(self, linker):
@@ -187,6 +207,9 @@ class LinkerStream(StreamState):
             gap_penalty=float(linker.gap_penalty),
         )
         self.max_gap = int(linker.max_gap)
+        # models saved before the parameter existed bridge max_gap frames only
+        travel = getattr(linker, "max_gap_travel", None)
+        self.max_gap_travel = None if travel is None else float(travel)
         self.max_track_length = linker.max_track_length
         # models saved before the parameter existed count frames at 30 fps
         self.frame_rate = getattr(linker, "frame_rate", REFERENCE_FRAME_RATE)
@@ -207,7 +230,12 @@ class LinkerStream(StreamState):
         )
 
     def _can_link(self, t, frame):
-        return frame - t.last <= self.reach and frame - t.first < self.max_length
+        if frame - t.first >= self.max_length:
+            return False
+        return frame - t.last <= self.reach or (
+            self.max_gap_travel is not None
+            and t.gap_travel(frame) <= self.max_gap_travel
+        )
 
     def _push(self, record):
         index = self._count

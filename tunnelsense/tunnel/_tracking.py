@@ -68,6 +68,21 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
     ----------
     max_gap : int, default=3
         Largest number of consecutive frames a trajectory may miss and still link.
+    max_gap_travel : float or None, default=None
+        A trajectory that missed more than ``max_gap`` frames may still link while
+        the straight-line fit of its last ``history`` positions (at least three)
+        moves it, from its last response, by at most this many times its size: a
+        gap measured in the object's own motion rather than in frames.  The keypoint
+        grid misses a far, small object while it crosses between grid points, for a
+        number of frames inversely proportional to its speed in the image: a
+        fraction of a second at highway speeds, seconds in a queue crawling at a
+        few km/h or stopping, where ``max_gap`` frames cut a far sign's
+        trajectory into pieces too short to show its path.  A ratio of lengths,
+        the same at any speed, frame rate, resolution or focal length; the
+        trajectory's duration still ends at ``max_track_length``.  The jitter of
+        a nearly still object's positions inflates its fitted speed, which
+        shortens the bridge.  ``None`` (the paper's rule) bridges ``max_gap``
+        frames whatever the motion.
     max_track_length : int or None, default=300
         Longest duration of a trajectory, in frames (first to last, gaps included);
         a trajectory that reaches it ends and the object's next cluster starts a new
@@ -133,6 +148,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "max_gap": [Interval(numbers.Integral, 0, None, closed="left")],
+        "max_gap_travel": [Interval(numbers.Real, 0, None, closed="left"), None],
         "max_track_length": [Interval(numbers.Integral, 2, None, closed="left"), None],
         "max_scale_change": [Interval(numbers.Real, 1, None, closed="left")],
         "gate": [Interval(numbers.Real, 0, None, closed="neither")],
@@ -150,6 +166,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         self,
         *,
         max_gap=3,
+        max_gap_travel=None,
         max_track_length=300,
         max_scale_change=4.0,
         gate=1.0,
@@ -163,6 +180,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         frame_rate=30.0,
     ):
         self.max_gap = max_gap
+        self.max_gap_travel = max_gap_travel
         self.max_track_length = max_track_length
         self.max_scale_change = max_scale_change
         self.gate = gate
