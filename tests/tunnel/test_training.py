@@ -20,7 +20,11 @@ def fitted_state(obj, depth=0):
         return [fitted_state(v, depth + 1) for v in obj]
     if isinstance(obj, dict):
         return {k: fitted_state(v, depth + 1) for k, v in obj.items()}
-    if hasattr(obj, "get_params") or hasattr(obj, "__dict__") and not callable(obj):
+    if hasattr(obj, "get_params"):  # every attribute a fit set, private ones too
+        params = obj.get_params(deep=False)
+        state = {k: v for k, v in vars(obj).items() if k not in params}
+        return {k: fitted_state(v, depth + 1) for k, v in state.items()}
+    if hasattr(obj, "__dict__") and not callable(obj):
         state = {k: v for k, v in vars(obj).items()
                  if k.endswith("_") and not k.startswith("_")}
         return {k: fitted_state(v, depth + 1) for k, v in state.items()}

@@ -407,7 +407,7 @@ def link_pairs(position, mean_depth, follows, link_distance=0.5, *, span=None,
     start = np.cumsum(count) - count
     prev_count = concat(0, count[:-1])
     prev_start = concat(0, start[:-1])
-    # every cluster against all clusters of the previous scan, if it directly follows
+    # every cluster against all clusters of the previous scan, if it follows
     n_prev = np.where(np.asarray(follows, dtype=bool), prev_count, 0)[pos]
     earlier, later = expand_ranges(prev_start[pos], n_prev)
     close = np.abs(depth[earlier] - depth[later]) < link_distance
@@ -432,8 +432,9 @@ def link_scans(position, mean_depth, follows, link_distance=0.5):
     mean_depth : ndarray of shape (n_clusters,)
         Mean depth (m) of each intra-cluster.
     follows : ndarray of shape (n_positions,) of bool
-        ``follows[p]`` is True when scan ``p`` directly follows scan ``p - 1`` (same
-        run, next scan number); linking never crosses a False.
+        ``follows[p]`` is True when scan ``p`` follows scan ``p - 1`` in the same
+        run, directly or across a stretch of missing scans the detector links over
+        (``max_missing_length``); linking never crosses a False.
     link_distance : float, default=0.5
         Clusters of consecutive scans link when their mean depths differ by less.
 

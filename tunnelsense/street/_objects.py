@@ -6,7 +6,8 @@ vehicle is decided in ``_vehicles``, the splitting of vehicles parked nose to ta
 ``_splitting``.  Every function here is array in, array out, on positions within a window of
 consecutive scans: ``cum[p]`` is the distance (m) travelled up to scan ``p``,
 ``near[p]`` the mean depth of the nearest intra-cluster of scan ``p`` and
-``follows[p]`` whether scan ``p`` directly follows scan ``p - 1``.
+``follows[p]`` whether scan ``p`` follows scan ``p - 1`` (directly, or across
+missing scans linked over).
 """
 
 from __future__ import annotations

@@ -74,6 +74,14 @@ def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=
     return (past & (last - first + 1 <= max_beams))[chain]
 
 
+#: Stamp difference (in scan periods) from which consecutive scan numbers are taken
+#: to hide lost scans: host-time stamps jitter and are quantised (a 10 ms clock at
+#: 75 scans/s gives differences of 0.75 and 1.5 periods), so a difference of up to
+#: two periods is read as jitter, not as a lost scan (one renumbered lost scan is
+#: then missed, as a gap of one scan is too short to matter).
+STAMP_GAP = 2.5
+
+
 class ScanWindow:
     """The held scans of one run and their intra-clusters.
 
@@ -169,12 +177,15 @@ class ScanWindow:
         stretch of missing scans at most ``max_missing_length`` metres long), and
         its step (m): ``unit`` (one scan) times the scans it advances when it
         follows across missing ones (the missing metres count to it).  Scans are
-        missing where the scan numbers jump, or where the stamps do by 1.5 scan
-        periods or more while the numbers do not (a recorder that numbers what it
-        received)."""
+        missing where the scan numbers jump (the numbers then win over the
+        stamps), or where the stamps do by ``STAMP_GAP`` scan periods or more while
+        the numbers do not (a recorder that numbers what it received).  A stretch's
+        metres are the unit of the scan after it (the running median of the recent
+        speeds, which lags a start from a standstill by a few scans) times the scans
+        it spans."""
         period = self.history.period
         with np.errstate(invalid="ignore"):
-            by_stamp = np.where((counts == 1) & (periods >= 1.5 * period),
+            by_stamp = np.where((counts == 1) & (periods >= STAMP_GAP * period),
                                 np.rint(periods / period), 1.0)
         elapsed = np.maximum(counts, by_stamp)
         bound = self.est.max_missing_length
