@@ -83,6 +83,9 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   left, or a grey-scale bar (white to black) at the right edge, half the frame
   high; ``heavy-overlay-bar``: the ``heavy`` tours with the bar.  A mark is no
   indicator: a detection on one is a false alarm.
+* ``signs-0.5x0.5`` / ``signs-0.8x0.5``: the ``plain`` tours with signs of two
+  more designs than the training tour's: small squares of 0.5 m x 0.5 m, and
+  landscape panels of 0.8 m x 0.5 m.
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -173,6 +176,8 @@ CONDITIONS = {
     "overlay-clock": dict(scenario="light", overlay="clock", **CAMERA_A),
     "overlay-bar": dict(scenario="light", overlay="bar", **CAMERA_A),
     "heavy-overlay-bar": dict(scenario="heavy", overlay="bar", **CAMERA_A),
+    "signs-0.5x0.5": dict(scenario="light", indicator_size_m=(0.5, 0.5), **CAMERA_A),
+    "signs-0.8x0.5": dict(scenario="light", indicator_size_m=(0.8, 0.5), **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -190,7 +195,8 @@ SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "
                  "gamma-1.4": "plain", "14-bit": "plain", "signs-0.7x": "plain",
                  "signs-1.3x": "plain", "1280x960": "plain", "160x120": "plain",
                  "crawl": "plain", "exit-panels-50": "plain", "overlay-clock": "plain",
-                 "overlay-bar": "plain", "heavy-overlay-bar": "heavy"}
+                 "overlay-bar": "plain", "heavy-overlay-bar": "heavy",
+                 "signs-0.5x0.5": "plain", "signs-0.8x0.5": "plain"}
 
 #: conditions whose frames another model must serve: fitted on the training tour of
 #: the condition itself (a model serves frames of the bit depth it was fitted on)
