@@ -86,6 +86,9 @@ conditions (:data:`CONDITIONS`) are physical parameters of
 * ``crawl-5``: camera A in a queue at a steady 5 km/h (about 5 cm per frame);
   ``stop-and-go``: at 0.2-8 km/h, its speed wandering over tens of seconds, so
   that it nearly stops (0.2 km/h, 2 mm per frame) for seconds with a sign in view.
+* ``signs-0.5x0.5`` / ``signs-0.8x0.5``: the ``plain`` tours with signs of two
+  more designs than the training tour's: small squares of 0.5 m x 0.5 m, and
+  landscape panels of 0.8 m x 0.5 m.
 
 Seeds: nothing was chosen on the evaluation seeds.  The detector's settings were
 chosen on the physics and checked on the TUNING seeds only (training tour seed
@@ -178,6 +181,8 @@ CONDITIONS = {
     "heavy-overlay-bar": dict(scenario="heavy", overlay="bar", **CAMERA_A),
     "crawl-5": dict(scenario="light", speed_kmh=5.0, **CAMERA_A),
     "stop-and-go": dict(scenario="light", speed_kmh=(0.2, 8.0), **CAMERA_A),
+    "signs-0.5x0.5": dict(scenario="light", indicator_size_m=(0.5, 0.5), **CAMERA_A),
+    "signs-0.8x0.5": dict(scenario="light", indicator_size_m=(0.8, 0.5), **CAMERA_A),
 }
 
 #: conditions drawn on the tours of another (the same seeds, so the same tunnel,
@@ -196,7 +201,8 @@ SAME_TOURS_AS = {"fast": "lag-12ms-fast", "nuc-freeze": "plain", "dropped-5%": "
                  "signs-1.3x": "plain", "1280x960": "plain", "160x120": "plain",
                  "crawl": "plain", "exit-panels-50": "plain", "overlay-clock": "plain",
                  "overlay-bar": "plain", "heavy-overlay-bar": "heavy",
-                 "crawl-5": "plain", "stop-and-go": "plain"}
+                 "crawl-5": "plain", "stop-and-go": "plain",
+                 "signs-0.5x0.5": "plain", "signs-0.8x0.5": "plain"}
 
 #: conditions whose frames another model must serve: fitted on the training tour of
 #: the condition itself (a model serves frames of the bit depth it was fitted on)

@@ -229,7 +229,9 @@ def test_record_stage_checks(name, check):
 
 
 @pytest.mark.parametrize("params", [{}, {"features": "invariant", "augment": 2},
-                                    {"features": "invariant-any-shape", "augment": 2}])
+                                    {"features": "invariant-any-shape", "augment": 2},
+                                    {"features": "invariant", "augment": 2,
+                                     "widest_sign": 1.25, "core": (0.7,)}])
 def test_frame_mode_fit_transform_equals_fit_then_transform(params):
     """fit_transform scores the features of the fit without computing them again."""
     X, y = _frames(seed=3)
@@ -323,6 +325,43 @@ def test_any_shape_features_leave_out_the_proportions():
     square, _ = _frame(50, [(20, 30, 14, 14), (100, 40, 10, 14)], ["indicator", "lamp"],
                        rng=np.random.default_rng(7))
     assert ada.transform([square])[0].payload["appearance"].tolist() == [True, False]
+
+
+def test_widest_sign_gives_upright_and_square_signs_the_same_proportions():
+    """``widest_sign``: the two log aspect ratios clipped from above at
+    ``-log(widest_sign)``: an upright and a square sign get the same figures, a
+    shape wider than ``widest_sign`` keeps its own; the other features unchanged."""
+    from tunnelsense.tunnel._appearance_features import _SHAPE_COLUMNS, _invariant_rows
+    from tunnelsense.tunnel._invariant import box_patches
+
+    rec, _ = _frame(60, [(20, 30, 8, 18), (60, 30, 14, 14), (100, 40, 30, 10)],
+                    ["indicator"] * 3, rng=np.random.default_rng(11))
+    rects = rec.payload["cluster_boxes"]
+    patches = box_patches(rec.image, rects, 0.25)
+    full = _invariant_rows(patches, rects[:, [3, 2]].tolist(), "invariant")
+    clipped = _invariant_rows(patches, rects[:, [3, 2]].tolist(), "invariant", 1.25)
+    shape = list(_SHAPE_COLUMNS)
+    # as measured: upright > 0, square about 0, wide < -log(1.25)
+    assert full[0, shape[1]] > 0.5 and abs(full[1, shape[1]]) < 0.01
+    assert (full[2, shape] < -np.log(1.25)).all()
+    np.testing.assert_allclose(clipped[:2, shape], -np.log(1.25))
+    np.testing.assert_array_equal(clipped[2, shape], full[2, shape])
+    rest = np.setdiff1d(np.arange(full.shape[1]), shape)
+    assert np.array_equal(full[:, rest], clipped[:, rest])
+    # the machine sees the clipped figures: trained on upright signs only, no stump
+    # threshold on the proportions lies above the clip
+    X, y = _frames(seed=3)
+    ada = WeightedAdaBoost(n_estimators=10, random_state=0, features="invariant",
+                           widest_sign=1.25, augment=2).fit(X, y)
+    on_shape = np.isin(ada.stump_features_, shape)
+    assert (ada.stump_thresholds_[on_shape] < -np.log(1.25)).all()
+
+
+@pytest.mark.parametrize("bad", [0.9, 0.0, -1.0])
+def test_widest_sign_must_be_at_least_one(bad):
+    X, y = _frames(4)
+    with pytest.raises(ValueError, match="widest_sign"):
+        WeightedAdaBoost(n_estimators=3, features="invariant", widest_sign=bad).fit(X, y)
 
 
 def test_invariant_core_transform_frame_by_frame_or_at_once():

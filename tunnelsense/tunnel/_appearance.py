@@ -114,6 +114,17 @@ class WeightedAdaBoost(FrameModeMixin, AppearanceFramesMixin, WeightedAdaBoostCo
         intensities, contrast and fill alone.  An option: a training tour shows one
         design, and its proportions are otherwise a strong cue.
         ``payload["cluster_histograms"]`` holds the raw histogram either way.
+    widest_sign : float or None, default=None
+        Frame records, ``features="invariant"``: the widest proportions (width /
+        height, >= 1) a sign may have.  The two log aspect ratios (height / width)
+        are clipped from above at ``-log(widest_sign)``: an upright sign, a square
+        one and one up to ``widest_sign`` times wider than high all give the stumps
+        the same figures, so that they cannot learn the one design of the training
+        tour, while a wider shape (a far lamp's wide sliver, a landscape exit
+        panel) keeps its own.  Emergency-telephone signs are upright or square;
+        the margin above 1 allows for a small sign's box being a grid step wider
+        than it is.  ``None`` leaves the proportions as they are (the stumps learn
+        the training design's).
     augment : int, default=0
         Frame records: every training cluster is also described ``augment`` times
         as another camera would have seen it
@@ -180,6 +191,7 @@ class WeightedAdaBoost(FrameModeMixin, AppearanceFramesMixin, WeightedAdaBoostCo
         "intensity_range": [tuple, list, None],
         "margin": [Interval(numbers.Real, 0, None, closed="left")],
         "features": [StrOptions({"histogram", "invariant", "invariant-any-shape"})],
+        "widest_sign": [Interval(numbers.Real, 1, None, closed="left"), None],
         "augment": [Interval(numbers.Integral, 0, None, closed="left")],
         "random_state": ["random_state"],
         "core": [tuple, list, None],
@@ -200,6 +212,7 @@ class WeightedAdaBoost(FrameModeMixin, AppearanceFramesMixin, WeightedAdaBoostCo
         intensity_range=None,
         margin=0.25,
         features="histogram",
+        widest_sign=None,
         augment=0,
         random_state=None,
         core=None,
@@ -212,6 +225,7 @@ class WeightedAdaBoost(FrameModeMixin, AppearanceFramesMixin, WeightedAdaBoostCo
         self.intensity_range = intensity_range
         self.margin = margin
         self.features = features
+        self.widest_sign = widest_sign
         self.augment = augment
         self.random_state = random_state
         self.core = core

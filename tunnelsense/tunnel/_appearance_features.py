@@ -13,7 +13,7 @@ from tunnelsense._payload import inside_boxes
 from tunnelsense.tunnel._common import bin_lut
 from tunnelsense.tunnel._invariant import _features, box_patches, n_invariant_features
 
-__all__ = ["box_histograms", "centres_in_boxes", "match_centres"]
+__all__ = ["box_histograms", "centres_in_boxes", "clip_proportions", "match_centres"]
 
 
 def centres_in_boxes(boxes, gt_boxes) -> np.ndarray:
@@ -104,26 +104,48 @@ _INVARIANT_BINS = 16
 
 #: Columns of the invariant features that describe the proportions of the bright
 #: region and of the rectangle (log aspect ratios), which ``"invariant-any-shape"``
-#: sets to 0.
+#: sets to 0 and ``widest_sign`` clips.
 _SHAPE_COLUMNS = (_INVARIANT_BINS + 3, _INVARIANT_BINS + 4)
 
 
-def _invariant_rows(patches, hws, features="invariant"):
+def clip_proportions(features, widest):
+    """The log aspect ratios (height / width) of :data:`_SHAPE_COLUMNS` clipped from
+    above at ``-log(widest)``, in place: every shape from upright to ``widest``
+    times wider than high gets the same figure, a wider one keeps its own.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f = np.zeros((3, 22))
+    >>> f[:, 19] = f[:, 20] = np.log([2.2, 1.0, 0.5])
+    >>> clip_proportions(f, 1.25)[:, 20].round(3).tolist()
+    [-0.223, -0.223, -0.693]
+    """
+    cols = list(_SHAPE_COLUMNS)
+    features[:, cols] = np.minimum(features[:, cols], -np.log(widest))
+    return features
+
+
+def _invariant_rows(patches, hws, features="invariant", widest=None):
     """``_features(patches, hws, _INVARIANT_BINS)``; for ``"invariant-any-shape"``
-    with the two aspect-ratio columns set to 0 (a stump cannot split on them)."""
+    with the two aspect-ratio columns set to 0 (a stump cannot split on them);
+    with ``widest`` (a float) those columns clipped (:func:`clip_proportions`)."""
     out = _features(patches, hws, _INVARIANT_BINS)
     if features == "invariant-any-shape":
         out[:, list(_SHAPE_COLUMNS)] = 0.0
+    elif widest is not None:
+        clip_proportions(out, widest)
     return out
 
 
-def _chunked_features(patches, hws, chunk=128, features="invariant"):
+def _chunked_features(patches, hws, chunk=128, features="invariant", widest=None):
     """:func:`_invariant_rows` in calls of ``chunk`` patches (its per-patch tables of
     256 grey levels stay in cache)."""
     out = np.empty((len(patches), n_invariant_features(_INVARIANT_BINS)))
     for start in range(0, len(patches), chunk):
         out[start:start + chunk] = _invariant_rows(patches[start:start + chunk],
-                                                   hws[start:start + chunk], features)
+                                                   hws[start:start + chunk], features,
+                                                   widest)
     return out
 
 

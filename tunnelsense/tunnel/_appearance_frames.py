@@ -4,8 +4,8 @@
 histograms and features of every cluster's rectangle (and of the ``augment`` copies
 of it for training), and the records evolved with the machine's scores, with the
 bright cores of ``core`` where those score better.  It reads the estimator's
-parameters (``bins``, ``intensity_range``, ``margin``, ``features``, ``augment``,
-``core``) and its ``_decision``.
+parameters (``bins``, ``intensity_range``, ``margin``, ``features``, ``widest_sign``,
+``augment``, ``core``) and its ``_decision``.
 """
 
 from __future__ import annotations
@@ -52,7 +52,8 @@ class AppearanceFramesMixin:
             patches = box_patches(image, rects, margin)
             H = _patch_histograms(patches, self.bins, lut)
             if self.features != "histogram":
-                F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features)
+                F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features,
+                                    self.widest_sign)
             else:
                 F = H
             yield r, boxes, H, F
@@ -72,7 +73,8 @@ class AppearanceFramesMixin:
         owner, rects = owner[other], rects[other]
         patches = box_patches(image, rects, float(self.margin))
         if self.features != "histogram":
-            F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features)
+            F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features,
+                                    self.widest_sign)
         else:
             F = _patch_histograms(patches, self.bins,
                                   bin_lut(image.dtype, self.bins, self.intensity_range))
@@ -97,7 +99,7 @@ class AppearanceFramesMixin:
                 for patch, box in zip(patches, boxes.tolist(), strict=True)]
         if self.features != "histogram":
             rows = _invariant_rows([q for q, _ in seen], [hw for _, hw in seen],
-                                   self.features)
+                                   self.features, self.widest_sign)
         else:
             rows = []
             for q, _ in seen:
@@ -139,9 +141,10 @@ class AppearanceFramesMixin:
                 seen.extend(perturb_patch(patch, rng, (box[3], box[2]))
                             for _ in range(n_aug)
                             for patch, box in zip(crops, b.tolist(), strict=True))
-        F = _chunked_features(patches, hws, features=self.features)
+        F = _chunked_features(patches, hws, features=self.features,
+                              widest=self.widest_sign)
         G = _chunked_features([q for q, _ in seen], [hw for _, hw in seen],
-                              features=self.features)
+                              features=self.features, widest=self.widest_sign)
         out, at_f, at_g = [], 0, 0
         for r, b, h, m in frames:
             f = F[at_f:at_f + m]
@@ -186,7 +189,8 @@ class AppearanceFramesMixin:
         # the cores of a whole training tour in chunks (their tables stay small)
         rows = _invariant_rows if described is None else _chunked_features
         decision = (self._decision(rows(
-            patches, np.concatenate(hws).tolist(), features=self.features))
+            patches, np.concatenate(hws).tolist(), features=self.features,
+            widest=self.widest_sign))
                     if patches else np.empty(0))
         if described is not None:
             # clusters' rows first, then the cores', frame by frame, as below
