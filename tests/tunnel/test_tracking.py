@@ -114,6 +114,14 @@ def test_max_gap_travel_needs_a_speed_and_keeps_the_duration_limit():
     assert out[13].payload["ended_tracks"].tolist() == [1]  # frame 30: it ends there
 
 
+
+def test_max_gap_travel_refuses_an_unbounded_duration():
+    # a still object would bridge every gap: without max_track_length it never ends
+    X = frames_of(moving(5, step=(0.0, 0.0)))
+    with pytest.raises(ValueError, match="max_track_length"):
+        TrajectoryLinker(max_gap_travel=0.5, max_track_length=None).fit(X)
+    TrajectoryLinker(max_gap_travel=None, max_track_length=None).fit(X)
+
 def test_frame_gap_in_records_breaks_trajectories():
     obj = moving(10, step=(0.5, 0))
     X = frames_of(obj[:5]) + frames_of([(f + 10, b) for f, b in obj[5:]])

@@ -53,7 +53,7 @@ class AppearanceFramesMixin:
             H = _patch_histograms(patches, self.bins, lut)
             if self.features != "histogram":
                 F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features,
-                                    self.widest_sign)
+                                self.widest_sign)
             else:
                 F = H
             yield r, boxes, H, F
@@ -74,7 +74,7 @@ class AppearanceFramesMixin:
         patches = box_patches(image, rects, float(self.margin))
         if self.features != "histogram":
             F = _invariant_rows(patches, rects[:, [3, 2]].tolist(), self.features,
-                                    self.widest_sign)
+                                self.widest_sign)
         else:
             F = _patch_histograms(patches, self.bins,
                                   bin_lut(image.dtype, self.bins, self.intensity_range))

@@ -17,8 +17,6 @@ import math
 
 import numpy as np
 
-from tunnelsense.tunnel._mst_boxes import cluster_windows
-
 __all__ = ["contrast_region_boxes", "core_boxes"]
 
 
@@ -76,6 +74,8 @@ def contrast_region_boxes(image, rows, cols, labels, boxes, *, reach=(14, 12),
     array([[17., 10.,  6., 16.]])
     """
     import cv2  # noqa: PLC0415
+
+    from tunnelsense.tunnel._mst_boxes import cluster_windows  # noqa: PLC0415
 
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     out = boxes.copy()

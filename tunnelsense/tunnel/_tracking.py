@@ -79,7 +79,8 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         few km/h or stopping, where ``max_gap`` frames cut a far sign's
         trajectory into pieces too short to show its path.  A ratio of lengths,
         the same at any speed, frame rate, resolution or focal length; the
-        trajectory's duration still ends at ``max_track_length``.  The jitter of
+        trajectory's duration still ends at ``max_track_length``, which must then
+        be set (a still object would otherwise bridge forever).  The jitter of
         a nearly still object's positions inflates its fitted speed, which
         shortens the bridge.  ``None`` (the paper's rule) bridges ``max_gap``
         frames whatever the motion.
@@ -213,10 +214,18 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
         -------
         self : TrajectoryLinker
         """
+        self._check_settings()
         records = self._check_records(X, y)
         stream_order(records)
         self.n_frames_fit_ = len(records)
         return self
+
+    def _check_settings(self):
+        if self.max_gap_travel is not None and self.max_track_length is None:
+            raise ValueError(
+                "max_gap_travel needs max_track_length to end a trajectory (an object "
+                "standing still bridges any gap): got max_track_length=None; set "
+                "max_track_length or max_gap_travel=None")
 
     _sequence = FrameSequence
     _payload_reads = (CLUSTER_BOXES,)
