@@ -152,16 +152,24 @@ def test_lost_scans_any_chunking_equals_batch():
         assert [row for r in out for row in r.payload["finished_objects"]] == rows
 
 
-def test_stamps_that_jitter_lose_no_scan():
+@pytest.mark.parametrize("jitter, clock", [(0.45, None), (None, 0.01), (0.45, 0.01)])
+def test_stamps_that_jitter_or_come_from_a_coarse_clock_lose_no_scan(jitter, clock):
     # host-time stamps up to 0.45 periods early or late (differences up to 1.9
-    # periods); no scan is lost, so the detections are those of exact stamps: the
-    # same vehicles, as long within 2 %
+    # periods), and/or on a 10 ms clock (differences of 0.75 and 1.5 periods; 0 to
+    # 2.25 with the jitter); no scan is lost, so the detections are those of exact
+    # stamps: the same vehicles, as long within 2 % (a median of the stamp
+    # differences read the 10 ms clock as the period: every length 24 % short)
     est, run = simulated()
     rng = np.random.default_rng(2)
     period = 1.0 / 75.0
     scans = list(run.scans)
-    shaken = [dataclasses.replace(r, stamp=r.stamp + period * rng.uniform(-0.45, 0.45))
-              for r in scans]
+    stamps = np.array([r.stamp for r in scans])
+    if jitter is not None:
+        stamps = stamps + period * rng.uniform(-jitter, jitter, len(stamps))
+    if clock is not None:
+        stamps = np.round(stamps / clock) * clock
+    shaken = [dataclasses.replace(r, stamp=float(t))
+              for r, t in zip(scans, stamps, strict=True)]
     exact = est.detect(scans)
     noisy = est.detect(shaken)
     assert street_scores(run.gt, noisy)["parked"] == street_scores(run.gt, exact)["parked"]

@@ -72,6 +72,48 @@ def running_median(history, values, window=HISTORY):
     return np.where(k > 0, (lo + hi) / 2, np.nan)
 
 
+#: Stamp difference (in scan periods) from which consecutive scan numbers are taken
+#: to hide lost scans: host-time stamps jitter and are quantised (a 10 ms clock at
+#: 75 scans/s gives differences of 0.75 and 1.5 periods), so a difference of up to
+#: two periods is read as jitter, not as a lost scan.
+STAMP_GAP = 2.5
+
+
+def running_period(history, values, window=HISTORY):
+    """The scan period for every new stamp difference: the mean of the finite ones
+    among the last ``window`` (history then values), leaving out those of
+    ``STAMP_GAP`` times the mean of all or more (a gap over lost scans); NaN where
+    there is none.
+
+    A median reads a clock coarser than the period wrong: at 75 scans/s stamps on
+    a 10 ms clock differ by 10 ms twice and 20 ms once (and by 0 or 30 ms when they
+    also jitter), whose median is 10 ms where the period is 13.3 ms, and every
+    length would be a quarter short.  The mean is right for such a clock and for
+    stamps that jitter: the time between two stamps is spread over the scans.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import running_period
+    >>> d = np.array([0.01, 0.02, 0.01, 0.01, 0.02, 0.01])
+    >>> np.round(running_period(np.empty(0), d), 4)
+    array([0.01  , 0.015 , 0.0133, 0.0125, 0.014 , 0.0133])
+    >>> running_period(np.full(5, 0.01), np.array([0.2]), window=6)  # a gap
+    array([0.01])
+    """
+    full = np.concatenate([np.full(window - 1, np.nan), history[-(window - 1):], values])
+    full = full[-(len(values) + window - 1):]
+    win = np.lib.stride_tricks.sliding_window_view(full, window)
+    finite = np.isfinite(win)
+    n = finite.sum(axis=1)
+    mean = np.where(finite, win, 0.0).sum(axis=1) / np.maximum(n, 1)
+    with np.errstate(invalid="ignore"):
+        near = finite & (win < STAMP_GAP * mean[:, None])
+    k = near.sum(axis=1)
+    total = np.where(near, win, 0.0).sum(axis=1)
+    return np.where(k > 0, total / np.maximum(k, 1), np.nan)
+
+
 class History:
     """The recent scan periods, ego speeds and tilts of one run (causal medians)."""
 
@@ -81,10 +123,10 @@ class History:
         self.tilts = np.empty(0)  # known tilts only
         self.kerbs = np.empty(0)  # known kerb depths only
         self.last_speed = np.nan  # the last scan's speed that was known
-        self.period = np.empty(0)  # median scan period (s) of the last new scans
+        self.period = np.empty(0)  # scan period (s) of the last new scans
 
     def steps(self, periods, speeds, counts=None):
-        """Metres travelled per scan: the scan's own speed x recent median period.
+        """Metres travelled per scan: the scan's own speed x the recent period.
 
         ``periods`` (s) and ``speeds`` (m/s) are per new scan, NaN where unknown;
         a scalar ``speeds`` keeps no speed history (a fixed speed is given instead).
@@ -94,8 +136,8 @@ class History:
         whose speed and recent ones are unknown (NaN, or negative) keeps the last
         known one.  NaN where no speed is known yet (none given, none before).
         ``counts`` (optional, per new scan) is how many scan numbers its stamp
-        difference spans (more than one after missing scans); the median period
-        of every new scan is kept in ``period``.
+        difference spans (more than one after missing scans); the period
+        (:func:`running_period`) of every new scan is kept in ``period``.
 
         Examples
         --------
@@ -107,8 +149,8 @@ class History:
         """
         if counts is not None:  # a stamp difference over several scan numbers
             periods = periods / counts
-        periods = np.where(np.isfinite(periods) & (periods > 0), periods, np.nan)
-        period = running_median(self.periods, periods)
+        periods = np.where(np.isfinite(periods) & (periods >= 0), periods, np.nan)
+        period = running_period(self.periods, periods)
         self.period = np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
-from tunnelsense.street._geometry import DEFAULT_SPEED, History, roi_points
+from tunnelsense.street._geometry import DEFAULT_SPEED, STAMP_GAP, History, roi_points
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
@@ -72,14 +72,6 @@ def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=
             past = ((down | np.isnan(below[first, 0]))
                     & (up | np.isnan(above[last, 0])) & (down | up))
     return (past & (last - first + 1 <= max_beams))[chain]
-
-
-#: Stamp difference (in scan periods) from which consecutive scan numbers are taken
-#: to hide lost scans: host-time stamps jitter and are quantised (a 10 ms clock at
-#: 75 scans/s gives differences of 0.75 and 1.5 periods), so a difference of up to
-#: two periods is read as jitter, not as a lost scan (one renumbered lost scan is
-#: then missed, as a gap of one scan is too short to matter).
-STAMP_GAP = 2.5
 
 
 class ScanWindow:
