@@ -34,7 +34,8 @@ def test_scan_distances_from_speed_and_periods():
 
 @pytest.mark.parametrize("stamps, speed, match", [
     ([0.0], 1.0, "at least two"),
-    ([0.0, 0.1, 0.1], 1.0, "strictly increasing; scan 2"),
+    ([0.0, 0.1, 0.05], 1.0, "non-decreasing; scan 2"),
+    ([0.2, 0.2, 0.2], 1.0, "span some time"),
     ([0.0, 0.1], [1.0, -2.0], "scan 1 has -2.0"),
     ([0.0, 0.1], float("nan"), "finite and not negative"),
     ([0.0, 0.1, 0.2], [1.0, 1.0], "one per scan"),
@@ -43,6 +44,15 @@ def test_scan_distances_refuses_bad_input(stamps, speed, match):
     with pytest.raises(ValueError, match=match):
         scan_distances(stamps, speed)
 
+
+
+def test_stamps_of_a_coarse_clock_give_the_distance_of_exact_ones():
+    # 75 scans/s on a 20 ms clock: equal stamps and 20 ms steps, the same time
+    exact = np.arange(301) / 75.0
+    coarse = np.round(exact / 0.02) * 0.02
+    assert (np.diff(coarse) == 0).any()
+    d = scan_distances(coarse, 11.0)
+    assert d[-2] == pytest.approx(scan_distances(exact, 11.0)[-2], abs=0.11)
 
 def test_a_stop_adds_no_distance():
     d = scan_distances([0.0, 1.0, 2.0, 3.0], [2.0, 0.0, 0.0, 2.0])

@@ -54,7 +54,9 @@ def scan_distances(stamps, speed):
     Parameters
     ----------
     stamps : array-like of shape (n_scans,)
-        Times of the scans (s), strictly increasing; at least two scans.
+        Times of the scans (s), non-decreasing (equal stamps, from a clock coarser
+        than the scan period, give a scan no stretch of its own), spanning some
+        time; at least two scans.
     speed : float or array-like of shape (n_scans,)
         Ego speed (m/s) of every scan, or of each scan (e.g. interpolated from
         odometry); finite and not negative.
@@ -67,7 +69,7 @@ def scan_distances(stamps, speed):
     Raises
     ------
     ValueError
-        Fewer than two stamps, stamps not strictly increasing or not finite, a speed
+        Fewer than two stamps, stamps decreasing, equal or not finite, a speed
         negative or not finite, or a speed array of another length.
 
     Examples
@@ -83,11 +85,14 @@ def scan_distances(stamps, speed):
         raise ValueError(f"stamps must be a 1-D array of at least two scan times; got "
                          f"shape {stamps.shape}")
     periods = np.diff(stamps)
-    bad = np.flatnonzero(~(np.isfinite(periods) & (periods > 0)))
+    bad = np.flatnonzero(~(np.isfinite(periods) & (periods >= 0)))
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"stamps must be finite and strictly increasing; scan {i + 1} "
+        raise ValueError(f"stamps must be finite and non-decreasing; scan {i + 1} "
                          f"({stamps[i + 1]}) follows scan {i} ({stamps[i]})")
+    if not stamps[-1] > stamps[0]:
+        raise ValueError(f"stamps must span some time; all {len(stamps)} are "
+                         f"{stamps[0]}")
     speed = np.asarray(speed, dtype=np.float64)
     if speed.ndim == 0:
         speed = np.full(stamps.shape, float(speed))
