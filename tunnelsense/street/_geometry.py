@@ -50,6 +50,14 @@ HISTORY = 151
 SPEED_WINDOW = 5
 
 
+def _windows(history, values, window):
+    """The last ``window`` values (history then values, NaN before) ending at every
+    new value: an array of shape ``(len(values), window)``."""
+    full = np.concatenate([np.full(window - 1, np.nan), history[-(window - 1):], values])
+    full = full[-(len(values) + window - 1):]
+    return np.lib.stride_tricks.sliding_window_view(full, window)
+
+
 def running_median(history, values, window=HISTORY):
     """Median of the finite values among the last ``window`` (history then values),
     for every new value; NaN where there is none.
@@ -61,9 +69,7 @@ def running_median(history, values, window=HISTORY):
     >>> running_median(np.array([1.0, 5.0]), np.array([3.0, np.nan, 9.0]), window=3)
     array([3., 4., 6.])
     """
-    full = np.concatenate([np.full(window - 1, np.nan), history[-(window - 1):], values])
-    full = full[-(len(values) + window - 1):]
-    win = np.lib.stride_tricks.sliding_window_view(full, window)
+    win = _windows(history, values, window)
     srt = np.sort(win, axis=1)  # NaN last
     k = np.isfinite(win).sum(axis=1)
     rows = np.arange(len(values))
@@ -101,9 +107,7 @@ def running_period(history, values, window=HISTORY):
     >>> running_period(np.full(5, 0.01), np.array([0.2]), window=6)  # a gap
     array([0.01])
     """
-    full = np.concatenate([np.full(window - 1, np.nan), history[-(window - 1):], values])
-    full = full[-(len(values) + window - 1):]
-    win = np.lib.stride_tricks.sliding_window_view(full, window)
+    win = _windows(history, values, window)
     finite = np.isfinite(win)
     n = finite.sum(axis=1)
     mean = np.where(finite, win, 0.0).sum(axis=1) / np.maximum(n, 1)
