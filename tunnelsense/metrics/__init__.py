@@ -4,12 +4,12 @@ from tunnelsense._lazy import attach
 
 _NAMES = {
     "interval_iou": "_street",
-    "make_street_scorer": "_street",
+    "make_street_scorer": "_street_scoring",
     "match_objects": "_street",
-    "objects_from_targets": "_street",
+    "objects_from_targets": "_street_scoring",
     "street_class_scores": "_street",
     "street_confusion_matrix": "_street",
-    "street_report": "_street",
+    "street_report": "_street_scoring",
     "street_scores": "_street",
     "HYPOTHESIS_COLUMNS": "_tunnel",
     "gt_from_boxes": "_tunnel",
