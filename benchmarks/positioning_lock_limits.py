@@ -68,7 +68,7 @@ import pandas as pd  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
 from _common import machine  # noqa: E402
-from positioning_accuracy import _after_first_pass, _lock_on, _lock_tour  # noqa: E402
+from _positioning_lock import _after_first_pass, _lock_on, _lock_tour  # noqa: E402
 
 from tunnelsense.positioning import TunnelPositioner, dead_reckoning  # noqa: E402
 from tunnelsense.positioning._fixes import detection_table  # noqa: E402
