@@ -26,8 +26,8 @@ With ``--phases``, it runs instead, ``--repeats`` times in fresh processes
 (interleaved with the baseline's when given), ``train tunnel``'s work phase by
 phase in one thread, and prints the median CPU seconds (``time.process_time``)
 of each: start-up imports, reading the labels, the decode of every frame, the
-imports of the fitting machinery and of the model writer, each step's fit (and
-transform), the training output and scores, the model write.  The phases' sum
+imports of the fitting machinery, each step's fit (and transform), the training
+output and scores, the model write (with what its writer imports).  The phases' sum
 is the work a two-core machine shares out; the decode and the imports run in
 reader threads beside each other in the command, the fit in one thread.
 
@@ -86,8 +86,6 @@ X = list(frames)
 mark("decode")
 from tunnelsense.tunnel import fit_indicator_detector
 mark("import fitting")
-import skops.io
-mark("import writer")
 step = []
 def progress(stage, done, total):
     if stage.startswith("fitting ") and stage != "fitting fitted":

@@ -289,3 +289,35 @@ def test_demo_help_describes_the_scenarios(capsys):
         main(["simulate", "tunnel", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "{light,heavy,curved,randomized}" in text and "curving tunnel" in text
+
+
+def _commands(parser, path=()):
+    """Every command path (``("detect", "tunnel")``, ``("info",)``...) and its parser."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                if any(isinstance(a, argparse._SubParsersAction) for a in sub._actions):
+                    yield from _commands(sub, (*path, name))
+                else:
+                    yield (*path, name), sub
+
+
+def _describe(parser):
+    """What a user sees of a command's parser, and how it parses: its help and usage,
+    and each argument's names, defaults, choices and type."""
+    return parser.format_help(), [
+        (a.option_strings, a.dest, a.default, a.choices, a.nargs, a.required,
+         getattr(a.type, "__name__", a.type)) for a in parser._actions]
+
+
+def test_a_command_line_builds_its_command_as_the_whole_parser_does():
+    full = dict(_commands(build_parser()))
+    assert len(full) >= 12  # every verb's kinds and every top-level command
+    for path, parser in full.items():
+        narrow = build_parser([*path, "--help"])
+        mine = dict(_commands(narrow))
+        assert _describe(mine[path]) == _describe(parser), path
+        assert len(mine) < len(full), path  # only the module that owns it
+    # no command, an option first, or an unknown name: every command
+    for argv in ([], ["--help"], ["detect", "--help"], ["detect", "tunel"], ["nope"]):
+        assert set(dict(_commands(build_parser(argv)))) == set(full), argv

@@ -14,7 +14,12 @@ from tunnelsense.tunnel import (
     KMeansHistogramVerifier,
     make_indicator_pipeline,
 )
-from tunnelsense.tunnel._intensity import background_levels, cell_means, normalize_frame
+from tunnelsense.tunnel._intensity import (
+    background_level,
+    background_levels,
+    cell_means,
+    normalize_frame,
+)
 from tunnelsense.tunnel._verification import augment_factors, contrast_copy
 from tunnelsense.utils import record_stage_checks
 
@@ -45,6 +50,20 @@ def test_background_levels_follow_an_affine_change():
     back = normalize_frame(np.clip(0.7 * img - 20 + 0.5, 0, 255).astype(np.uint8),
                            *b, *a)
     assert np.abs(back.astype(float) - img.astype(np.uint8)).max() <= 2.0
+
+
+def test_background_level_is_that_of_background_levels(tours):
+    """Bit for bit: the verifier's augmentation takes the level alone."""
+    rng = np.random.default_rng(1)
+    images = [r.image for tour in tours for r in tour.frames][::7]
+    for dtype, top in ((np.uint8, 255), (np.uint16, 65535)):
+        for shape in ((480, 640), (120, 160), (37, 53), (5, 3)):
+            img = rng.normal(top * 0.4, top * 0.1, shape)
+            img[: shape[0] // 3] *= rng.uniform(0.5, 1.5)
+            images.append(np.clip(img, 0, top).astype(dtype))
+    assert len(images) > 20
+    for img in images:
+        assert background_level(img) == background_levels(img)[0]
 
 
 def test_gain_and_offset_leave_the_keypoints(tours):

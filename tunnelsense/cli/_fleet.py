@@ -31,10 +31,10 @@ def add_fleet_arguments(parser, what) -> None:
 
 def fleet_sources(args) -> list[str] | None:
     """The sources of a fleet run, or None for a single one (left in ``args.source``)."""
-    from tunnelsense.fleet import read_tour_list
-
     sources = list(args.source)
-    if args.tours_from is not None:
+    if args.tours_from is not None:  # the fleet's modules only for a fleet
+        from tunnelsense.fleet import read_tour_list
+
         sources += read_tour_list(args.tours_from)
     if not sources:
         raise ValueError("give the source to detect (or --tours-from FILE)")

@@ -31,8 +31,6 @@ def _cmd_train(args) -> int:
     # the reader threads decode while the fitting machinery (scikit-learn) imports
     rate = args.sample_rate
     decoding = decode_tours(tours, n_threads=args.jobs, sample_rate=rate)
-    import skops.io  # noqa: F401  (the model writer's, also while the readers decode)
-
     from tunnelsense.tunnel import fit_indicator_detector
     from tunnelsense.tunnel._reports import format_tours, format_training
 

@@ -2,7 +2,8 @@
 signature (see :mod:`tunnelsense.io._model`).
 
 skops is imported only when a model is written or read: it takes about a second, and
-``tunnelsense --help`` need not wait for it.
+``tunnelsense --help`` need not wait for it.  A detector's model is written without
+it (:mod:`tunnelsense.io._model_writer`: the same file).
 """
 
 from __future__ import annotations
@@ -100,9 +101,13 @@ def _hmac(key: bytes, data) -> str:
 
 def skops_bytes(model, summary, *, signed=None) -> bytearray:
     """The skops file with metadata and a zip comment of zeros to fill in."""
-    import skops.io  # slow to import: see the module's docstring
+    from tunnelsense.io._model_writer import detector_skops_payload
 
-    payload = skops.io.dumps(model, compression=zipfile.ZIP_DEFLATED)
+    payload = detector_skops_payload(model)  # a detector's model: skops' file, not skops
+    if payload is None:
+        import skops.io  # slow to import: see the module's docstring
+
+        payload = skops.io.dumps(model, compression=zipfile.ZIP_DEFLATED)
     metadata = {
         "file_format": "tunnelsense-model",
         "file_format_version": 1,

@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import configparser
 import contextlib
 import os
 import tempfile
@@ -201,6 +200,8 @@ def input_files(source) -> list[Path]:
 
 def _image_dir(seqinfo) -> str | None:
     """The ``imDir`` a ``seqinfo.ini`` names (its frames), if it can be read."""
+    import configparser  # only here: every command that writes imports this module
+
     parser = configparser.ConfigParser(interpolation=None)
     try:
         parser.read(seqinfo, encoding="utf-8")

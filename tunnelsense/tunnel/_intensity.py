@@ -11,7 +11,7 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["background_levels", "beyond_tolerance", "cell_means", "indicator_band", "normalize_frame",
+__all__ = ["background_level", "background_levels", "beyond_tolerance", "cell_means", "indicator_band", "normalize_frame",
            "normalize_lut", "resample_frame",
            "sample_keypoints"]
 
@@ -253,6 +253,22 @@ def background_levels(image, *, cells=(60, 80), quantiles=(10.0, 50.0, 90.0),
         small = cell_means(image, cells)
     lo, mid, hi = np.percentile(small, quantiles)
     return float(mid), float(max(hi - lo, 1e-3))
+
+
+def background_level(image, *, cells=(60, 80), quantile=50.0):
+    """The level of :func:`background_levels` alone (its spread not computed), equal
+    to it: the ``quantile`` percentile of the frame's ``cells`` means.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.tile(np.linspace(80, 120, 64), (48, 1)).astype(np.uint8)
+    >>> background_level(img) == background_levels(img)[0]
+    True
+    """
+    # a sequence of one quantile, as background_levels asks for its three: NumPy's
+    # percentile of a lone number may differ from it in the last bit
+    return float(np.percentile(cell_means(image, cells), (quantile,))[0])
 
 
 def normalize_frame(image, level, spread, ref_level, ref_spread):

@@ -90,9 +90,6 @@ def fit_indicator_detector(tours, *, search=False, random_state=0, n_jobs=1,
     frames, y, groups, n_frames = _decoding
     frames = counted(frames, "decoding frames", n_frames, progress)
     decoded = [first] if (first := next(frames, None)) is not None else []
-    # every frame is queued now: the model writer's import (about 1 s, in this
-    # thread) overlaps the reader threads, which run without the interpreter lock
-    import skops.io  # noqa: F401
     X = FrameSequence(decoded + list(frames))
     # k-means keeps its one BLAS thread: spinning BLAS or OpenMP threads make a fit
     # several times slower on a loaded machine, and the centres do not depend on it

@@ -35,7 +35,7 @@ from tunnelsense.tunnel._descriptors import (
     surround_histograms,
 )
 from tunnelsense.tunnel._intensity import (
-    background_levels,
+    background_level,
     normalize_frame,
     normalize_lut,
 )
@@ -98,7 +98,7 @@ def contrast_copy(image, factor):
     >>> int(contrast_copy(img, 0.5)[15, 15])
     140
     """
-    level, _ = background_levels(image)
+    level = background_level(image)
     return normalize_frame(image, level, 1.0, level, float(factor))
 
 
@@ -339,7 +339,7 @@ class KMeansHistogramVerifier(FrameModeMixin, KMeansHistogramCore):
                 # (descriptors equal to those of contrast_copy's frames)
                 luts = [lut]
                 if len(factors):
-                    level, _ = background_levels(image)
+                    level = background_level(image)
                     luts += [compose_lut(lut, normalize_lut(image.dtype, level, 1.0,
                                                             level, float(f)))
                              for f in factors]
