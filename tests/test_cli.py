@@ -318,6 +318,9 @@ def test_a_command_line_builds_its_command_as_the_whole_parser_does():
         mine = dict(_commands(narrow))
         assert _describe(mine[path]) == _describe(parser), path
         assert len(mine) < len(full), path  # only the module that owns it
-    # no command, an option first, or an unknown name: every command
-    for argv in ([], ["--help"], ["detect", "--help"], ["detect", "tunel"], ["nope"]):
+    # no command, an option first, an unknown name, or a name at another level than
+    # its own (its error then lists every choice): every command
+    for argv in ([], ["--help"], ["detect", "--help"], ["detect", "tunel"], ["nope"],
+                 ["train", "info"], ["tunnel"], ["street", "x"], ["detect", "demo"],
+                 ["evaluate", "survey"], ["train", "position"]):
         assert set(dict(_commands(build_parser(argv)))) == set(full), argv

@@ -48,8 +48,22 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
     registers the command it names (when one does): the same parser for that
     command, without importing and building every other (about 20 ms of a
     command's start-up).  Help, an option first or a name no module owns get
-    every command.
+    every command, and so does a name at another level than its own (``train info``,
+    ``tunnel``), so that its error lists every choice.
     """
+    owner = _owner(argv)
+    parser, commands, verbs = _parser(owner)
+    if owner is not None:
+        named, choices = (argv[1], verbs[argv[0]].choices) if argv[0] in verbs else (
+            argv[0], commands.choices)
+        if named not in choices:
+            parser, _, _ = _parser(None)
+    return parser
+
+
+def _parser(owner):
+    """The parser with the commands module ``owner`` registers (None: every module),
+    its subparsers' action and each verb's."""
     parser = argparse.ArgumentParser(
         prog="tunnelsense",
         description="Find roadside landmarks in vehicle sensor data: emergency-telephone "
@@ -58,7 +72,6 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"tunnelsense {__version__}",
                         help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    owner = _owner(argv)
     modules = [importlib.import_module(f"tunnelsense.cli.{m}") for m in _MODULES
                if owner in (None, m)]
     for module in modules:
@@ -73,7 +86,7 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
     for module in modules:
         if hasattr(module, "register"):
             module.register(verbs)
-    return parser
+    return parser, sub, verbs
 
 
 class _Terminated(KeyboardInterrupt):

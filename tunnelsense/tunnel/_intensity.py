@@ -11,9 +11,17 @@ import numpy as np
 
 from tunnelsense._payload import check_image
 
-__all__ = ["background_level", "background_levels", "beyond_tolerance", "cell_means", "indicator_band", "normalize_frame",
-           "normalize_lut", "resample_frame",
-           "sample_keypoints"]
+__all__ = [
+    "background_level",
+    "background_levels",
+    "beyond_tolerance",
+    "cell_means",
+    "indicator_band",
+    "normalize_frame",
+    "normalize_lut",
+    "resample_frame",
+    "sample_keypoints",
+]
 
 
 def sample_keypoints(
