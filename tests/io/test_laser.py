@@ -523,3 +523,38 @@ def test_gt_csv_trailing_empty_fields_are_harmless(tmp_path):
     (tmp_path / "gt.csv").write_text("id,first_scan,last_scan,label\n1,0,1,parked,,\n")
     gt = read_run_gt(tmp_path / "gt.csv")
     assert gt[["id", "first_scan", "last_scan"]].to_numpy().tolist() == [[1, 0, 1]]
+
+
+def _clock(n, rate=75.0, tick=0.02):
+    """Stamps of ``n`` scans at ``rate`` scans/s on a clock of ``tick`` seconds."""
+    return np.floor(np.arange(n) / rate / tick) * tick
+
+
+def test_equal_stamps_of_a_coarse_clock_are_read_as_written(tmp_path):
+    # 75 scans/s on a 20 ms clock: steps of 0 and 20 ms (the detector and the
+    # census read such stamps); whole and streamed alike
+    stamps = _clock(12)
+    assert (np.diff(stamps) == 0).any()
+    _save(tmp_path, ranges=np.ones((12, 5)), stamps=stamps)
+    assert [s.stamp for s in read_run(tmp_path).scans] == stamps.tolist()
+    assert [s.stamp for s in open_run_stream(tmp_path, chunk_scans=5)] == stamps.tolist()
+
+
+@pytest.mark.parametrize(
+    "stamps, match",
+    [(np.array([0.0, 0.02, 0.02, 0.0]),
+      r"scans.npz: stamps must not decrease; scan 3 \(t=0.0\) comes before scan 2 "
+      r"\(t=0.02\)"),
+     (np.full(4, 1.5), r"scans.npz: stamps must span some time; all 4 scans are at "
+                       r"t=1.5")])
+def test_stamps_that_decrease_or_are_all_equal_are_refused(tmp_path, stamps, match):
+    _save(tmp_path, ranges=np.ones((4, 5)), stamps=stamps)
+    with pytest.raises(InputFormatError, match=match):
+        read_run(tmp_path)
+    with pytest.raises(InputFormatError, match=match):
+        open_run_stream(tmp_path)
+
+
+def test_one_scan_needs_no_time_span(tmp_path):
+    _save(tmp_path, ranges=np.ones((1, 5)), stamps=np.array([3.0]))
+    assert len(read_run(tmp_path).scans) == 1

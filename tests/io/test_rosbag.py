@@ -266,3 +266,29 @@ def test_odometry_that_does_not_cover_the_scans_is_refused(tmp_path):
     short = _bag_with_twists(tmp_path / "short.bag", ["/twist"], n_twists=9)
     with pytest.raises(InputFormatError, match=r"scan at t=4\.\d+ s lies outside"):
         list(open_run_stream(short, mount_height=1.8))
+
+
+@pytest.mark.parametrize("version", ["ros1", "ros2"])
+def test_equal_header_stamps_are_read_and_all_equal_refused(tmp_path, version):
+    # 75 scans/s on a 20 ms clock: header stamps step by 0 and 20 ms, read as
+    # written, in the order of the messages; a bag whose scans are all at one time
+    # is refused, naming it; a bag whose stamps decrease is refused, naming the scan
+    run = make_street_scans(40, random_state=4, name="clock")
+    stamps = 1.0 + np.floor(np.arange(40) / 75.0 / 0.02) * 0.02
+    ranges = run.scans.ranges()
+
+    def bag(name, t):
+        coarse = Run.from_arrays("clock", ranges, t, run.geometry, run.gt,
+                                 info={"speed": SPEED})
+        suffix = ".bag" if version == "ros1" else ""
+        return write_run_bag(coarse, tmp_path / f"{name}{suffix}", version=version)
+
+    read = list(open_run_stream(bag("coarse", stamps)))
+    assert [s.stamp for s in read] == pytest.approx(stamps.tolist(), abs=1e-9)
+    got = np.stack([s.ranges for s in read])  # float32 in the bag, in scan order
+    seen = np.isfinite(got)
+    assert seen.mean() > 0.5
+    assert np.allclose(got[seen], ranges[seen], atol=1e-5)
+    with pytest.raises(InputFormatError, match="same.*header stamps must span some "
+                                               r"time; all 40 scans are at t=2.0"):
+        list(open_run_stream(bag("same", np.full(40, 2.0))))

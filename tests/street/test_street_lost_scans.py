@@ -94,16 +94,81 @@ def test_the_bound_is_in_metres_not_scans():
 
 
 def test_a_stretch_lost_while_the_car_stands_is_no_length():
-    # the probe car stands (0 m/s) while 30 scans are lost: 0 m, linked
+    # the probe car stands (0 m/s before and after the stretch) while 150 scans
+    # are lost: 0 m, linked
     run = car_run()
     scans = list(run.scans)
     stand = [dataclasses.replace(r, stamp=r.stamp + (2.0 if i >= 30 else 0.0),
                                  scan=r.scan + (150 if i >= 30 else 0))
              for i, r in enumerate(scans)]
-    stand = [r.evolve(speed=0.0) if 25 <= i < 30 else r for i, r in enumerate(stand)]
+    stand = [r.evolve(speed=0.0) if 25 <= i < 35 else r for i, r in enumerate(stand)]
     est = ScanClusterer().fit(car_run().scans)
     det = est.detect(stand)
     assert (det["label"] == "parked").sum() == 1
+
+
+def started_during_the_stretch(extra):
+    """A 7.4 m body; the probe car reports 0 m/s in the 5 scans before scans 30 ..
+    48 are lost, and 11 m/s after them, whose numbers and stamps run on by
+    ``extra`` scans more (it started from a standstill while they were lost)."""
+    run = make_run([dict(CAR, s1=9.4)], ["parked"], n_scans=90, speed=SPEED)
+    kept = without(list(run.scans), 30, 19)
+    out = []
+    for i, r in enumerate(kept):
+        if i >= 30:
+            r = dataclasses.replace(r, scan=r.scan + extra,
+                                    stamp=r.stamp + extra / 75.0)
+        out.append(r.evolve(speed=0.0) if 25 <= i < 30 else r)
+    return out
+
+
+def test_a_stretch_over_a_start_from_a_standstill_is_as_long_as_driven():
+    # 38 scan periods (0.5 s) between the last scan before and the first after:
+    # from 0 to 11 m/s that is 0.5 s at 5.5 m/s, 2.7 m, beyond the 1.5 m bound:
+    # the objects end there.  The median of the recent speeds (4 of 0 m/s and
+    # one of 11) read it as 0 m and linked the two parts into one
+    est = ScanClusterer().fit(car_run().scans)  # the speeds the scans report
+    det = est.detect(started_during_the_stretch(18), all_objects=True)
+    near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+    assert len(near) == 2
+    assert sorted(near["last_scan"])[0] == 29
+    # 14 scan periods more (0.32 s at 5.5 m/s, 1.75 m): still beyond
+    det = est.detect(started_during_the_stretch(5), all_objects=True)
+    near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+    assert len(near) == 2
+    # with a fixed speed the stretch is 19 scans at 11 m/s (2.8 m): ends there too;
+    # 9 scans (1.3 m) are linked
+    fixed = fitted().set_params(speed=SPEED)
+    assert len(fixed.detect(without(list(car_run().scans), 25, 9), all_objects=True)
+               .query("4.0 < mean_depth < 6.0")) == 1
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_an_object_beside_a_stretch_gets_none_of_its_metres(where):
+    # 9 scans (1.3 m) lost right before the car's first scan (14) or right after
+    # its last (43): nothing of the car was seen there, so it is as long as seen
+    # whole.  The stretch's metres went to the scan after it, and so to a car
+    # starting there (5.7 m for 4.4 m; a 2.5 m stub could pass a length test)
+    run = car_run()
+    est = fitted()
+    whole = est.detect(run.scans)
+    ref = whole.loc[whole["label"] == "parked", "length"].iloc[0]
+    det = est.detect(without(list(run.scans), 5 if where == "before" else 44, 9))
+    parked = det[det["label"] == "parked"]
+    assert len(parked) == 1
+    assert parked["length"].iloc[0] == pytest.approx(ref, abs=0.05)
+
+
+def test_a_stub_after_a_stretch_is_not_lengthened_into_a_vehicle():
+    # a 1.0 m body right after 10 lost scans (1.47 m): 1.0 m seen, shorter than
+    # the shortest vehicle (1.5 m); with the stretch's metres it was 2.5 m
+    stub = make_run([dict(CAR, s0=2.0, s1=3.0)], ["parked"], n_scans=40, speed=SPEED)
+    est = fitted()
+    det = est.detect(without(list(stub.scans), 4, 10), all_objects=True)
+    near = det[(det["mean_depth"] > 4.0) & (det["mean_depth"] < 6.0)]
+    assert len(near) == 1
+    assert near["length"].iloc[0] < 1.5
+    assert (det["label"] != "parked").all()
 
 
 @functools.lru_cache(maxsize=1)

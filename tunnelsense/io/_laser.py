@@ -10,7 +10,8 @@ A run folder holds::
 No return may be written as NaN, +inf or a range ``>= range_max``: drivers differ, and
 all three are accepted.  Ranges are float metres; integer millimetres are read with
 ``range_unit="mm"``.  A run holds at least one scan of at least one beam, its stamps
-increase strictly, and the members of ``scans.npz`` are ``.npy`` arrays without
+never decrease (equal stamps, from a clock coarser than the scan period, are read as
+they are) and span some time, and the members of ``scans.npz`` are ``.npy`` arrays without
 Python objects (NumPy's ``np.savez`` writes such files).
 """
 
@@ -120,7 +121,8 @@ def read_run(path, *, range_unit="m", topic=None, mount_height=None, speed=None,
         least one scan and one beam, integer ranges read as metres, impossible
         geometry (``angle_increment`` 0, ``range_min < 0``,
         ``range_max <= range_min``, ``mount_height <= 0``, a field that is not one
-        finite number), stamps that are not finite numbers increasing strictly, an
+        finite number), stamps that are not finite numbers, decrease, or are all
+        equal (two scans or more), an
         ``angle_max`` that does not match the number of beams, or an ``info_json``
         that is not a UTF-8 JSON object; ``gt.csv`` is malformed.  The message
         names the file, and the field, member or line.

@@ -83,7 +83,13 @@ def check_ranges(npz_path, ranges, range_unit) -> None:
 
 
 def check_stamps(npz_path, stamps, n_scans) -> np.ndarray:
-    """Stamps as float64 seconds, finite and strictly increasing."""
+    """Stamps as float64 seconds, finite and non-decreasing, spanning some time.
+
+    Equal stamps are a clock coarser than the scan period (75 scans/s on a 20 ms
+    clock steps by 0 and 20 ms), which the street detector and the census read
+    as it is; stamps that decrease are scans out of order, and a run of two or
+    more scans all at one time has no time to turn scans into metres.
+    """
     if stamps.shape != (n_scans,):
         raise InputFormatError(
             f"{npz_path}: stamps must have shape ({n_scans},) to match ranges; "
@@ -96,12 +102,17 @@ def check_stamps(npz_path, stamps, n_scans) -> np.ndarray:
     stamps = _as_float64(stamps)
     if not np.all(np.isfinite(stamps)):
         raise InputFormatError(f"{npz_path}: stamps contain NaN or infinity")
-    bad = np.flatnonzero(np.diff(stamps) <= 0)
+    bad = np.flatnonzero(np.diff(stamps) < 0)
     if bad.size:
         i = int(bad[0]) + 1
         raise InputFormatError(
-            f"{npz_path}: stamps must increase strictly; scan {i} (t={float(stamps[i])!r}) "
-            f"does not come after scan {i - 1} (t={float(stamps[i - 1])!r})"
+            f"{npz_path}: stamps must not decrease; scan {i} (t={float(stamps[i])!r}) "
+            f"comes before scan {i - 1} (t={float(stamps[i - 1])!r})"
+        )
+    if n_scans > 1 and stamps[-1] == stamps[0]:
+        raise InputFormatError(
+            f"{npz_path}: stamps must span some time; all {n_scans} scans are at "
+            f"t={float(stamps[0])!r}"
         )
     return stamps
 

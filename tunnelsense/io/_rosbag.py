@@ -11,7 +11,9 @@ topic ``/tunnelsense/mount_height`` (``std_msgs/Float64``).  Nor does it say how
 the vehicle drives, which turns scan counts into lengths: pass ``speed``, or record a
 ``nav_msgs/Odometry`` or ``geometry_msgs/TwistStamped`` topic beside the scans (the
 speed at each scan is interpolated in time from its messages).  Scans are numbered
-from 0 in the order of their header stamps, which must increase strictly.
+from 0 in the order of their messages; their header stamps must not decrease (equal
+stamps, from a clock coarser than the scan period, are read as they are) and must
+span some time.
 """
 
 from __future__ import annotations
@@ -95,7 +97,7 @@ class BagRun:
     def __iter__(self):
         AnyReader, _, _ = _rosbags()
         g = self.geometry
-        last = None
+        first = last = None
         with AnyReader([self.path]) as reader:
             connections = [c for c in reader.connections if c.topic == self.topic]
             for k, (conn, _, raw) in enumerate(reader.messages(connections=connections)):
@@ -103,12 +105,18 @@ class BagRun:
                 stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
                 ranges = np.asarray(msg.ranges)
                 _check_message(self.path, k, msg, ranges, g, stamp, last)
+                first = stamp if first is None else first
                 last = stamp
                 limit = np.float32(g.range_max)
                 ranges = np.where(ranges >= limit, np.inf, ranges).astype(np.float64)
                 speed = self.speed_at(stamp)
                 yield ScanRecord(self.name, k, ranges, float(stamp), g,
                                  {} if speed is None else {"speed": speed})
+        if last is not None and k > 0 and last == first:
+            raise InputFormatError(
+                f"{self.path}: header stamps must span some time; all {k + 1} scans "
+                f"are at t={first!r}"
+            )
 
 
 def _check_message(path, k, msg, ranges, g, stamp, last):
@@ -120,10 +128,10 @@ def _check_message(path, k, msg, ranges, g, stamp, last):
             f"{path}: scan {k} has another beam layout ({len(ranges)} ranges from "
             f"{msg.angle_min:.4f} rad by {msg.angle_increment:.5f}) than the first scan"
         )
-    if not np.isfinite(stamp) or (last is not None and stamp <= last):
+    if not np.isfinite(stamp) or (last is not None and stamp < last):
         raise InputFormatError(
-            f"{path}: header stamps must increase strictly; scan {k} (t={stamp!r}) "
-            f"does not come after scan {k - 1} (t={last!r})"
+            f"{path}: header stamps must be finite and not decrease; scan {k} "
+            f"(t={stamp!r}) comes before scan {k - 1} (t={last!r})"
         )
 
 

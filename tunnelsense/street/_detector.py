@@ -313,11 +313,14 @@ class ScanClusterer(_ScanClustererOutputs, _ScanClustererParams):
         2.5 scan periods or more (less is stamp jitter) - across which the
         objects of the scans on either side are linked as if the scans followed
         each other (beyond the paper).  A missing stretch is no evidence, not an
-        empty street: its length is the ego speed (the recent speeds' median, which
-        lags a start from a standstill by a few scans) times the time it lasted
-        (0 m while the car stands, whatever the number of scans), and it is given
-        to the scan after it: it counts to the length of an object across it, and
-        also to that of an object whose first scan follows the stretch.  The default is ``min_length``'s 1.5 m, the shortest
+        empty street: its length is the time it lasted times the mean of the
+        speeds reported by the scans on both sides of it (0 m while the car
+        stands on both sides, whatever the number of scans; a start from a
+        standstill during it, at a steady acceleration, exactly; a running
+        median of the recent speeds would lag such a start); with ``speed``
+        given, that speed.  Its metres count to the length of an object seen on
+        both sides (linked across it), not to one that ends right before it or
+        starts right after it.  The default is ``min_length``'s 1.5 m, the shortest
         vehicle: a longer stretch could hold a whole motorbike or the whole gap
         between two vehicles, so objects end there (the parts on either side are
         not cut by the data: each is tested on what was seen of it).  Two vehicles

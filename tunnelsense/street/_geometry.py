@@ -25,6 +25,8 @@ from tunnelsense.street._roi import roi_mask
 __all__ = [
     "DEFAULT_SCAN_PERIOD",
     "DEFAULT_SPEED",
+    "across_lost",
+    "forward_fill",
     "HORIZON_STEP",
     "History",
     "horizon",
@@ -118,6 +120,42 @@ def running_period(history, values, window=HISTORY):
     return np.where(k > 0, total / np.maximum(k, 1), np.nan)
 
 
+def forward_fill(values):
+    """Every NaN replaced by the last finite value before it (NaN before any).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import forward_fill
+    >>> forward_fill(np.array([np.nan, 2.0, np.nan, 3.0])).tolist()
+    [nan, 2.0, 2.0, 3.0]
+    """
+    values = np.asarray(values, dtype=np.float64)
+    known = np.where(np.isfinite(values), np.arange(len(values)), 0)
+    return values[np.maximum.accumulate(known)] if len(values) else values
+
+
+def across_lost(before, after):
+    """Ego speed (m/s) over a stretch of lost scans: the mean of the speed reported
+    by the scan before it and by the scan after it.
+
+    The scans' own reports, not their running medians: a median over the scans
+    before lags a start (or a stop) during the lost scans, and gives a car that
+    stood before the stretch and drives after it no metres over it.  Under a
+    steady acceleration the mean is exact; a single noisy report moves a stretch
+    of at most ``max_missing_length`` by half its noise.  NaN where either is
+    unknown (the detector then takes the scan's running speed).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import across_lost
+    >>> across_lost(np.array([0.0, 11.0]), np.array([8.0, 11.0])).tolist()
+    [4.0, 11.0]
+    """
+    return (np.asarray(before, float) + np.asarray(after, float)) / 2
+
+
 class History:
     """The recent scan periods, ego speeds and tilts of one run (causal medians)."""
 
@@ -127,7 +165,9 @@ class History:
         self.tilts = np.empty(0)  # known tilts only
         self.kerbs = np.empty(0)  # known kerb depths only
         self.last_speed = np.nan  # the last scan's speed that was known
+        self.last_reported = np.nan  # the last speed a scan reported (not a median)
         self.period = np.empty(0)  # scan period (s) of the last new scans
+        self.across = np.empty(0)  # speed (m/s) over lost scans before the new ones
 
     def steps(self, periods, speeds, counts=None):
         """Metres travelled per scan: the scan's own speed x the recent period.
@@ -141,7 +181,8 @@ class History:
         known one.  NaN where no speed is known yet (none given, none before).
         ``counts`` (optional, per new scan) is how many scan numbers its stamp
         difference spans (more than one after missing scans); the period
-        (:func:`running_period`) of every new scan is kept in ``period``.
+        (:func:`running_period`) of every new scan is kept in ``period``, and in
+        ``across`` the speed over scans lost right before it (:func:`across_lost`).
 
         Examples
         --------
@@ -158,8 +199,13 @@ class History:
         self.period = np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds
-        if not np.isscalar(speeds):
+        if np.isscalar(speeds):
+            self.across = np.full(len(periods), float(speeds))
+        else:
             speeds = np.where(np.isfinite(speeds) & (speeds >= 0), speeds, np.nan)
+            reported = forward_fill(np.concatenate([[self.last_reported], speeds]))
+            self.last_reported = reported[-1]
+            across = across_lost(reported[:-1], reported[1:])
             speed = running_median(self.speeds, speeds, window=SPEED_WINDOW)
             self.speeds = np.concatenate([self.speeds, speeds])[-SPEED_WINDOW:]
             for i in range(len(speed)):  # unknown: the last known speed
@@ -167,6 +213,7 @@ class History:
                     self.last_speed = speed[i]
                 else:
                     speed[i] = self.last_speed
+            self.across = np.where(np.isfinite(across), across, speed)
         return speed * self.period
 
     def fill_tilts(self, tilts):

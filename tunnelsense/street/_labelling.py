@@ -82,9 +82,10 @@ class _Labelling:
         region_depth, reaching = self._region_depth(objects, clusters, prof,
                                                     reaching=True)
         self.object_id[clusters] = -1  # final, waiting for its id
-        cum, follows = self.cum, self.follows
+        follows = self.follows
         for o in range(prof.n):
             first, last = int(prof.first[o]), int(prof.last[o])
+            cum = self.metres_from(first)  # lost scans right before it are not its
             mean_depth = float(prof.depth[o])
             before = after = 0
             hidden_length, cut = 0.0, False
@@ -134,6 +135,7 @@ class _Labelling:
                         + (cum[last + 1 + hi] - cum[last + 1]), **vehicle_test)
                     if vehicle:
                         first, last = first - lo, last + hi
+                        cum = self.metres_from(first)
             # a wall, fence or facade (no vehicle): vehicles in front are carved out
             whole = bool(est.carve_protrusions
                          and cum[last + 1] - cum[first] > est.van_length
@@ -203,7 +205,7 @@ class _Labelling:
         raised body in less than ``min_raised_fraction`` of that face's length
         (:func:`~tunnelsense.street._carving.flat_face`); ``flat_by_ground``: its
         lowest point raised (:meth:`_raised_scans`) behind the parking lane."""
-        est, cum = self.est, self.cum
+        est, cum = self.est, self.metres_from(first)
         near = scan_near_side(pos, self.side[mine], first, last)
         face, runs = protrusions(near, est.link_distance, cum[first:last + 2],
                                  est.max_length, ends=True, quantile=WALL_QUANTILE)
@@ -238,7 +240,8 @@ class _Labelling:
         raised, gap = lowest_marks(points, beams, scan, under,
                                    np.isin(cluster, mine), last - first + 1,
                                    est.min_clearance, float(self.resolution(face)))
-        gap = long_runs(gap, np.diff(self.cum[first:last + 2]), est.min_gap_length,
+        gap = long_runs(gap, np.diff(self.metres_from(first)[first:last + 2]),
+                        est.min_gap_length,
                         est.min_gap_scans)
         return (raised | gap).astype(np.int64)
 
@@ -251,7 +254,7 @@ class _Labelling:
         est = self.est
         if (est.min_across_length is None and not whole) or last - first < 2:
             return []
-        cum = self.cum
+        cum = self.metres_from(first)
         near = scan_near_side(pos, self.side[mine], first, last)
         face, runs = protrusions(
             near, est.link_distance, cum[first:last + 2],

@@ -52,7 +52,8 @@ class _Release:
             self.rows.append((
                 self.name, next_id, int(self.scans[first - base]),
                 int(self.scans[last - base]), label, q["depth"], q["region"] + 1,
-                float(cum[last - base + 1] - cum[first - base]), q["top"],
+                float(cum[last - base + 1] - cum[first - base] - self.gap[first - base]),
+                q["top"],
                 q["n_points"], kind))
             code = RUN_LABELS.get(label)
             if code is not None:

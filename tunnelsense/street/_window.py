@@ -106,6 +106,7 @@ class ScanWindow:
         self.follows = np.empty(0, bool)
         self.near = np.empty(0)  # mean depth of the nearest cluster
         self.cum = np.zeros(1)  # cum[p]: metres from the run's start to scan p
+        self.gap = np.empty(0)  # metres of lost scans linked across before scan p
         self.tilt = np.empty(0)
         self.kerb = np.empty(0)  # kerb depth at every scan (NaN: not yet known)
         self.horizon = np.empty((0, 0))  # per scan and depth: see ``horizon``
@@ -167,25 +168,28 @@ class ScanWindow:
     def _missing(self, periods, counts, unit):
         """Whether every new scan follows the previous one (directly, or across a
         stretch of missing scans at most ``max_missing_length`` metres long), and
-        its step (m): ``unit`` (one scan) times the scans it advances when it
-        follows across missing ones (the missing metres count to it).  Scans are
-        missing where the scan numbers jump (the numbers then win over the
-        stamps), or where the stamps do by ``STAMP_GAP`` scan periods or more while
-        the numbers do not (a recorder that numbers what it received).  A stretch's
-        metres are the unit of the scan after it (the running median of the recent
-        speeds, which lags a start from a standstill by a few scans) times the scans
-        it spans."""
+        the metres of such a stretch before it (0 where none).  Scans are missing
+        where the scan numbers jump (the numbers then win over the stamps), or
+        where the stamps do by ``STAMP_GAP`` scan periods or more while the
+        numbers do not (a recorder that numbers what it received).  A stretch's
+        metres are the speed over it (:func:`~tunnelsense.street._geometry.across_lost`:
+        the mean of the speeds reported on both sides) times the scan period
+        times the scans it spans; ``unit`` (one scan's metres) only where no
+        speed is known."""
         period = self.history.period
         with np.errstate(invalid="ignore"):
             by_stamp = np.where((counts == 1) & (periods >= STAMP_GAP * period),
                                 np.rint(periods / period), 1.0)
         elapsed = np.maximum(counts, by_stamp)
+        lost = elapsed > 1
+        metres = np.where(lost, self.history.across * period * (elapsed - 1), 0.0)
+        metres = np.where(np.isfinite(metres), metres, unit * (elapsed - 1))
         bound = self.est.max_missing_length
         follows = elapsed == 1
         if bound is not None:
-            follows |= (elapsed > 1) & (unit * (elapsed - 1) <= bound + 1e-9)
+            follows |= lost & (metres <= bound + 1e-9)
         follows &= counts > 0
-        return follows, np.where(follows, unit * elapsed, unit)
+        return follows, np.where(follows & lost, metres, 0.0)
 
     def ingest(self, block):
         """Restore, cluster and link a block of consecutive scans of the run."""
@@ -198,7 +202,8 @@ class ScanWindow:
         else:
             speeds = np.array([float(r.payload.get("speed", np.nan)) for r in block])
         step = self.history.steps(periods, speeds, np.maximum(counts, 1))
-        follows, step = self._missing(periods, counts, step)
+        follows, gap = self._missing(periods, counts, step)
+        step = step + gap  # the metres of a stretch linked across count to its end
         if not np.all(np.isfinite(step)):
             i = int(np.flatnonzero(~np.isfinite(step))[0])
             raise ValueError(
@@ -296,6 +301,7 @@ class ScanWindow:
         self.follows = concat(self.follows, follows)
         self.near = concat(self.near, near)
         self.cum = concat(self.cum, np.cumsum(concat(self.cum[-1], step))[1:])
+        self.gap = concat(self.gap, gap)
         self.tilt = concat(self.tilt, roi.tilt)
         self.kerb = concat(self.kerb, self.history.fill_kerbs(roi.kerb))
         self.horizon = (roi.horizon if not len(self.horizon)
@@ -314,6 +320,18 @@ class ScanWindow:
         self.links = (concat(self.links[0], absolute[earlier]),
                       concat(self.links[1], absolute[later]))
         self.n_seen += n
+
+    def metres_from(self, first):
+        """``cum`` as an object whose first scan is window position ``first`` sees
+        it: the metres of lost scans right before that scan (``gap``), which count
+        to its own stretch in ``cum``, are not the object's.  Nothing of it was
+        seen there: only an object seen on both sides of a stretch (linked across
+        it) spans its metres."""
+        if not self.gap[first] > 0:
+            return self.cum
+        cum = self.cum.copy()
+        cum[first] += self.gap[first]
+        return cum
 
     def resolution(self, depth):
         """Depth and height resolution (m) of the beams at ``depth``: two beam
@@ -338,7 +356,7 @@ class ScanWindow:
         del self.records[:d]
         del self.payload[:d]
         del self.under[:d]
-        for name in ("scans", "follows", "near", "cum", "tilt", "kerb", "horizon",
+        for name in ("scans", "follows", "near", "cum", "gap", "tilt", "kerb", "horizon",
                      "n_clusters",
                      "first_cluster"):
             setattr(self, name, getattr(self, name)[d:])
