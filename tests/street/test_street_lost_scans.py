@@ -217,13 +217,16 @@ def test_lost_scans_any_chunking_equals_batch():
         assert [row for r in out for row in r.payload["finished_objects"]] == rows
 
 
-@pytest.mark.parametrize("jitter, clock", [(0.45, None), (None, 0.01), (0.45, 0.01)])
+@pytest.mark.parametrize("jitter, clock", [(0.45, None), (None, 0.01), (0.45, 0.01),
+                                           (None, 0.03), (None, 0.04), (None, 0.05)])
 def test_stamps_that_jitter_or_come_from_a_coarse_clock_lose_no_scan(jitter, clock):
     # host-time stamps up to 0.45 periods early or late (differences up to 1.9
     # periods), and/or on a 10 ms clock (differences of 0.75 and 1.5 periods; 0 to
-    # 2.25 with the jitter); no scan is lost, so the detections are those of exact
-    # stamps: the same vehicles, as long within 2 % (a median of the stamp
-    # differences read the 10 ms clock as the period: every length 24 % short)
+    # 2.25 with the jitter), or on a clock of several periods (30-50 ms: differences
+    # of 0 and 2.25-3.75 periods); no scan is lost, so the detections are those of
+    # exact stamps: the same vehicles, as long within 2 % (a median of the stamp
+    # differences read the 10 ms clock as the period: every length 24 % short; a
+    # 40 ms clock's differences were all read as lost scans and nothing was found)
     est, run = simulated()
     rng = np.random.default_rng(2)
     period = 1.0 / 75.0

@@ -87,17 +87,41 @@ def running_median(history, values, window=HISTORY):
 STAMP_GAP = 2.5
 
 
-def running_period(history, values, window=HISTORY):
+def running_tick(history, values, window=HISTORY):
+    """The typical step of the stamps for every new stamp difference: the median of
+    the positive ones among the last ``window`` (history then values); NaN where
+    there is none.
+
+    It is the scan period for stamps that follow the scans, and the clock's step for
+    a clock coarser than the period (at 75 scans/s a 40 ms clock gives differences of
+    0, 0 and 40 ms): a difference of a few such steps is then no lost scan.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import running_tick
+    >>> running_tick(np.empty(0), np.array([0.0, 0.0, 0.04, 0.0, 0.0, 0.04])).tolist()
+    [nan, nan, 0.04, 0.04, 0.04, 0.04]
+    """
+    with np.errstate(invalid="ignore"):
+        return running_median(np.where(history > 0, history, np.nan),
+                              np.where(values > 0, values, np.nan), window)
+
+
+def running_period(history, values, window=HISTORY, tick=None):
     """The scan period for every new stamp difference: the mean of the finite ones
     among the last ``window`` (history then values), leaving out those of
-    ``STAMP_GAP`` times the mean of all or more (a gap over lost scans); NaN where
-    there is none.
+    ``STAMP_GAP`` times the mean of all, or of the stamps' step (``tick``, by default
+    :func:`running_tick`), whichever is larger, or more (a gap over lost scans); NaN
+    where there is none.
 
     A median reads a clock coarser than the period wrong: at 75 scans/s stamps on
     a 10 ms clock differ by 10 ms twice and 20 ms once (and by 0 or 30 ms when they
     also jitter), whose median is 10 ms where the period is 13.3 ms, and every
     length would be a quarter short.  The mean is right for such a clock and for
-    stamps that jitter: the time between two stamps is spread over the scans.
+    stamps that jitter: the time between two stamps is spread over the scans.  On a
+    clock of several periods (differences of 0 and 40 ms) the stamps' step keeps
+    its own differences in the mean, which would otherwise be 0.
 
     Examples
     --------
@@ -108,13 +132,17 @@ def running_period(history, values, window=HISTORY):
     array([0.01  , 0.015 , 0.0133, 0.0125, 0.014 , 0.0133])
     >>> running_period(np.full(5, 0.01), np.array([0.2]), window=6)  # a gap
     array([0.01])
+    >>> round(float(running_period(np.empty(0), np.tile([0.0, 0.0, 0.04], 3))[-1]), 4)
+    0.0133
     """
+    if tick is None:
+        tick = running_tick(history, values, window)
     win = _windows(history, values, window)
     finite = np.isfinite(win)
     n = finite.sum(axis=1)
     mean = np.where(finite, win, 0.0).sum(axis=1) / np.maximum(n, 1)
     with np.errstate(invalid="ignore"):
-        near = finite & (win < STAMP_GAP * mean[:, None])
+        near = finite & (win < STAMP_GAP * np.fmax(mean, tick)[:, None])
     k = near.sum(axis=1)
     total = np.where(near, win, 0.0).sum(axis=1)
     return np.where(k > 0, total / np.maximum(k, 1), np.nan)
@@ -167,6 +195,7 @@ class History:
         self.last_speed = np.nan  # the last scan's speed that was known
         self.last_reported = np.nan  # the last speed a scan reported (not a median)
         self.period = np.empty(0)  # scan period (s) of the last new scans
+        self.gap = np.empty(0)  # their stamp differences (s) from which scans are lost
         self.across = np.empty(0)  # speed (m/s) over lost scans before the new ones
 
     def steps(self, periods, speeds, counts=None):
@@ -195,8 +224,10 @@ class History:
         if counts is not None:  # a stamp difference over several scan numbers
             periods = periods / counts
         periods = np.where(np.isfinite(periods) & (periods >= 0), periods, np.nan)
-        period = running_period(self.periods, periods)
+        tick = running_tick(self.periods, periods)
+        period = running_period(self.periods, periods, tick=tick)
         self.period = np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD)
+        self.gap = STAMP_GAP * np.fmax(self.period, tick)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds
         if np.isscalar(speeds):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
-from tunnelsense.street._geometry import DEFAULT_SPEED, STAMP_GAP, History, roi_points
+from tunnelsense.street._geometry import DEFAULT_SPEED, History, roi_points
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
@@ -170,15 +170,16 @@ class ScanWindow:
         stretch of missing scans at most ``max_missing_length`` metres long), and
         the metres of such a stretch before it (0 where none).  Scans are missing
         where the scan numbers jump (the numbers then win over the stamps), or
-        where the stamps do by ``STAMP_GAP`` scan periods or more while the
-        numbers do not (a recorder that numbers what it received).  A stretch's
-        metres are the speed over it (:func:`~tunnelsense.street._geometry.across_lost`:
+        where the stamps do by ``STAMP_GAP`` scan periods (or steps of a clock
+        coarser than the period, :func:`~tunnelsense.street._geometry.running_tick`)
+        or more while the numbers do not (a recorder that numbers what it
+        received).  A stretch's metres are the speed over it (:func:`~tunnelsense.street._geometry.across_lost`:
         the mean of the speeds reported on both sides) times the scan period
         times the scans it spans; ``unit`` (one scan's metres) only where no
         speed is known."""
         period = self.history.period
         with np.errstate(invalid="ignore"):
-            by_stamp = np.where((counts == 1) & (periods >= STAMP_GAP * period),
+            by_stamp = np.where((counts == 1) & (periods >= self.history.gap),
                                 np.rint(periods / period), 1.0)
         elapsed = np.maximum(counts, by_stamp)
         lost = elapsed > 1
