@@ -97,26 +97,43 @@ class BagRun:
     def __iter__(self):
         AnyReader, _, _ = _rosbags()
         g = self.geometry
-        first = last = None
+        last = None
         with AnyReader([self.path]) as reader:
             connections = [c for c in reader.connections if c.topic == self.topic]
+            _check_span(self.path, reader, connections)  # before any scan is given
             for k, (conn, _, raw) in enumerate(reader.messages(connections=connections)):
                 msg = reader.deserialize(raw, conn.msgtype)
-                stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+                stamp = _stamp(msg)
                 ranges = np.asarray(msg.ranges)
                 _check_message(self.path, k, msg, ranges, g, stamp, last)
-                first = stamp if first is None else first
                 last = stamp
                 limit = np.float32(g.range_max)
                 ranges = np.where(ranges >= limit, np.inf, ranges).astype(np.float64)
                 speed = self.speed_at(stamp)
                 yield ScanRecord(self.name, k, ranges, float(stamp), g,
                                  {} if speed is None else {"speed": speed})
-        if last is not None and k > 0 and last == first:
-            raise InputFormatError(
-                f"{self.path}: header stamps must span some time; all {k + 1} scans "
-                f"are at t={first!r}"
-            )
+
+
+def _stamp(msg) -> float:
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+
+
+def _check_span(path, reader, connections):
+    """Refuse a bag whose scans all have one stamp, reading its messages only until
+    a stamp differs from the first (two messages in a bag of any other kind)."""
+    first, n = None, 0
+    for conn, _, raw in reader.messages(connections=connections):
+        stamp = _stamp(reader.deserialize(raw, conn.msgtype))
+        n += 1
+        if first is None:
+            first = stamp
+        elif stamp != first:
+            return
+    if n > 1:
+        raise InputFormatError(
+            f"{path}: header stamps must span some time; all {n} scans are at "
+            f"t={first!r}"
+        )
 
 
 def _check_message(path, k, msg, ranges, g, stamp, last):
@@ -128,10 +145,13 @@ def _check_message(path, k, msg, ranges, g, stamp, last):
             f"{path}: scan {k} has another beam layout ({len(ranges)} ranges from "
             f"{msg.angle_min:.4f} rad by {msg.angle_increment:.5f}) than the first scan"
         )
-    if not np.isfinite(stamp) or (last is not None and stamp < last):
+    if not np.isfinite(stamp):
+        raise InputFormatError(f"{path}: header stamps must be finite; scan {k} is at "
+                               f"t={stamp!r}")
+    if last is not None and stamp < last:
         raise InputFormatError(
-            f"{path}: header stamps must be finite and not decrease; scan {k} "
-            f"(t={stamp!r}) comes before scan {k - 1} (t={last!r})"
+            f"{path}: header stamps must not decrease; scan {k} (t={stamp!r}) comes "
+            f"before scan {k - 1} (t={last!r})"
         )
 
 
