@@ -8,8 +8,9 @@ cluster is an indicator iff its appearance label is positive, its trajectory is 
 least ``min_length`` long (or, optionally, shorter but showing an approach of
 ``min_approach``), ``|r| >= min_r`` (or, optionally, its rectangles show a steady
 approach, ``min_scale_r``; and, optionally, it travels at least ``min_travel`` times
-its own size, and its path traces back near the frame's middle,
-``max_focus_offset``); a trajectory is positive when more than ``vote`` (80 %) of the
+its own size, its path traces back near the frame's middle,
+``max_focus_offset``, and it does not head for the middle from far off,
+``max_inward_offset``); a trajectory is positive when more than ``vote`` (80 %) of the
 decisions it connects are positive.  The path measures are in
 :mod:`tunnelsense.tunnel._pcc_measures`, the stream state in
 :mod:`tunnelsense.tunnel._pcc_stream`.
@@ -34,11 +35,15 @@ from tunnelsense._payload import (
 )
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense._streaming import StreamingMixin
+from tunnelsense.tunnel._pcc_measures import inward_offset
 from tunnelsense.tunnel._pcc_stream import (
+    _NO_TOUR,
     PCCStream,
+    _Trajectory,
     curve_fit_r,
     focus_offset,
     frame_payload,
+    frame_size,
     motion_fit_r,
     pearson_r,
     straightness,
@@ -65,7 +70,8 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
     A cluster is an **indicator** iff its appearance label is positive, its
     trajectory has at least ``min_length`` clusters and ``|r| >= min_r`` (or, with
     ``min_scale_r``, a steady approach; with ``max_focus_offset``, its path's line
-    must also pass near the frame's centre).  The
+    must also pass near the frame's centre; with ``max_inward_offset``, it must
+    not head for the centre from far off).  The
     decision uses the whole trajectory, so it is final once the trajectory has ended
     (an online system reports it with that delay).  A **trajectory is positive** when
     more than ``vote`` of its clusters are indicators.  The detections are the clusters
@@ -186,6 +192,30 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         ``min_travel`` and the vote still apply.  ``None`` checks nothing.  The
         frame's size is read from the first frame of each tour (an image file is
         decoded for it when no stage before has).
+    max_inward_offset : float or None, default=None
+        Largest distance from the frame's centre, in units of half the frame's
+        width and height, at which a trajectory heading for the centre may still
+        be an indicator
+        (:func:`~tunnelsense.tunnel._pcc_measures.inward_offset`: its mean centre
+        projected on its direction of motion, from its first third to its last,
+        negated).  An object the camera approaches grows and moves away from the
+        focus of expansion; a vehicle ahead that pulls away (its warm wheels,
+        exhaust or lights) shrinks toward it, along as straight a line through
+        the focus, and travels as far, as a sign does.  Relative to a focus ``F``
+        an approached object's inward offset is below ``|F|``, the focus's own
+        offset from the centre (the camera's yaw and pitch), whatever its speed:
+        a sign seen from a crawling queue heads outward as surely, only more
+        slowly; a sign the camera backs away from heads inward and is refused.
+        A limit ``m`` refuses no sign of a camera pointing less than ``atan(m W
+        / (2 f))`` off the direction of travel across and ``atan(m H / (2 f))``
+        up or down; 0.3 (the default detector's): 7.8 and 5.9 degrees with a 700
+        px lens at 640 x 480 (3.7 and 2.8 with 1500 px); a vehicle's part pulling
+        away is refused unless it stays that near the centre.
+        Near the centre nothing is refused: a far sign's short path may point
+        anywhere there.  A ratio of lengths in the image, the same at any
+        resolution, frame rate and speed; the other checks still apply.
+        ``None`` checks nothing.  The frame's size is read from the first frame
+        of each tour.
     frame_rate : float or None, default=30.0
         The frame rate (frames per second) ``min_length`` is counted in.  A tour's
         frames carry its frame rate (``payload["frame_rate"]``, set by
@@ -226,12 +256,14 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "frame_rate": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "min_scale_r": [Interval(numbers.Real, 0, 1, closed="right"), None],
         "max_focus_offset": [Interval(numbers.Real, 0, None, closed="left"), None],
+        "max_inward_offset": [Interval(numbers.Real, 0, None, closed="left"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
                  min_travel=0.0, min_approach=None, min_scale_r=None,
-                 max_focus_offset=None, frame_rate=30.0):
+                 max_focus_offset=None, max_inward_offset=None, frame_rate=30.0):
         self.frame_rate = frame_rate
+        self.max_inward_offset = max_inward_offset
         self.max_focus_offset = max_focus_offset
         self.min_scale_r = min_scale_r
         self.min_approach = min_approach
@@ -259,7 +291,9 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         return records
 
     def _stream_state(self, *, batch=False):
-        return PCCStream(self, release=not batch)
+        if getattr(self, "max_inward_offset", None) is None:  # older models: none
+            return PCCStream(self, release=not batch)
+        return _OutwardStream(self, release=not batch)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -333,3 +367,31 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         [(1, (1, 6)), (2, (1, 6)), (3, (1, 6))]
         """
         return super().start_stream()
+
+
+class _OutwardStream(PCCStream):
+    """:class:`PCCStream` that also refuses a trajectory heading for the frame's
+    centre from farther than ``max_inward_offset`` (no cluster of it an indicator)."""
+
+    def __init__(self, verifier, *, release=True):
+        super().__init__(verifier, release=release)
+        self.max_inward_offset = float(verifier.max_inward_offset)
+        self.inward_size = None  # (width, height) of the tour's frames
+
+    def _push(self, record):
+        out = []
+        if record.tour != self.tour:  # the last tour's trajectories, in its size
+            out = self._close()
+            self.tour = _NO_TOUR
+            self.inward_size = frame_size(record)
+        return out + super()._push(record)
+
+    def _decide(self, traj):
+        if (len(traj.xs) > 1 and inward_offset(traj.xs, traj.ys, *self.inward_size)
+                > self.max_inward_offset):
+            refused = _Trajectory()
+            refused.ts, refused.xs, refused.ys, refused.hs = traj.ts, traj.xs, traj.ys, traj.hs
+            refused.members = traj.members
+            refused.app = [False] * len(traj.app)
+            traj = refused
+        super()._decide(traj)

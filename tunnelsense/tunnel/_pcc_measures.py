@@ -4,7 +4,8 @@
 centres fit a line, :func:`curve_fit_r` and :func:`motion_fit_r` a quadratic path
 or motion, :func:`path_travel` and :func:`approach_fraction` how far it travels and
 how much of its range the camera covers, :func:`approach_r` how steadily its
-rectangles grow, :func:`focus_offset` where its path comes from.  Array in, number out.
+rectangles grow, :func:`focus_offset` where its path comes from,
+:func:`inward_offset` whether it heads for the focus.  Array in, number out.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ __all__ = [
     "approach_r",
     "curve_fit_r",
     "focus_offset",
+    "inward_offset",
     "motion_fit_r",
     "path_travel",
     "pearson_r",
@@ -83,8 +85,13 @@ def curve_fit_r(x, y) -> float:
     close to 1 where a line fits it ever worse the longer the trajectory; as with
     Pearson's r, a vehicle ahead that jitters in place, or drifts up and down the
     image while keeping its column (approaching, receding), gets ``R`` far from 1,
-    because neither coordinate is a function of the other.  0 for fewer than four
-    points or when a coordinate does not vary.
+    because neither coordinate is a function of the other.  A parabola passes
+    exactly through any three points, so each way round the fit counts only when
+    the abscissa takes at least four distinct values: a cluster hopping between
+    two or three fixed spots (stuck pixels near one another, linked into one
+    trajectory) is no path, however exactly a parabola joins its spots.  0 for
+    fewer than four points, fewer than four distinct values of both coordinates,
+    or when a coordinate does not vary.
 
     Examples
     --------
@@ -95,6 +102,8 @@ def curve_fit_r(x, y) -> float:
     >>> a = np.arange(8) * np.pi / 4  # points around a circle: no path
     >>> round(curve_fit_r(np.cos(a), np.sin(a)), 3)
     0.0
+    >>> curve_fit_r([331., 331, 319, 331, 318, 319], [258., 258, 258, 258, 252, 258])
+    0.0
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
@@ -102,6 +111,8 @@ def curve_fit_r(x, y) -> float:
         return 0.0
     best = 0.0
     for u, v in ((x, y), (y, x)):
+        if len(np.unique(u)) < 4:  # a parabola joins any three spots exactly
+            continue
         u = u - u.mean()
         v = v - v.mean()
         scale = float(np.abs(u).max())
@@ -321,3 +332,48 @@ def focus_offset(x, y, width, height) -> float:
     _, vecs = np.linalg.eigh(cov)
     eu, ev = vecs[:, 1]  # the principal direction
     return float(abs(mu * ev - mv * eu))
+
+
+def inward_offset(x, y, width, height) -> float:
+    """How far a trajectory still is from the frame's centre as it heads for it:
+    the mean of its centres projected on its direction of motion, negated, in
+    units of half the frame's ``width`` and ``height`` (0 at the centre, 1 on the
+    border).
+
+    The direction of motion is that from the mean centre of its first third to
+    that of its last third (as in :func:`path_travel`).  An object the camera
+    approaches moves away from the focus of expansion: relative to a focus at
+    ``F`` its motion ``D`` and its place ``P`` have ``D . (P - F) > 0``, so its
+    inward offset is below ``-D . F / |D|``, at most the focus's own offset from
+    the centre (the camera's yaw and pitch, ``f tan(yaw) / (width / 2)``; a sign
+    near the focus, far away, may head for the frame's centre while it leaves the
+    focus).  An object the camera falls behind (a vehicle ahead pulling away, its
+    warm wheels or exhaust) shrinks toward the focus: its inward offset is about
+    its distance from the focus, up to 1 and more at the frame's border.  One that
+    keeps its distance keeps its place (:func:`path_travel`).  Negative for a path
+    moving outward; 0 for fewer than two points or a path whose thirds coincide.
+    A ratio of lengths in the image, the same at any resolution, frame rate and
+    speed.
+
+    Examples
+    --------
+    >>> z = np.array([60.0, 40, 30, 20, 12])  # a sign 4 m left, 0.3 m up: outward
+    >>> round(inward_offset(320 - 700 * 4 / z, 240 - 700 * 0.3 / z, 640, 480), 3)
+    -0.366
+    >>> z = z[::-1]  # a tail light 1 m right, 0.5 m down, pulling away: inward
+    >>> round(inward_offset(320 + 700 * 1 / z, 240 + 700 * 0.5 / z, 640, 480), 2)
+    0.11
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    n = len(x)
+    if n < 2:
+        return 0.0
+    u = (x - width / 2) / (width / 2)
+    v = (y - height / 2) / (height / 2)
+    k = max(n // 3, 1)
+    du, dv = u[-k:].mean() - u[:k].mean(), v[-k:].mean() - v[:k].mean()
+    norm = float(np.hypot(du, dv))
+    if norm <= 1e-12:
+        return 0.0
+    return float(-(u.mean() * du + v.mean() * dv) / norm)

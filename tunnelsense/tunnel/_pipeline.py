@@ -104,6 +104,14 @@ PIPELINE_DEFAULTS = {
     # 7.3 with 1500 px); signs on every simulated condition passed within 0.25, a
     # grey-scale bar at the right edge lies at 0.97
     "motion__max_focus_offset": 0.8,
+    # an approached object grows and moves away from the focus of expansion; the
+    # warm parts of a vehicle pulling away shrink toward it, along a line through
+    # it: a trajectory heading for the frame's centre from farther than 0.3 of
+    # the half frame is no indicator (a focus up to atan(0.3 W / (2 f)) off the
+    # axis across, atan(0.3 H / (2 f)) up or down: 7.8 and 5.9 degrees with a
+    # 700 px lens at 640 x 480); nearer the centre a far sign's path may point
+    # anywhere, and nothing is refused
+    "motion__max_inward_offset": 0.3,
 }
 
 #: The paper's detector (Wang et al. 2013, sections 3.1-3.7), for
@@ -160,6 +168,8 @@ def make_indicator_pipeline(*, verifier=True, preset="default", **params):
     (``motion__min_approach=0.3``, a near sign seen from a fast car), the line of a
     trajectory's centres passing within 0.8 of the half frame of the frame's centre
     (``motion__max_focus_offset=0.8``: a mark burned into the picture is no path),
+    a trajectory heading for the frame's centre from farther than 0.3 of the half
+    frame refused (``motion__max_inward_offset=0.3``: a vehicle pulling away),
     which keep the detector working on another camera and in a curving tunnel
     (``docs/validation.md``); frames of another size with the training frames'
     aspect ratio resampled to the training size (``keypoints__frame_size="training"``;
