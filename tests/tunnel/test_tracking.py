@@ -326,3 +326,15 @@ def test_a_trajectory_cut_at_max_track_length_is_continued_by_the_next_piece():
         frames_of(moving(10)))
     assert all(len(r.payload["cut_tracks"]) == 0 for r in out)
     assert out[-1].payload["continued_tracks"].shape == (0, 2)
+
+
+def test_a_cut_still_object_is_given_up_within_max_track_length_frames():
+    # with max_gap_travel a still object's fit bridges any gap: once lost, its cut
+    # trajectory is given up within max_track_length frames (bounded memory)
+    still = [o for o in moving(60, step=(0.0, 0.0)) if o[0] <= 20]
+    walker = moving(60, start=(100.0, 100.0), step=(1.0, 0.0))
+    out = TrajectoryLinker(max_gap=3, max_gap_travel=0.5, max_track_length=20).fit_transform(
+        frames_of(still, walker))
+    given_up = [r.frame for r in out for a, b in r.payload["continued_tracks"].tolist()
+                if a == 0 and b == 1]
+    assert given_up == [40]

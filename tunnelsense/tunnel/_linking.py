@@ -276,13 +276,17 @@ class LinkerStream(StreamState):
                 self.cut.append(t)
         return keep
 
+    def _may_continue(self, t, frame):
+        return frame - t.last < self.max_length and self._within_gap(t, frame)
+
     def _continue_cut(self, frame, fresh, cx, cy, size, hists, pairs_out):
         """Pair the cut trajectories with this frame's new ones (``fresh``: ``(j,
         track)``) by the link likelihood, as :meth:`_step` links; drop those that
         can link no more."""
-        cut = [t for t in self.cut if self._within_gap(t, frame)]
+        # bounded: with max_gap_travel a still object's fit bridges any gap
+        cut = [t for t in self.cut if self._may_continue(t, frame)]
         for t in self.cut:
-            if not self._within_gap(t, frame):
+            if not self._may_continue(t, frame):
                 pairs_out.append((0, t.id))
         pairs = []
         for ti, t in enumerate(cut):
