@@ -33,6 +33,8 @@ __all__ = [
     "CLUSTER_BOXES",
     "CLUSTER_HISTOGRAMS",
     "CLUSTER_LABELS",
+    "CONTINUED_TRACKS",
+    "CUT_TRACKS",
     "DETECTIONS",
     "DETECTION_COLUMNS",
     "ENDED_TRACKS",
@@ -52,6 +54,8 @@ __all__ = [
     "TRAJECTORY_POSITIVE",
     "boxes_of",
     "check_image",
+    "continued_tracks_of",
+    "cut_tracks_of",
     "ended_tracks_of",
     "frame_image",
     "frame_rate_of",
@@ -93,6 +97,14 @@ CLUSTER_HISTOGRAMS = "cluster_histograms"
 TRACK_IDS = "track_ids"
 #: (k,) int64: the trajectories that ended at this frame.
 ENDED_TRACKS = "ended_tracks"
+#: (k,) int64: the trajectories among ``ended_tracks`` that ended at the linker's
+#: ``max_track_length`` while their object could still be linked: a later trajectory
+#: may continue each (``continued_tracks`` says which, or that none does).
+CUT_TRACKS = "cut_tracks"
+#: (k, 2) int64, rows ``(track_id, earlier_id)``: the trajectory ``track_id``, which
+#: starts at this frame, continues ``earlier_id`` (one of an earlier frame's
+#: ``cut_tracks``); ``track_id`` 0 says that no trajectory will continue ``earlier_id``.
+CONTINUED_TRACKS = "continued_tracks"
 #: (m,) float64: the straightness of every cluster's trajectory.
 MOTION_R = "motion_r"
 #: (m,) int64: the number of clusters of every cluster's trajectory.
@@ -138,6 +150,8 @@ MADE_BY = {
     CLUSTER_HISTOGRAMS: "WeightedAdaBoost",
     TRACK_IDS: "TrajectoryLinker",
     ENDED_TRACKS: "TrajectoryLinker",
+    CUT_TRACKS: "TrajectoryLinker",
+    CONTINUED_TRACKS: "TrajectoryLinker",
     MOTION_R: "PCCVerifier",
     TRAJECTORY_LENGTH: "PCCVerifier",
     INDICATOR: "PCCVerifier",
@@ -228,6 +242,20 @@ def histograms_of(record, index, m) -> np.ndarray | None:
         raise _shape_error(record, index, CLUSTER_HISTOGRAMS,
                            f"({m}, bins), one row per cluster", hists.shape)
     return hists
+
+
+def cut_tracks_of(record) -> list:
+    """The trajectories a record says were cut at ``max_track_length`` (a list of ids)."""
+    cut = record.payload.get(CUT_TRACKS)
+    return [] if cut is None else np.asarray(cut).reshape(-1).tolist()
+
+
+def continued_tracks_of(record) -> list:
+    """The ``(track_id, earlier_id)`` pairs of a record (a list of int tuples)."""
+    pairs = record.payload.get(CONTINUED_TRACKS)
+    if pairs is None:
+        return []
+    return [tuple(p) for p in np.asarray(pairs, dtype=np.int64).reshape(-1, 2).tolist()]
 
 
 def ended_tracks_of(record) -> list | None:

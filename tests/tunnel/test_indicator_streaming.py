@@ -196,3 +196,41 @@ def test_stream_detect_in_chunks_yields_the_same_records(model, tours):
     assert len(one) == len(X)
     for chunk in (2, 4, 7):
         assert_records_equal(list(stream_detect(model, iter(X), chunk=chunk)), one)
+
+
+def queue_sequence(n, rng, tour="queue"):
+    """A still warm object (a vehicle ahead in a queue) and a far sign crawling along
+    its path, both jittering by about a pixel."""
+    for f in range(1, n + 1):
+        boxes = np.array([
+            [60 + rng.normal(0, 1.0), 90 + rng.normal(0, 1.0), 20, 10],
+            [100 + 0.12 * f + rng.normal(0, 0.6), 40 + 0.05 * f + rng.normal(0, 0.6), 4, 8],
+        ])
+        yield FrameRecord(tour, f, IMG,
+                          {"cluster_boxes": boxes, "appearance": np.ones(2, bool)})
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 17])
+def test_carried_pieces_stream_equals_batch_in_any_chunks(global_random_seed, chunk):
+    """A trajectory cut at max_track_length and carried into the next piece's motion
+    check (carry_travel): batch, one frame at a time and chunks of frames give the
+    same records, across a change of tour, with every frame released."""
+    rng = np.random.default_rng(global_random_seed)
+    X = list(queue_sequence(200, rng)) + list(queue_sequence(90, rng, tour="next"))
+    linker = TrajectoryLinker(max_track_length=40).fit(X)
+    verifier = PCCVerifier(criterion="quadratic-motion", min_travel=0.25,
+                           carry_travel=0.25).fit(linker.transform(X))
+    batch = verifier.predict(linker.transform(X))
+    link, verify = linker.start_stream(), verifier.start_stream()
+    stream, most_waiting = [], 0
+    for i in range(0, len(X), chunk):
+        stream += verify.push_many(link.push_many(X[i:i + chunk]))
+        most_waiting = max(most_waiting, verify.n_waiting)
+    stream += verify.close()
+    assert_records_equal(stream, batch)
+    assert most_waiting <= 40 + chunk  # the delay stays bounded by max_track_length
+    # the crawling sign is found on its later pieces, the still object never
+    found = {(r.tour, int(t)) for r in batch for t in r.payload["detections"][:, 4]}
+    signs = {(r.tour, int(r.payload["track_ids"][1])) for r in batch}
+    assert found and found <= signs
+    assert not any(r.payload["trajectory_positive"][0] for r in batch)

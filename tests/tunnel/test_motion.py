@@ -306,3 +306,71 @@ def test_approach_r_is_a_ratio_of_sizes():
     assert approach_r(t[:2], h[:2]) == 0.0
     with pytest.raises(ValueError, match="min_scale_r"):
         PCCVerifier(min_scale_r=0.0).fit(track_frames({1: line(12)}))
+
+
+# --------------------------------------------------------------------------------------
+# trajectories cut at the linker's max_track_length: carry_travel
+# --------------------------------------------------------------------------------------
+def crawling(n, step, stop=None, jitter=0.6, seed=0):
+    """One warm sign crawling along a line (``step`` px a frame), jittering by
+    ``jitter`` px; after frame ``stop`` it stands still."""
+    rng = np.random.default_rng(seed)
+    x, y, out = 100.0, 70.0, []
+    for f in range(1, n + 1):
+        if stop is None or f <= stop:
+            x, y = x + step[0], y + step[1]
+        j = rng.normal(0.0, jitter, 2)
+        out.append(FrameRecord("t", f, IMG, {
+            "cluster_boxes": np.array([[x + j[0] - 2, y + j[1] - 4, 4, 8]]),
+            "appearance": np.array([True])}))
+    return out
+
+
+def carried_detections(X, carry_travel, max_track_length=40):
+    from tunnelsense.tunnel import TrajectoryLinker
+
+    linked = TrajectoryLinker(max_track_length=max_track_length).fit_transform(X)
+    out = PCCVerifier(criterion="quadratic-motion", min_travel=0.25,
+                      carry_travel=carry_travel).fit(linked).predict(linked)
+    return sorted({int(d[4]) for r in out for d in r.payload["detections"]})
+
+
+def test_carry_travel_checks_a_crawling_sign_on_the_path_it_continues():
+    """Cut into pieces of 40 frames, over each of which it moves half its height
+    against its jitter, a crawling sign's pieces fit no path on their own; joined to
+    the pieces before, the second and later do."""
+    X = crawling(160, (0.12, 0.05))
+    assert carried_detections(X, None) == []
+    assert carried_detections(X, 0.25) == [2, 3, 4]
+    # without cuts nothing is carried: the same as each piece on its own
+    assert carried_detections(X, 0.25, max_track_length=None) == carried_detections(
+        X, None, max_track_length=None)
+
+
+def test_carry_travel_accepts_no_piece_that_stood_still():
+    """The first piece moves well (a sign, found); the queue then stops: the later
+    pieces, jitter in place, are not accepted because the first one moved."""
+    X = crawling(160, (0.3, 0.12), stop=40)
+    assert carried_detections(X, None) == [1]
+    assert carried_detections(X, 0.25) == [1]
+
+
+def test_carried_travel_is_the_motion_along_the_path_in_sizes():
+    from tunnelsense.tunnel._pcc_stream import carried_travel
+
+    # the piece goes on along the path, 4.47 px over a median height of 5
+    assert carried_travel([0, 2, 4], [0, 1, 2], [6, 8, 10], [3, 4, 5],
+                          [5, 5, 5]) == pytest.approx(np.hypot(4, 2) / 5)
+    # backwards along it: negative; standing still: 0
+    assert carried_travel([0, 2, 4], [0, 1, 2], [10, 8, 6], [5, 4, 3], [5] * 3) < 0
+    assert carried_travel([0, 2, 4], [0, 1, 2], [6, 6, 6], [3, 3, 3], [5] * 3) == 0.0
+    assert carried_travel([], [], [6], [3], [5]) == 0.0
+    # doubling every length (a finer sensor) keeps it
+    assert carried_travel([0, 4, 8], [0, 2, 4], [12, 16, 20], [6, 8, 10],
+                          [10] * 3) == pytest.approx(np.hypot(4, 2) / 5)
+
+
+def test_carry_travel_is_validated():
+    X = crawling(12, (1.0, 0.5))
+    with pytest.raises(ValueError, match="carry_travel"):
+        PCCVerifier(carry_travel=-0.1).fit(X)

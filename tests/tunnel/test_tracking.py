@@ -297,3 +297,44 @@ def test_gated_pairs_keep_every_pair_the_score_does_not_reject(
                 assert (i, j) in kept or ll == -np.inf, (i, j, ll)
         left_out += n * m - len(kept)
     assert left_out > 0  # the gate does leave pairs out
+
+
+def test_a_trajectory_cut_at_max_track_length_is_continued_by_the_next_piece():
+    """The linker says which trajectory continues the one it cut at
+    max_track_length (the trajectories and ids are as without it), and that a cut
+    trajectory whose object is lost is continued by none."""
+    walker = moving(50, step=(2.0, -0.5))
+    other = moving(50, start=(120.0, 90.0), step=(-1.0, 0.0))
+    lost = [o for o in moving(50, start=(60.0, 100.0), step=(0.5, 0.0)) if o[0] <= 20]
+    out = TrajectoryLinker(max_gap=3, max_track_length=20).fit_transform(
+        frames_of(walker, other, lost))
+    cut = {r.frame: r.payload["cut_tracks"].tolist() for r in out
+           if len(r.payload["cut_tracks"])}
+    continued = {r.frame: r.payload["continued_tracks"].tolist() for r in out
+                 if len(r.payload["continued_tracks"])}
+    assert ids(out)[0] == [1, 2, 3]
+    assert ids(out)[20] == [4, 5]  # frame 21: new pieces, numbered as they are born
+    assert cut == {20: [1, 2, 3], 40: [4, 5]}
+    for r in out:  # every cut trajectory has ended
+        assert set(r.payload["cut_tracks"].tolist()) <= set(r.payload["ended_tracks"].tolist())
+    # frame 21: 4 continues 1, 5 continues 2; 3 is lost and waits out max_gap
+    assert continued[21] == [[4, 1], [5, 2]]
+    assert continued[25] == [[0, 3]]
+    assert continued[41] == [[6, 4], [7, 5]]
+    # a trajectory ending by the gap is not cut
+    out = TrajectoryLinker(max_gap=3, max_track_length=20).fit_transform(
+        frames_of(moving(10)))
+    assert all(len(r.payload["cut_tracks"]) == 0 for r in out)
+    assert out[-1].payload["continued_tracks"].shape == (0, 2)
+
+
+def test_a_cut_still_object_is_given_up_within_max_track_length_frames():
+    # with max_gap_travel a still object's fit bridges any gap: once lost, its cut
+    # trajectory is given up within max_track_length frames (bounded memory)
+    still = [o for o in moving(60, step=(0.0, 0.0)) if o[0] <= 20]
+    walker = moving(60, start=(100.0, 100.0), step=(1.0, 0.0))
+    out = TrajectoryLinker(max_gap=3, max_gap_travel=0.5, max_track_length=20).fit_transform(
+        frames_of(still, walker))
+    given_up = [r.frame for r in out for a, b in r.payload["continued_tracks"].tolist()
+                if a == 0 and b == 1]
+    assert given_up == [40]

@@ -14,6 +14,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from tunnelsense._payload import (
+    CONTINUED_TRACKS,
+    CUT_TRACKS,
     ENDED_TRACKS,
     TRACK_IDS,
     boxes_of,
@@ -193,7 +195,12 @@ class LinkerStream(StreamState):
     longer link a later frame: it missed more than ``max_gap`` frames (and, with
     ``max_gap_travel``, its straight-line fit would have moved it by more than that
     many times its size since its last response), or its duration reached
-    ``max_track_length`` frames.
+    ``max_track_length`` frames.  A trajectory ended at ``max_track_length`` while
+    its object could still link is *cut* (``payload["cut_tracks"]``): it stays as
+    long as it could link, and the first new trajectory whose first response it
+    would have linked continues it (``payload["continued_tracks"]``, a row ``(new,
+    cut)``; a row ``(0, cut)`` when it can link no more).  This leaves the
+    trajectories and their ids as they are.
     """
 
     def __init__(self, linker):
@@ -218,6 +225,7 @@ class LinkerStream(StreamState):
         self.hungarian = linker.assignment == "hungarian"
         self.tour = None
         self.alive: list[_Track] = []
+        self.cut: list[_Track] = []
         self.next_id = 1
         self._count = 0
 
@@ -232,6 +240,9 @@ class LinkerStream(StreamState):
     def _can_link(self, t, frame):
         if frame - t.first >= self.max_length:
             return False
+        return self._within_gap(t, frame)
+
+    def _within_gap(self, t, frame):
         return frame - t.last <= self.reach or (
             self.max_gap_travel is not None
             and t.gap_travel(frame) <= self.max_gap_travel
@@ -241,24 +252,68 @@ class LinkerStream(StreamState):
         index = self._count
         self._count += 1
         boxes = boxes_of(record, index, "TrajectoryLinker")
-        ids, ended = self._step(record, boxes, index)
-        return [record.evolve(**{TRACK_IDS: ids, ENDED_TRACKS: ended})]
+        ids, ended, cut, continued = self._step(record, boxes, index)
+        return [record.evolve(**{TRACK_IDS: ids, ENDED_TRACKS: ended, CUT_TRACKS: cut,
+                                 CONTINUED_TRACKS: continued})]
 
     def _close(self):
         self.tour = None
         self.alive = []
+        self.cut = []
         return []
+
+    def _ending(self, tracks, frame, ended, cut):
+        """The tracks that can link ``frame``; the others' ids go to ``ended`` (and
+        those ended at ``max_track_length`` that could still link, to ``cut``)."""
+        keep = []
+        for t in tracks:
+            if self._can_link(t, frame):
+                keep.append(t)
+                continue
+            ended.append(t.id)
+            if self._within_gap(t, frame):
+                cut.append(t.id)
+                self.cut.append(t)
+        return keep
+
+    def _may_continue(self, t, frame):
+        return frame - t.last < self.max_length and self._within_gap(t, frame)
+
+    def _continue_cut(self, frame, fresh, cx, cy, size, hists, pairs_out):
+        """Pair the cut trajectories with this frame's new ones (``fresh``: ``(j,
+        track)``) by the link likelihood, as :meth:`_step` links; drop those that
+        can link no more."""
+        # bounded: with max_gap_travel a still object's fit bridges any gap
+        cut = [t for t in self.cut if self._may_continue(t, frame)]
+        for t in self.cut:
+            if not self._may_continue(t, frame):
+                pairs_out.append((0, t.id))
+        pairs = []
+        for ti, t in enumerate(cut):
+            px, py = t.predict(frame)
+            for k, (j, _) in enumerate(fresh):
+                ll = link_log_likelihood(
+                    (px, py), t.size, t.hist, (cx[j], cy[j]), size[j],
+                    None if hists is None else hists[j], frame - t.last, **self.kw)
+                if ll > -math.inf:
+                    pairs.append((ll, ti, k))
+        done = set()
+        for ti, k in assign_pairs(pairs, len(cut), len(fresh), self.hungarian):
+            pairs_out.append((fresh[k][1].id, cut[ti].id))
+            done.add(ti)
+        self.cut = [t for ti, t in enumerate(cut) if ti not in done]
 
     def _step(self, record, boxes, index):
         """Link one frame; return ``(track_ids, ended_tracks)``."""
         frame = record.frame
         if record.tour != self.tour:
-            self.tour, self.alive, self.next_id = record.tour, [], 1
+            self.tour, self.alive, self.cut, self.next_id = record.tour, [], [], 1
             self._scale(rate_ratio(record, self.frame_rate))
-        ended = [t.id for t in self.alive if not self._can_link(t, frame)]
-        alive = [t for t in self.alive if self._can_link(t, frame)]
+        ended, cut, continued, fresh = [], [], [], []
+        alive = self._ending(self.alive, frame, ended, cut)
         m = len(boxes)
         out = np.zeros(m, dtype=np.int64)
+        cx = cy = size = hists = None
         if m:
             hists = histograms_of(record, index, m)
             bl = boxes.tolist()
@@ -291,19 +346,22 @@ class LinkerStream(StreamState):
                 taken.add(j)
             for j in range(m):
                 if j not in taken:
-                    alive.append(
-                        _Track(
-                            self.next_id, frame, cx[j], cy[j], size[j],
-                            None if hists is None else hists[j], self.history,
-                        )
+                    t = _Track(
+                        self.next_id, frame, cx[j], cy[j], size[j],
+                        None if hists is None else hists[j], self.history,
                     )
+                    alive.append(t)
+                    fresh.append((j, t))
                     out[j] = self.next_id
                     self.next_id += 1
+        if self.cut:
+            self._continue_cut(frame, fresh, cx, cy, size, hists, continued)
         # what cannot link the next frame has ended
-        nxt = frame + 1
-        ended += [t.id for t in alive if not self._can_link(t, nxt)]
-        self.alive = [t for t in alive if self._can_link(t, nxt)]
-        return out, np.array(sorted(ended), dtype=np.int64)
+        self.alive = self._ending(alive, frame + 1, ended, cut)
+        return (out, np.array(sorted(ended), dtype=np.int64),
+                np.array(sorted(cut), dtype=np.int64),
+                np.array(sorted(continued, key=lambda p: p[1]),
+                         dtype=np.int64).reshape(-1, 2))
 
 
 def rate_ratio(record, frame_rate):

@@ -25,6 +25,8 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from tunnelsense._payload import (
     APPEARANCE,
     CLUSTER_BOXES,
+    CONTINUED_TRACKS,
+    CUT_TRACKS,
     DETECTIONS,
     ENDED_TRACKS,
     INDICATOR,
@@ -35,15 +37,11 @@ from tunnelsense._payload import (
 )
 from tunnelsense._records import FrameSequence, check_frames
 from tunnelsense._streaming import StreamingMixin
-from tunnelsense.tunnel._pcc_measures import inward_offset
 from tunnelsense.tunnel._pcc_stream import (
-    _NO_TOUR,
     PCCStream,
-    _Trajectory,
     curve_fit_r,
     focus_offset,
     frame_payload,
-    frame_size,
     motion_fit_r,
     pearson_r,
     straightness,
@@ -216,6 +214,25 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         resolution, frame rate and speed; the other checks still apply.
         ``None`` checks nothing.  The frame's size is read from the first frame
         of each tour.
+    carry_travel : float or None, default=None
+        A trajectory that continues one the linker cut at its ``max_track_length``
+        (``payload["continued_tracks"]`` of :class:`TrajectoryLinker`) and fails the
+        motion check on its own path is checked again on the path it continues:
+        the earlier pieces' positions (at most as many as its longest piece holds),
+        then its own -- provided it itself travels along that path at least this
+        many times its own size
+        (:func:`~tunnelsense.tunnel._pcc_stream.carried_travel`).  The linker ends
+        a trajectory after ``max_track_length`` frames, a time: at highway speed
+        that holds a sign's whole approach, in a queue a short stretch of it, over
+        which a far sign moves a fraction of its height against a pixel of jitter
+        and the path measure falls around ``min_r``; joined to the stretch before,
+        the path is longer by the object's own motion.  A piece that did not move
+        (a queue standing still) is not accepted because an earlier piece moved.
+        Each piece is still decided when it ends, so the delay and memory of
+        online detection stay bounded.  ``min_length`` (or ``min_approach``),
+        ``min_r`` (or ``min_scale_r``), ``min_travel`` and ``max_focus_offset`` apply
+        to the joined path, the vote to the piece.  A ratio of lengths, the same at
+        any resolution.  ``None`` checks every piece on its own.
     frame_rate : float or None, default=30.0
         The frame rate (frames per second) ``min_length`` is counted in.  A tour's
         frames carry its frame rate (``payload["frame_rate"]``, set by
@@ -257,12 +274,15 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         "min_scale_r": [Interval(numbers.Real, 0, 1, closed="right"), None],
         "max_focus_offset": [Interval(numbers.Real, 0, None, closed="left"), None],
         "max_inward_offset": [Interval(numbers.Real, 0, None, closed="left"), None],
+        "carry_travel": [Interval(numbers.Real, 0, None, closed="left"), None],
     }
 
     def __init__(self, *, min_r=0.95, min_length=10, vote=0.8, criterion="pearson",
                  min_travel=0.0, min_approach=None, min_scale_r=None,
-                 max_focus_offset=None, max_inward_offset=None, frame_rate=30.0):
+                 max_focus_offset=None, max_inward_offset=None, carry_travel=None,
+                 frame_rate=30.0):
         self.frame_rate = frame_rate
+        self.carry_travel = carry_travel
         self.max_inward_offset = max_inward_offset
         self.max_focus_offset = max_focus_offset
         self.min_scale_r = min_scale_r
@@ -281,7 +301,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
 
     _sequence = FrameSequence
     _payload_reads = (CLUSTER_BOXES, APPEARANCE, TRACK_IDS)
-    _payload_optional = (ENDED_TRACKS,)
+    _payload_optional = (ENDED_TRACKS, CUT_TRACKS, CONTINUED_TRACKS)
     _payload_adds = (MOTION_R, TRAJECTORY_LENGTH, INDICATOR, TRAJECTORY_POSITIVE, DETECTIONS)
 
     def _check_records(self, X, y=None):
@@ -291,9 +311,7 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         return records
 
     def _stream_state(self, *, batch=False):
-        if getattr(self, "max_inward_offset", None) is None:  # older models: none
-            return PCCStream(self, release=not batch)
-        return _OutwardStream(self, release=not batch)
+        return PCCStream(self, release=not batch)
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None):
@@ -367,31 +385,3 @@ class PCCVerifier(StreamingMixin, TransformerMixin, BaseEstimator):
         [(1, (1, 6)), (2, (1, 6)), (3, (1, 6))]
         """
         return super().start_stream()
-
-
-class _OutwardStream(PCCStream):
-    """:class:`PCCStream` that also refuses a trajectory heading for the frame's
-    centre from farther than ``max_inward_offset`` (no cluster of it an indicator)."""
-
-    def __init__(self, verifier, *, release=True):
-        super().__init__(verifier, release=release)
-        self.max_inward_offset = float(verifier.max_inward_offset)
-        self.inward_size = None  # (width, height) of the tour's frames
-
-    def _push(self, record):
-        out = []
-        if record.tour != self.tour:  # the last tour's trajectories, in its size
-            out = self._close()
-            self.tour = _NO_TOUR
-            self.inward_size = frame_size(record)
-        return out + super()._push(record)
-
-    def _decide(self, traj):
-        if (len(traj.xs) > 1 and inward_offset(traj.xs, traj.ys, *self.inward_size)
-                > self.max_inward_offset):
-            refused = _Trajectory()
-            refused.ts, refused.xs, refused.ys, refused.hs = traj.ts, traj.xs, traj.ys, traj.hs
-            refused.members = traj.members
-            refused.app = [False] * len(traj.app)
-            traj = refused
-        super()._decide(traj)

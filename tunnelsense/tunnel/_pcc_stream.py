@@ -22,6 +22,8 @@ from tunnelsense._payload import (
     TRAJECTORY_LENGTH,
     TRAJECTORY_POSITIVE,
     boxes_of,
+    continued_tracks_of,
+    cut_tracks_of,
     ended_tracks_of,
     per_cluster,
     scaled_count,
@@ -39,6 +41,7 @@ from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
     approach_r,
     curve_fit_r,
     focus_offset,
+    inward_offset,
     motion_fit_r,
     path_travel,
     pearson_r,
@@ -48,6 +51,7 @@ from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
 __all__ = [
     "PCCStream",
     "approach_fraction",
+    "carried_travel",
     "curve_fit_r",
     "focus_offset",
     "frame_payload",
@@ -130,10 +134,50 @@ class _Frame:
 
 
 class _Trajectory:
-    __slots__ = ("ts", "xs", "ys", "hs", "app", "members")
+    __slots__ = ("id", "ts", "xs", "ys", "hs", "app", "members", "prior")
 
-    def __init__(self):
+    def __init__(self, track_id):
         self.ts, self.xs, self.ys, self.hs, self.app, self.members = [], [], [], [], [], []
+        self.id = track_id
+        self.prior = None  # the (ts, xs, ys, hs) of the pieces it continues
+
+
+def carried_travel(prior_x, prior_y, x, y, h) -> float:
+    """How far a trajectory's piece travels along the path it continues, in units of
+    its own size.
+
+    The displacement from the mean centre of the piece's first third to that of its
+    last third, projected on the direction of the whole path (the earlier pieces'
+    ``prior_x, prior_y`` then the piece's ``x, y``: from the mean centre of its first
+    third to that of its last third), over the piece's median rectangle height.  A
+    sign the camera keeps approaching keeps moving along its path; an object that
+    stands still in the image after an earlier piece moved well travels by its
+    jitter only (about 0), and one that turns back travels a negative amount.  0 for
+    a piece of fewer than two points or a whole path without length.
+
+    Examples
+    --------
+    >>> round(carried_travel([0, 2, 4], [0, 1, 2], [6, 8, 10], [3, 4, 5], [5, 5, 5]), 3)
+    0.894
+    >>> carried_travel([0, 2, 4], [0, 1, 2], [6, 6, 6], [3, 3, 3], [5, 5, 5])
+    0.0
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    n = len(x)
+    if n < 2:
+        return 0.0
+    wx = np.concatenate([np.asarray(prior_x, dtype=np.float64), x])
+    wy = np.concatenate([np.asarray(prior_y, dtype=np.float64), y])
+    kw = max(len(wx) // 3, 1)
+    dx, dy = wx[-kw:].mean() - wx[:kw].mean(), wy[-kw:].mean() - wy[:kw].mean()
+    norm = float(np.hypot(dx, dy))
+    if norm <= 0:
+        return 0.0
+    k = max(n // 3, 1)
+    px, py = x[-k:].mean() - x[:k].mean(), y[-k:].mean() - y[:k].mean()
+    along = (px * dx + py * dy) / norm
+    return float(along / max(float(np.median(np.asarray(h, dtype=np.float64))), 1e-9))
 
 
 class PCCStream(StreamState):
@@ -163,6 +207,12 @@ class PCCStream(StreamState):
         # models saved before the parameter existed check no focus of expansion
         focus = getattr(verifier, "max_focus_offset", None)
         self.max_focus_offset = None if focus is None else float(focus)
+        inward = getattr(verifier, "max_inward_offset", None)
+        self.max_inward_offset = None if inward is None else float(inward)
+        # models saved before the parameter existed check each piece on its own
+        carry = getattr(verifier, "carry_travel", None)
+        self.carry_travel = None if carry is None else float(carry)
+        self.tails: dict = {}  # cut trajectory id -> (ts, xs, ys, hs, points kept)
         self.size = None  # (width, height) of the tour's frames, in the boxes' pixels
         self.vote = float(verifier.vote)
         self.release = release
@@ -176,23 +226,42 @@ class PCCStream(StreamState):
         """Frames held until the trajectories through them end."""
         return len(self.waiting)
 
-    def _decide(self, traj):
-        n = len(traj.xs)
-        r = self.measure(traj.xs, traj.ys, traj.ts) if n > 1 else 0.0
+    def _motion_ok(self, ts, xs, ys, hs):
+        """``(r, motion_ok)`` of a path: the motion check of the class docstring."""
+        n = len(xs)
+        r = self.measure(xs, ys, ts) if n > 1 else 0.0
         long_enough = n >= self.min_length
         if not long_enough and self.min_approach is not None:
             floor = min(MIN_TRAJECTORY_POINTS, self.min_length)
             long_enough = (n >= floor
-                           and approach_fraction(traj.hs) >= self.min_approach)
+                           and approach_fraction(hs) >= self.min_approach)
         motion_ok = long_enough and abs(r) >= self.min_r
         if (long_enough and not motion_ok and self.min_scale_r is not None
-                and approach_r(traj.ts, traj.hs) >= self.min_scale_r):
+                and approach_r(ts, hs) >= self.min_scale_r):
             motion_ok = True  # a steady approach, whatever the path's jitter
         if motion_ok and self.min_travel > 0:
-            motion_ok = path_travel(traj.xs, traj.ys, traj.hs) >= self.min_travel
+            motion_ok = path_travel(xs, ys, hs) >= self.min_travel
         if motion_ok and self.max_focus_offset is not None:
-            offset = focus_offset(traj.xs, traj.ys, *self.size)
+            offset = focus_offset(xs, ys, *self.size)
             motion_ok = offset <= self.max_focus_offset
+        if motion_ok and self.max_inward_offset is not None:
+            motion_ok = inward_offset(xs, ys, *self.size) <= self.max_inward_offset
+        return r, motion_ok
+
+    def _decide(self, traj, cut=False):
+        n = len(traj.xs)
+        r, motion_ok = self._motion_ok(traj.ts, traj.xs, traj.ys, traj.hs)
+        prior = traj.prior
+        if prior is not None:
+            whole = [p + q for p, q in zip(prior[:4], (traj.ts, traj.xs, traj.ys, traj.hs),
+                                           strict=True)]
+            if (not motion_ok and carried_travel(prior[1], prior[2], traj.xs, traj.ys,
+                                                 traj.hs) >= self.carry_travel):
+                motion_ok = self._motion_ok(*whole)[1]
+        if cut and self.carry_travel is not None:  # a later piece may continue it
+            keep = n if prior is None else max(n, prior[4])
+            path = (traj.ts, traj.xs, traj.ys, traj.hs) if prior is None else whole
+            self.tails[traj.id] = (*(list(p[-keep:]) for p in path), keep)
         indicator = [a and motion_ok for a in traj.app]
         fraction = sum(indicator) / n
         positive = fraction > self.vote
@@ -217,6 +286,7 @@ class PCCStream(StreamState):
         for traj in self.open.values():
             self._decide(traj)
         self.open = {}
+        self.tails = {}
         self.tour = _NO_TOUR  # a record's tour may be None
         return self._release()
 
@@ -236,8 +306,8 @@ class PCCStream(StreamState):
             self.min_length = scaled_count(
                 self.length, rate_ratio(record, self.frame_rate), MIN_TRAJECTORY_POINTS
             )
-            if self.max_focus_offset is not None:  # every frame of a tour: one size
-                self.size = frame_size(record)
+            if self.max_focus_offset is not None or self.max_inward_offset is not None:
+                self.size = frame_size(record)  # every frame of a tour: one size
         entry = _Frame(tag, boxes, tracks)
         if len(boxes):
             cx = (boxes[:, 0] + boxes[:, 2] / 2).tolist()
@@ -248,7 +318,7 @@ class PCCStream(StreamState):
             ):
                 traj = self.open.get(tid)
                 if traj is None:
-                    traj = self.open[tid] = _Trajectory()
+                    traj = self.open[tid] = _Trajectory(tid)
                 traj.ts.append(record.frame)
                 traj.xs.append(cx[j])
                 traj.ys.append(cy[j])
@@ -258,10 +328,17 @@ class PCCStream(StreamState):
         self.waiting.append(entry)
         ended = ended_tracks_of(record)
         if ended is not None:
+            cut = set(cut_tracks_of(record))
             for tid in ended:
                 traj = self.open.pop(tid, None)
                 if traj is not None:
-                    self._decide(traj)
+                    self._decide(traj, tid in cut)
+        if self.carry_travel is not None:
+            for tid, earlier in continued_tracks_of(record):
+                tail = self.tails.pop(earlier, None)
+                traj = self.open.get(tid)
+                if tail is not None and traj is not None:
+                    traj.prior = tail
         out.extend(self._release())
         return out
 

@@ -19,6 +19,8 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from tunnelsense._payload import (
     CLUSTER_BOXES,
     CLUSTER_HISTOGRAMS,
+    CONTINUED_TRACKS,
+    CUT_TRACKS,
     ENDED_TRACKS,
     TRACK_IDS,
     boxes_of,
@@ -51,7 +53,16 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
       this frame: they cannot link any later frame (they missed more than
       ``max_gap`` frames, or reached ``max_track_length``).  :class:`PCCVerifier`
       decides a trajectory as soon as it has ended, which bounds its memory when
-      streaming.  Trajectories still alive at the end of a tour end with it.
+      streaming.  Trajectories still alive at the end of a tour end with it;
+    * ``payload["cut_tracks"]``: ndarray of int64 -- those of ``ended_tracks`` that
+      reached ``max_track_length`` while their object could still be linked;
+    * ``payload["continued_tracks"]``: ndarray of shape (k, 2), int64 -- rows
+      ``(track_id, earlier_id)``: the trajectory ``track_id``, born at this frame,
+      continues the cut trajectory ``earlier_id`` (its first response is the one the
+      cut trajectory, kept as long as it could link, would have linked best); a row
+      ``(0, earlier_id)`` when the cut trajectory can link no more.  The
+      trajectories and their ids are those without these keys
+      (:class:`PCCVerifier` reads them with ``carry_travel``).
 
     Each trajectory's per-frame appearance decisions stay with its clusters
     (``payload["appearance"]``), where :class:`PCCVerifier` reads them.
@@ -230,7 +241,7 @@ class TrajectoryLinker(StreamingMixin, TransformerMixin, BaseEstimator):
     _sequence = FrameSequence
     _payload_reads = (CLUSTER_BOXES,)
     _payload_optional = (CLUSTER_HISTOGRAMS,)
-    _payload_adds = (TRACK_IDS, ENDED_TRACKS)
+    _payload_adds = (TRACK_IDS, ENDED_TRACKS, CUT_TRACKS, CONTINUED_TRACKS)
 
     def _check_records(self, X, y=None):
         records, _ = check_frames(X, y)
