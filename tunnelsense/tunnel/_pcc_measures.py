@@ -17,6 +17,7 @@ __all__ = [
     "approach_r",
     "curve_fit_r",
     "focus_offset",
+    "grows",
     "inward_offset",
     "motion_fit_r",
     "path_travel",
@@ -332,6 +333,28 @@ def focus_offset(x, y, width, height) -> float:
     _, vecs = np.linalg.eigh(cov)
     eu, ev = vecs[:, 1]  # the principal direction
     return float(abs(mu * ev - mv * eu))
+
+
+def grows(h) -> bool:
+    """Whether a trajectory's object grows: the mean rectangle height of its last
+    third above that of its first.
+
+    An object the camera approaches grows, however slowly (a far sign from a
+    crawling queue by a pixel); one the camera falls behind shrinks, and one that
+    keeps its distance grows or shrinks by its rectangle's jitter.  False for fewer
+    than two points.
+
+    Examples
+    --------
+    >>> grows([4, 4, 4, 5, 4, 5]), grows([9, 8, 8, 7, 6, 6])
+    (True, False)
+    """
+    h = np.asarray(h, dtype=np.float64)
+    n = len(h)
+    if n < 2:
+        return False
+    k = max(n // 3, 1)
+    return bool(h[-k:].mean() > h[:k].mean())
 
 
 def inward_offset(x, y, width, height) -> float:

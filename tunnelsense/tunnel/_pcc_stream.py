@@ -41,6 +41,7 @@ from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
     approach_r,
     curve_fit_r,
     focus_offset,
+    grows,
     inward_offset,
     motion_fit_r,
     path_travel,
@@ -244,7 +245,7 @@ class PCCStream(StreamState):
         if motion_ok and self.max_focus_offset is not None:
             offset = focus_offset(xs, ys, *self.size)
             motion_ok = offset <= self.max_focus_offset
-        if motion_ok and self.max_inward_offset is not None:
+        if motion_ok and self.max_inward_offset is not None and not grows(hs):
             motion_ok = inward_offset(xs, ys, *self.size) <= self.max_inward_offset
         return r, motion_ok
 
