@@ -247,7 +247,8 @@ class _RunState(_Release, _Labelling, ScanWindow):
                     mine = objects == o
                     c = clusters[mine]
                     across[o] = stands_across(
-                        prof.position[mine], self.side[c], self.far[c], self.cum,
+                        prof.position[mine], self.side[c], self.far[c],
+                        self.metres_from(int(prof.first[o])),
                         width=est.motorbike_width, min_car_length=est.min_car_length,
                         depth=est.roof_width, longest=est.van_length)
                 # (end_on_faces) a tall face shorter than a car along the street (a
@@ -257,7 +258,8 @@ class _RunState(_Release, _Labelling, ScanWindow):
                 for o in np.flatnonzero(face):
                     mine = objects == o
                     face[o] = faces_end_on(
-                        prof.position[mine], self.flags[clusters[mine]], self.cum,
+                        prof.position[mine], self.flags[clusters[mine]],
+                        self.metres_from(int(prof.first[o])),
                         width=est.motorbike_width, min_car_length=est.min_car_length)
                 far = np.where(face, lo, far)
                 across |= face
