@@ -126,3 +126,21 @@ def test_lost_metres_before_an_object_are_not_its_own_when_splitting():
     new = split_echelon(objects, position, side, side + 2.0, np.r_[0], np.r_[n - 1],
                         seen, **args)
     assert len(np.unique(new)) == 2
+
+
+def test_a_van_taller_than_the_sensor_in_a_45_degree_bay_is_parked():
+    # its roof above the sensor is never seen: every cross-section is its face
+    # (0.1 m deep, in the traffic lane at the near corner), but the near side
+    # recedes along its flank from 2.5 m to 6.3 m, into the parking lane (4.0 m)
+    van = oblique_car(3.0, 2.5, length=5.4, width=2.0, top=2.6)
+    run = make_run([van], ["parked"], n_scans=90, speed=SPEED)
+    est = ScanClusterer(speed=SPEED, regions=(4.0, 6.6), region_depth="across").fit(
+        run.scans)
+    det = est.detect(run.scans)
+    assert det["label"].tolist() == ["parked"]
+    assert det["mean_depth"].iloc[0] < 4.0  # its mean depth alone: passing
+    # a van as tall driving along the street, as near: its near side keeps still
+    along = dict(s0=3.0, s1=8.4, depth=2.5, width=2.0, top=lambda off: 2.6)
+    run = make_run([along], ["passing"], n_scans=90, speed=SPEED)
+    labels = est.detect(run.scans)["label"].tolist()
+    assert labels == ["passing"]
