@@ -28,8 +28,8 @@ def objects(rows, *, classes=None):
 def test_scan_distances_from_speed_and_periods():
     d = scan_distances([0.0, 0.1, 0.3, 0.4], [10.0, 10.0, 5.0, 20.0])
     # each scan: its speed times the time to the next scan (the last: the period before)
-    np.testing.assert_allclose(d, [0.0, 1.0, 3.0, 3.5, 5.5])
-    np.testing.assert_allclose(scan_distances([0.0, 0.5], 2.0), [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(d, [[0.0, 1.0], [1.0, 3.0], [3.0, 3.5], [3.5, 5.5]])
+    np.testing.assert_allclose(scan_distances([0.0, 0.5], 2.0), [[0.0, 1.0], [1.0, 2.0]])
 
 
 @pytest.mark.parametrize("stamps, speed, match", [
@@ -52,11 +52,44 @@ def test_stamps_of_a_coarse_clock_give_the_distance_of_exact_ones():
     coarse = np.round(exact / 0.02) * 0.02
     assert (np.diff(coarse) == 0).any()
     d = scan_distances(coarse, 11.0)
-    assert d[-2] == pytest.approx(scan_distances(exact, 11.0)[-2], abs=0.11)
+    assert d[-1, 0] == pytest.approx(scan_distances(exact, 11.0)[-1, 0], abs=0.11)
+
+
+#: 75 scans/s at 11 m/s, scans 100-109 lost (numbered as received: a stamp jump).
+LOST_STAMPS = np.delete(np.arange(400) / 75.0, np.arange(100, 110))
+
+
+def test_lost_metres_count_only_to_an_object_seen_on_both_sides():
+    d = scan_distances(LOST_STAMPS, 11.0)
+    step = 11.0 / 75.0
+    np.testing.assert_allclose(np.diff(d, axis=1), step)  # every scan its own period
+    # the ten lost scans (1.47 m) lie between scans 99 and 100 of the table
+    assert d[100, 0] - d[99, 1] == pytest.approx(10 * step)
+    assert d[-1, 1] == pytest.approx(400 * step)  # the whole street driven
+    rows = [(90, 99, "parked"),     # a car that ends right before the lost scans
+            (100, 109, "parked"),   # one that starts right after them
+            (200, 229, "parked"),   # seen on both sides below
+            (300, 309, "parked")]
+    table = objects(rows)
+    table.loc[2, ["first_scan", "last_scan"]] = (95, 104)
+    parked = parked_extents(table, d)
+    np.testing.assert_allclose(parked["length_m"], [10 * step, 10 * step,
+                                                    20 * step, 10 * step])
+    # occupancy: the lost stretch is covered only by the object across it
+    result = census(table.drop(index=2), d, segment_length=1e4)
+    assert result["parked_length_m"].sum() == pytest.approx(30 * step)
+    assert result["occupancy"].iloc[0] == pytest.approx(30 * step / (400 * step))
+
+
+def test_lost_metres_take_the_mean_speed_of_both_sides():
+    stamps = np.delete(np.arange(40) / 10.0, np.arange(20, 24))
+    speed = np.where(np.arange(36) < 20, 2.0, 4.0)  # 2 m/s before, 4 m/s after
+    d = scan_distances(stamps, speed)
+    assert d[20, 0] - d[19, 1] == pytest.approx(4 * 0.1 * 3.0)
 
 def test_a_stop_adds_no_distance():
     d = scan_distances([0.0, 1.0, 2.0, 3.0], [2.0, 0.0, 0.0, 2.0])
-    np.testing.assert_allclose(d, [0.0, 2.0, 2.0, 2.0, 4.0])
+    np.testing.assert_allclose(d, [[0.0, 2.0], [2.0, 2.0], [2.0, 2.0], [2.0, 4.0]])
     # an object seen only while stopped covers no kerb but is still counted
     table = census(objects([(1, 2, "parked")]), d, segment_length=1.0)
     assert table["parked"].tolist() == [0, 0, 1, 0]  # at 2 m: the segment from 2 m
@@ -143,6 +176,9 @@ def test_extents_come_from_the_distances_not_the_length_column():
     distances = np.concatenate([[0.0], np.cumsum(np.full(30, 0.5))])
     parked = parked_extents(table, distances)
     assert parked[["start_m", "end_m", "length_m"]].iloc[0].tolist() == [5.0, 10.0, 5.0]
+    # the same as each scan's start and end
+    parked = parked_extents(table, np.column_stack([distances[:-1], distances[1:]]))
+    assert parked[["start_m", "end_m", "length_m"]].iloc[0].tolist() == [5.0, 10.0, 5.0]
 
 
 @pytest.mark.parametrize("change, match", [
@@ -166,3 +202,10 @@ def test_bad_segment_length_is_refused(value):
 def test_distances_that_do_not_move_are_refused():
     with pytest.raises(ValueError, match="did not move"):
         census(objects([]), np.zeros(11))
+
+
+def test_stretches_that_overlap_are_refused():
+    with pytest.raises(ValueError, match="non-decreasing"):
+        census(objects([]), [[0.0, 2.0], [1.0, 3.0]])
+    with pytest.raises(ValueError, match="n_scans, 2"):
+        census(objects([]), np.zeros((3, 3)))

@@ -103,3 +103,44 @@ def test_cars_along_the_kerb_are_not_split():
     on = ScanClusterer(speed=SPEED, regions=(3.0, 6.6), region_depth="across").fit(
         run.scans)
     assert street_scores(run.gt, on.detect(run.scans))["parked"]["tp"] == 3
+
+
+def test_lost_metres_before_an_object_are_not_its_own_when_splitting():
+    # two cars at 45 degrees, 2.0 m each along the track (0.1 m a scan); the first
+    # up to its ridge 1.9 m, shorter than a part may be (1.95 m): no split.  Scans
+    # lost right before the object (1.0 m, counted to its first scan's stretch)
+    # are not seen metres of it: with them the first car read 2.9 m, split off
+    car = np.r_[np.linspace(4.6, 3.4, 7), np.linspace(3.6, 6.4, 15)]
+    side = np.r_[car[:-2], car[:-2]]
+    n = len(side)
+    position, objects = np.arange(n), np.zeros(n, dtype=np.int64)
+    gap = np.zeros(n)
+    gap[0] = 1.0
+    cum = np.r_[0.0, np.cumsum(0.1 + gap)]
+    args = dict(min_length=1.95, depth=0.8)
+    new = split_echelon(objects, position, side, side + 2.0, np.r_[0], np.r_[n - 1],
+                        cum, gap=gap, **args)
+    assert (new == 0).all()
+    # the same object with the 1.0 m seen (no scan lost) is split
+    seen = np.r_[0.0, np.cumsum(np.r_[1.1, np.full(n - 1, 0.1)])]
+    new = split_echelon(objects, position, side, side + 2.0, np.r_[0], np.r_[n - 1],
+                        seen, **args)
+    assert len(np.unique(new)) == 2
+
+
+def test_a_van_taller_than_the_sensor_in_a_45_degree_bay_is_parked():
+    # its roof above the sensor is never seen: every cross-section is its face
+    # (0.1 m deep, in the traffic lane at the near corner), but the near side
+    # recedes along its flank from 2.5 m to 6.3 m, into the parking lane (4.0 m)
+    van = oblique_car(3.0, 2.5, length=5.4, width=2.0, top=2.6)
+    run = make_run([van], ["parked"], n_scans=90, speed=SPEED)
+    est = ScanClusterer(speed=SPEED, regions=(4.0, 6.6), region_depth="across").fit(
+        run.scans)
+    det = est.detect(run.scans)
+    assert det["label"].tolist() == ["parked"]
+    assert det["mean_depth"].iloc[0] < 4.0  # its mean depth alone: passing
+    # a van as tall driving along the street, as near: its near side keeps still
+    along = dict(s0=3.0, s1=8.4, depth=2.5, width=2.0, top=lambda off: 2.6)
+    run = make_run([along], ["passing"], n_scans=90, speed=SPEED)
+    labels = est.detect(run.scans)["label"].tolist()
+    assert labels == ["passing"]

@@ -122,9 +122,10 @@ def _cmd_survey_street(args) -> int:
         table.to_csv(f, index=False, float_format="%.3f", lineterminator="\n")
     totals = table[list(CENSUS_CLASSES)].sum()
     classes = ", ".join(f"{totals[c]} {c}" for c in CENSUS_CLASSES if totals[c])
-    occupied = (table["occupancy"] * table["kerb_length_m"]).sum() / distances[-1]
+    driven = distances[-1, 1]
+    occupied = (table["occupancy"] * table["kerb_length_m"]).sum() / driven
     print(f"{source.name}: {int(table['parked'].sum())} parked vehicles"
-          f"{f' ({classes})' if classes else ''} along {distances[-1]:.0f} m, "
+          f"{f' ({classes})' if classes else ''} along {driven:.0f} m, "
           f"{len(table)} segment(s) of {args.segment_length:g} m, kerb occupancy "
           f"{100 * occupied:.0f} % -> {args.out}")
     if args.plot is not None:

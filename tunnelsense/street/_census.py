@@ -14,6 +14,8 @@ import numbers
 import numpy as np
 import pandas as pd
 
+from tunnelsense.street._geometry import STAMP_GAP, across_lost, running_period
+
 __all__ = [
     "CENSUS_CLASSES",
     "CENSUS_COLUMNS",
@@ -43,13 +45,19 @@ CENSUS_COLUMNS = (
 
 
 def scan_distances(stamps, speed):
-    """Distance driven along the street at the boundaries of the scans (m).
+    """Where along the street each scan's own stretch begins and ends (m).
 
     Scan ``i`` stands for the stretch the vehicle drives during its scan period:
     ``speed[i] * (stamps[i + 1] - stamps[i])`` metres (the last scan takes the
-    period before it).  The street is assumed straight and driven forwards (a
-    stop, speed 0, adds no distance); the distance starts at 0 where the first
-    scan begins.
+    period before it).  Where the stamps jump by ``2.5`` scan periods or more
+    (scans lost on the way; the period is the mean of the recent stamp
+    differences, those of lost scans left out, as the detector reads it), the
+    scan before the jump keeps one period of its own, and the rest of the time
+    is a stretch of no scan, driven at the mean of the speeds of the scans on
+    both sides of it: nothing was seen there, so its metres belong to no scan,
+    and only an object seen on both sides of it spans them.  The street is
+    assumed straight and driven forwards (a stop, speed 0, adds no distance);
+    the distance starts at 0 where the first scan begins.
 
     Parameters
     ----------
@@ -63,8 +71,9 @@ def scan_distances(stamps, speed):
 
     Returns
     -------
-    distances : ndarray of shape (n_scans + 1,)
-        ``distances[i]`` to ``distances[i + 1]``: the stretch of scan ``i``.
+    distances : ndarray of shape (n_scans, 2)
+        ``distances[i]``: the start and end of scan ``i``'s stretch; the end of a
+        scan is the start of the next, except across lost scans.
 
     Raises
     ------
@@ -75,10 +84,13 @@ def scan_distances(stamps, speed):
     Examples
     --------
     >>> from tunnelsense.street import scan_distances
-    >>> scan_distances([0.0, 0.1, 0.2], 10.0)
-    array([0., 1., 2., 3.])
-    >>> scan_distances([0.0, 0.1, 0.2], [10.0, 20.0, 20.0])
-    array([0., 1., 3., 5.])
+    >>> scan_distances([0.0, 0.1, 0.2], 10.0).tolist()
+    [[0.0, 1.0], [1.0, 2.0], [2.0, 3.0]]
+    >>> scan_distances([0.0, 0.1, 0.2], [10.0, 20.0, 20.0]).tolist()
+    [[0.0, 1.0], [1.0, 3.0], [3.0, 5.0]]
+    >>> # scans lost between 0.5 s and 0.9 s: 3 m seen by no scan
+    >>> scan_distances([0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.9, 1.0], 10.0)[4:].tolist()
+    [[4.0, 5.0], [5.0, 6.0], [9.0, 10.0], [10.0, 11.0]]
     """
     stamps = np.asarray(stamps, dtype=np.float64)
     if stamps.ndim != 1 or len(stamps) < 2:
@@ -104,20 +116,50 @@ def scan_distances(stamps, speed):
         i = int(bad[0])
         raise ValueError(f"speed must be finite and not negative (m/s); scan {i} has "
                          f"{speed[i]}")
-    steps = speed * np.append(periods, periods[-1])
-    return np.concatenate([[0.0], np.cumsum(steps)])
+    own, lost = lost_time(periods)
+    own = np.append(own, own[-1])  # the last scan: the period before it
+    steps = speed * own
+    gaps = across_lost(speed[:-1], speed[1:]) * lost
+    starts = np.concatenate([[0.0], np.cumsum(steps[:-1] + gaps)])
+    return np.column_stack([starts, starts + steps])
+
+
+def lost_time(periods):
+    """Each stamp difference split into the scan's own time and the time of scans
+    lost after it (s): a difference of ``STAMP_GAP`` running scan periods or more
+    (:func:`~tunnelsense.street._geometry.running_period`, the detector's rule)
+    keeps one period; the others are the scan's own.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> own, lost = lost_time(np.array([0.1, 0.1, 0.1, 0.1, 0.1, 0.5, 0.1]))
+    >>> np.round(own, 9).tolist(), np.round(lost, 9).tolist()
+    ([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], [0.0, 0.0, 0.0, 0.0, 0.0, 0.4, 0.0])
+    """
+    period = running_period(np.empty(0), periods)
+    with np.errstate(invalid="ignore"):
+        jump = periods >= STAMP_GAP * period
+    own = np.where(jump, period, periods)
+    return own, periods - own
 
 
 def _check_distances(distances):
+    """``distances`` as the (n_scans, 2) start and end of each scan's stretch, from
+    the run's start: (n_scans + 1,) boundaries are scans one after the other."""
     d = np.asarray(distances, dtype=np.float64)
-    if d.ndim != 1 or len(d) < 2:
-        raise ValueError("distances must be a 1-D array of n_scans + 1 scan boundaries "
-                         f"(m), at least two; got shape {d.shape}")
-    if not np.isfinite(d).all() or (np.diff(d) < 0).any():
+    if d.ndim == 1 and len(d) >= 2:
+        d = np.column_stack([d[:-1], d[1:]])
+    if d.ndim != 2 or d.shape[1] != 2 or len(d) < 1:
+        raise ValueError("distances must be the (n_scans, 2) start and end of each "
+                         "scan's stretch (m), as scan_distances returns, or n_scans + 1 "
+                         f"scan boundaries, at least two; got shape {d.shape}")
+    if (not np.isfinite(d).all() or (d[:, 1] < d[:, 0]).any()
+            or (d[1:, 0] < d[:-1, 1]).any()):
         raise ValueError("distances must be finite and non-decreasing (m)")
-    if d[-1] <= d[0]:
+    if d[-1, 1] <= d[0, 0]:
         raise ValueError("distances cover no length: the vehicle did not move")
-    return d - d[0]
+    return d - d[0, 0]
 
 
 def _classes(parked, objects):
@@ -138,8 +180,9 @@ def parked_extents(objects, distances):
     """The parked objects of a table with their stretch of street (m) and class.
 
     An object seen in scans ``first_scan`` to ``last_scan`` covers the street from
-    ``distances[first_scan]`` to ``distances[last_scan + 1]``: its extent comes from
-    the ego motion, not from its ``length`` column.
+    the start of the first scan's stretch to the end of the last one's: its extent
+    comes from the ego motion, not from its ``length`` column, and the metres of
+    scans lost right before or after it are not its own.
 
     Parameters
     ----------
@@ -149,8 +192,10 @@ def parked_extents(objects, distances):
         ``"van"``, ``"motorbike"`` or empty) gives the class, and a parked object of
         no class, or every one of a table without the column, is ``"unclassified"``.
         A ``run`` column, if any, must hold one run.
-    distances : array-like of shape (n_scans + 1,)
-        Scan boundaries along the street (m), as :func:`scan_distances` returns.
+    distances : array-like of shape (n_scans, 2) or (n_scans + 1,)
+        The stretch of each scan along the street (m), as :func:`scan_distances`
+        returns, or the boundaries of scans one after the other (scan ``i`` from
+        ``distances[i]`` to ``distances[i + 1]``).
 
     Returns
     -------
@@ -185,7 +230,7 @@ def parked_extents(objects, distances):
         raise ValueError(f"objects holds {objects['run'].nunique()} runs; a census is "
                          "of one run: select its rows")
     d = _check_distances(distances)
-    n_scans = len(d) - 1
+    n_scans = len(d)
     parked = objects[objects["label"] == "parked"].copy()
     first = parked["first_scan"].to_numpy(dtype=np.int64)
     last = parked["last_scan"].to_numpy(dtype=np.int64)
@@ -196,8 +241,8 @@ def parked_extents(objects, distances):
             f"objects: row {row} spans scans {first[bad[0]]}-{last[bad[0]]}; expected "
             f"0 <= first_scan <= last_scan < {n_scans} (the run's scans)")
     parked["vehicle_class"] = _classes(parked, objects)
-    parked["start_m"] = d[first]
-    parked["end_m"] = d[last + 1]
+    parked["start_m"] = d[first, 0]
+    parked["end_m"] = d[last, 1]
     parked["length_m"] = parked["end_m"] - parked["start_m"]
     return parked
 
@@ -229,7 +274,7 @@ def _union(starts, ends):
 def census(objects, distances, *, segment_length=50.0):
     """Count the parked vehicles per street segment, by class, with the kerb occupancy.
 
-    The street driven (``distances[0]`` to ``distances[-1]``) is cut into segments of
+    The street driven (from the start of the first scan to the end of the last) is cut into segments of
     ``segment_length`` metres from its start, the last one shorter.  Each parked
     object covers its stretch of :func:`parked_extents` (from the ego motion).  Per
     segment:
@@ -251,8 +296,10 @@ def census(objects, distances, *, segment_length=50.0):
     objects : DataFrame
         An object table (see :func:`parked_extents`): ``first_scan``,
         ``last_scan``, ``label`` and optionally ``vehicle_class``.
-    distances : array-like of shape (n_scans + 1,)
-        Scan boundaries along the street (m), as :func:`scan_distances` returns.
+    distances : array-like of shape (n_scans, 2) or (n_scans + 1,)
+        The stretch of each scan along the street (m), as :func:`scan_distances`
+        returns, or the boundaries of scans one after the other (scan ``i`` from
+        ``distances[i]`` to ``distances[i + 1]``).
     segment_length : float, default=50.0
         Length of a segment (m), positive.
 
@@ -288,7 +335,7 @@ def census(objects, distances, *, segment_length=50.0):
                          f"{segment_length!r}")
     parked = parked_extents(objects, distances)
     d = _check_distances(distances)
-    total = float(d[-1])
+    total = float(d[-1, 1])
     n_segments = max(1, math.ceil(total / segment_length - 1e-9))
     bounds = np.minimum(np.arange(n_segments + 1) * float(segment_length), total)
     bounds[-1] = total

@@ -27,6 +27,7 @@ __all__ = [
     "DEFAULT_SPEED",
     "across_lost",
     "forward_fill",
+    "metres_from",
     "HORIZON_STEP",
     "History",
     "horizon",
@@ -146,6 +147,28 @@ def running_period(history, values, window=HISTORY, tick=None):
     k = near.sum(axis=1)
     total = np.where(near, win, 0.0).sum(axis=1)
     return np.where(k > 0, total / np.maximum(k, 1), np.nan)
+
+
+def metres_from(cum, gap, first):
+    """``cum`` (metres up to every scan position) as an object whose first scan is
+    position ``first`` sees it: the metres of lost scans right before that scan
+    (``gap[first]``), which count to that scan's stretch in ``cum``, are not the
+    object's.  Nothing of it was seen there: only an object seen on both sides of
+    a stretch (linked across it) spans its metres.  ``gap`` None: ``cum``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import metres_from
+    >>> cum, gap = np.array([0.0, 1.0, 4.0, 5.0]), np.array([0.0, 2.0, 0.0])
+    >>> metres_from(cum, gap, 1).tolist(), metres_from(cum, gap, 0).tolist()
+    ([0.0, 3.0, 4.0, 5.0], [0.0, 1.0, 4.0, 5.0])
+    """
+    if gap is None or not gap[first] > 0:
+        return cum
+    cum = cum.copy()
+    cum[first] += gap[first]
+    return cum
 
 
 def forward_fill(values):

@@ -65,7 +65,7 @@ class _Labelling:
             objects = split_objects(
                 ObjectProfiles(objects, position, depth, top, n_points), objects,
                 self.cum, self.near, min_length=est.min_length, ratio=est.split_ratio,
-                link_distance=est.link_distance,
+                link_distance=est.link_distance, gap=self.gap,
                 **(dict(horizon=self.horizon, step=HORIZON_STEP) if est.beam_occlusion
                    else {}))
         if est.split_merged and est.region_depth == "across" and len(objects):
@@ -77,7 +77,8 @@ class _Labelling:
             np.maximum.at(last, objects, position)
             objects = split_echelon(objects, position, self.side[clusters],
                                     self.far[clusters], first, last, self.cum,
-                                    min_length=est.min_car_length, depth=est.roof_width)
+                                    min_length=est.min_car_length, depth=est.roof_width,
+                                    gap=self.gap)
         prof = ObjectProfiles(objects, position, depth, top, n_points, flags)
         region_depth, reaching = self._region_depth(objects, clusters, prof,
                                                     reaching=True)
@@ -245,6 +246,13 @@ class _Labelling:
                         est.min_gap_scans)
         return (raised | gap).astype(np.int64)
 
+    def _own_step(self, p):
+        """Metres of scan position ``p``'s own stretch, lost scans before it left
+        out; 0 outside the window."""
+        if p < 0 or p + 1 >= len(self.cum):
+            return 0.0
+        return float(self.cum[p + 1] - self.cum[p] - self.gap[p])
+
     def _carve(self, mine, pos, first, last, whole=False):
         """Queue entries of motorbikes standing against the structure of clusters
         ``mine`` (window positions ``pos``, scans ``first .. last``); see ``_carving``.
@@ -285,10 +293,12 @@ class _Labelling:
             body = [q[q[:, 1] >= SIDE_HEIGHT] for q in parts]
             if not all(len(q) for q in body):
                 continue
+            # a piece starting right after lost scans: their metres are not its own
+            cum = self.metres_from(lo)
             length = float(cum[hi + 1] - cum[lo])
-            # its ends, at the face, may lie up to half a scan spacing beyond
-            bound = length + 0.5 * float(cum[lo] - cum[max(lo - 1, 0)]
-                                         + cum[min(hi + 2, len(cum) - 1)] - cum[hi + 1])
+            # its ends, at the face, may lie up to half a scan spacing beyond (a
+            # scan's own spacing: the metres of lost scans next to it are not)
+            bound = length + 0.5 * (self._own_step(lo - 1) + self._own_step(hi + 1))
             top = float(pts[:, 1].max())
             depth = float(pts[:, 0].mean())
             side = np.array([q[:, 0].min() for q in body])

@@ -94,6 +94,30 @@ def near_side(objects, side, n_objects):
     return np.where(counts > 0, (lo + hi) / 2, np.nan)
 
 
+def receding_side(objects, side, n_objects, q=90.0):
+    """How far back an object's near side reaches: the ``q``-th percentile over its
+    intra-clusters of the nearest depth (NaN: none with a body).
+
+    A vehicle in a bay at an angle turns its flank to the street, and the near
+    side of the scans cutting it recedes along that flank towards the kerb; a van
+    taller than the sensor shows no roof, so its cross-sections are no deeper than
+    that flank, and this is how far into the parking lane it is seen to stand.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._objects import receding_side
+    >>> side = np.linspace(3.0, 5.0, 11)
+    >>> receding_side(np.zeros(11, dtype=np.int64), side, 2).round(2).tolist()
+    [4.8, nan]
+    """
+    out = np.full(n_objects, np.nan)
+    known = np.isfinite(side)
+    for o in np.unique(objects[known]):
+        out[o] = np.percentile(side[known & (objects == o)], q)
+    return out
+
+
 class ObjectProfiles:
     """Per object aggregates and per (object, scan) height profiles.
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat
+from tunnelsense.street._geometry import metres_from
 
 __all__ = ["split_echelon", "split_near_side", "split_objects", "split_profile"]
 
@@ -113,7 +114,7 @@ def split_profile(top, step, *, min_length=2.0, ratio=0.6, band=0.15):
 
 
 def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
-                  horizon=None, step=None):
+                  horizon=None, step=None, gap=None):
     """Split objects with a two-hump height profile; the new object of every cluster.
 
     Scans of an object's span where it has no cluster count as height 0 (a gap
@@ -125,12 +126,17 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
     beam ending on a nearer object says nothing, one passing over the object's place
     shows the gap.
     ``objects`` and ``prof.position`` are per intra-cluster, as in ``prof``.
+    ``gap`` (per scan position, optional): metres of lost scans before it that
+    count to its stretch in ``cum``; not an object's that starts there
+    (:func:`~tunnelsense.street._geometry.metres_from`).
     """
     new = objects.copy()
     next_object = prof.n
+    all_cum = cum
     for o in range(prof.n):
         first, last = prof.first[o], prof.last[o]
         span = last - first + 1
+        cum = metres_from(all_cum, gap, first)
         if cum[last + 1] - cum[first] < 2 * min_length:
             continue
         top = np.zeros(span)
@@ -250,7 +256,7 @@ def split_near_side(side, along, *, min_length, travel):
 
 
 def split_echelon(objects, position, side, far, first, last, cum, *, min_length,
-                  depth):
+                  depth, gap=None):
     """Split objects whose near side shows vehicles in echelon; the new object of
     every cluster.
 
@@ -274,6 +280,9 @@ def split_echelon(objects, position, side, far, first, last, cum, *, min_length,
         Shortest part (m) a split may leave (a car).
     depth : float
         Smallest median body extent (m) across the street of an object to split.
+    gap : ndarray of shape (n_positions,), optional
+        Metres of lost scans right before every scan position, which count to its
+        stretch in ``cum`` but not to an object that starts there.
 
     Returns
     -------
@@ -282,8 +291,10 @@ def split_echelon(objects, position, side, far, first, last, cum, *, min_length,
     new = objects.copy()
     next_object = len(first)
     near = np.where(np.isfinite(side), side, np.nan)
+    all_cum = cum
     for o in range(len(first)):
         lo, hi = int(first[o]), int(last[o])
+        cum = metres_from(all_cum, gap, lo)
         if cum[hi + 1] - cum[lo] < 2 * min_length:
             continue
         mine = np.flatnonzero(objects == o)

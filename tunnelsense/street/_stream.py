@@ -48,6 +48,7 @@ from tunnelsense.street._objects import (
     depth_region,
     merge_fragments,
     near_side,
+    receding_side,
 )
 from tunnelsense.street._release import _Release
 from tunnelsense.street._window import SIDE_HEIGHT, ScanWindow
@@ -238,6 +239,15 @@ class _RunState(_Release, _Labelling, ScanWindow):
             # the far side (median farthest body depth) reaching region II from
             # region I: a body across the lane edge stands in the parking lane
             far = -near_side(objects, -self.far[clusters], prof.n)
+            if self.est.region_depth == "across":
+                # a body seen by its faces only (a van taller than the sensor shows
+                # no roof) is no deeper than its near side; an oblique one's near
+                # side recedes along its flank into the parking lane: how far it
+                # does stands for its far side (stands_across then asks it to be
+                # oblique or across the street)
+                reach = receding_side(objects, self.side[clusters], prof.n)
+                with np.errstate(invalid="ignore"):
+                    far = np.where((far < lo) & (reach >= lo), reach, far)
             with np.errstate(invalid="ignore"):
                 across = (depth < lo) & (far >= lo) & (far < hi)
             if self.est.region_depth == "across":
@@ -247,7 +257,8 @@ class _RunState(_Release, _Labelling, ScanWindow):
                     mine = objects == o
                     c = clusters[mine]
                     across[o] = stands_across(
-                        prof.position[mine], self.side[c], self.far[c], self.cum,
+                        prof.position[mine], self.side[c], self.far[c],
+                        self.metres_from(int(prof.first[o])),
                         width=est.motorbike_width, min_car_length=est.min_car_length,
                         depth=est.roof_width, longest=est.van_length)
                 # (end_on_faces) a tall face shorter than a car along the street (a
@@ -257,7 +268,8 @@ class _RunState(_Release, _Labelling, ScanWindow):
                 for o in np.flatnonzero(face):
                     mine = objects == o
                     face[o] = faces_end_on(
-                        prof.position[mine], self.flags[clusters[mine]], self.cum,
+                        prof.position[mine], self.flags[clusters[mine]],
+                        self.metres_from(int(prof.first[o])),
                         width=est.motorbike_width, min_car_length=est.min_car_length)
                 far = np.where(face, lo, far)
                 across |= face

@@ -12,7 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
-from tunnelsense.street._geometry import DEFAULT_SPEED, History, roi_points
+from tunnelsense.street._geometry import (
+    DEFAULT_SPEED,
+    History,
+    metres_from,
+    roi_points,
+)
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
@@ -328,11 +333,7 @@ class ScanWindow:
         to its own stretch in ``cum``, are not the object's.  Nothing of it was
         seen there: only an object seen on both sides of a stretch (linked across
         it) spans its metres."""
-        if not self.gap[first] > 0:
-            return self.cum
-        cum = self.cum.copy()
-        cum[first] += self.gap[first]
-        return cum
+        return metres_from(self.cum, self.gap, first)
 
     def resolution(self, depth):
         """Depth and height resolution (m) of the beams at ``depth``: two beam
