@@ -46,13 +46,16 @@ def test_scan_distances_refuses_bad_input(stamps, speed, match):
 
 
 
-def test_stamps_of_a_coarse_clock_give_the_distance_of_exact_ones():
-    # 75 scans/s on a 20 ms clock: equal stamps and 20 ms steps, the same time
+@pytest.mark.parametrize("clock", [0.02, 0.04, 0.05])
+def test_stamps_of_a_coarse_clock_give_the_distance_of_exact_ones(clock):
+    # 75 scans/s on a 20-50 ms clock: equal stamps and steps of 1.5-3.75 periods,
+    # the same time (no step of the clock is a lost scan; the detector's rule)
     exact = np.arange(301) / 75.0
-    coarse = np.round(exact / 0.02) * 0.02
+    coarse = np.round(exact / clock) * clock
     assert (np.diff(coarse) == 0).any()
     d = scan_distances(coarse, 11.0)
     assert d[-1, 0] == pytest.approx(scan_distances(exact, 11.0)[-1, 0], abs=0.11)
+    assert (d[1:, 0] - d[:-1, 1]).max() < 1e-9  # no stretch left unseen
 
 
 #: 75 scans/s at 11 m/s, scans 100-109 lost (numbered as received: a stamp jump).

@@ -14,7 +14,7 @@ import numbers
 import numpy as np
 import pandas as pd
 
-from tunnelsense.street._geometry import STAMP_GAP, across_lost, running_period
+from tunnelsense.street._geometry import across_lost, period_and_gap
 
 __all__ = [
     "CENSUS_CLASSES",
@@ -126,8 +126,9 @@ def scan_distances(stamps, speed):
 
 def lost_time(periods):
     """Each stamp difference split into the scan's own time and the time of scans
-    lost after it (s): a difference of ``STAMP_GAP`` running scan periods or more
-    (:func:`~tunnelsense.street._geometry.running_period`, the detector's rule)
+    lost after it (s): a difference of ``STAMP_GAP`` running scan periods (or
+    steps of a coarser clock) or more
+    (:func:`~tunnelsense.street._geometry.period_and_gap`, the detector's rule)
     keeps one period; the others are the scan's own.
 
     Examples
@@ -137,9 +138,9 @@ def lost_time(periods):
     >>> np.round(own, 9).tolist(), np.round(lost, 9).tolist()
     ([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], [0.0, 0.0, 0.0, 0.0, 0.0, 0.4, 0.0])
     """
-    period = running_period(np.empty(0), periods)
+    period, gap = period_and_gap(np.empty(0), periods)
     with np.errstate(invalid="ignore"):
-        jump = periods >= STAMP_GAP * period
+        jump = periods >= gap
     own = np.where(jump, period, periods)
     return own, periods - own
 

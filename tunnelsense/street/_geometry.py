@@ -171,6 +171,25 @@ def metres_from(cum, gap, first):
     return cum
 
 
+def period_and_gap(history, values, window=HISTORY):
+    """For every new stamp difference, the scan period (:func:`running_period`) and
+    the difference from which scans are lost: ``STAMP_GAP`` periods, or steps of a
+    clock coarser than the period (:func:`running_tick`), whichever is larger;
+    NaN where unknown.  The detector and the census read lost scans by this rule.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tunnelsense.street._geometry import period_and_gap
+    >>> period, gap = period_and_gap(np.empty(0), np.tile([0.0, 0.0, 0.04], 3))
+    >>> round(float(period[-1]), 4), round(float(gap[-1]), 4)
+    (0.0133, 0.1)
+    """
+    tick = running_tick(history, values, window)
+    period = running_period(history, values, window, tick=tick)
+    return period, STAMP_GAP * np.fmax(period, tick)
+
+
 def forward_fill(values):
     """Every NaN replaced by the last finite value before it (NaN before any).
 
@@ -247,10 +266,9 @@ class History:
         if counts is not None:  # a stamp difference over several scan numbers
             periods = periods / counts
         periods = np.where(np.isfinite(periods) & (periods >= 0), periods, np.nan)
-        tick = running_tick(self.periods, periods)
-        period = running_period(self.periods, periods, tick=tick)
+        period, gap = period_and_gap(self.periods, periods)
         self.period = np.where(np.isfinite(period), period, DEFAULT_SCAN_PERIOD)
-        self.gap = STAMP_GAP * np.fmax(self.period, tick)
+        self.gap = np.where(np.isfinite(gap), gap, STAMP_GAP * self.period)
         self.periods = np.concatenate([self.periods, periods])[-HISTORY:]
         speed = speeds
         if np.isscalar(speeds):
