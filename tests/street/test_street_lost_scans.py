@@ -243,3 +243,22 @@ def test_stamps_that_jitter_or_come_from_a_coarse_clock_lose_no_scan(jitter, clo
     assert street_scores(run.gt, noisy)["parked"] == street_scores(run.gt, exact)["parked"]
     parked = [d.loc[d["label"] == "parked", "length"].sum() for d in (exact, noisy)]
     assert parked[1] == pytest.approx(parked[0], rel=0.02)
+
+
+def test_an_occluded_car_after_lost_scans_is_extended_by_its_own_metres():
+    # a car partly hidden behind a 2.6 m tall occluder, with 9 scans lost right
+    # before the car's first seen scan: the extension into the hidden scans counts
+    # the car's own metres, not the lost stretch's, so it is as long as without the
+    # loss (it read 2.79 m: the stretch's metres made it look long enough already)
+    speed = 11.0
+    car = dict(s0=2.0, s1=6.4, depth=5.0, width=1.8, top=sedan)
+    occluder = dict(s0=4.2, s1=8.0, depth=2.5, width=0.5, top=2.6)
+    fit = make_run([dict(car, s0=4.0, s1=8.4)], ["parked"], n_scans=80, speed=speed)
+    est = ScanClusterer(speed=speed).fit(fit.scans)
+    scans = list(make_run([car, occluder], ["parked", None], n_scans=80,
+                          speed=speed).scans)
+    whole = est.detect(scans)
+    lost = est.detect(scans[:5] + scans[14:])
+    assert len(whole) == len(lost) == 2
+    assert whole["length"].iloc[0] >= est.occluded_length
+    assert lost["length"].iloc[0] == pytest.approx(whole["length"].iloc[0], abs=0.05)

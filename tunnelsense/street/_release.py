@@ -16,6 +16,7 @@ from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense.street._classes import vehicle_class
 from tunnelsense.street._clustering import expand_ranges
+from tunnelsense.street._geometry import metres_from
 from tunnelsense.street._vehicles import extend_occluded
 
 __all__ = []
@@ -122,7 +123,8 @@ class _Release:
             lowest = max(lowest, max(previous) + 1)
         if following:
             highest = min(highest, min(following) - 1)
-        first, last = extend_occluded(self.cum, first, last, lowest, highest, length)
+        first, last = extend_occluded(metres_from(self.cum, self.gap, first), first,
+                                      last, lowest, highest, length)
         return first + base, last + base
 
     def _trim(self, stop, ended):
