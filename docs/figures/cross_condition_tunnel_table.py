@@ -14,6 +14,8 @@ conditions (:data:`CONDITIONS`) are physical parameters of
   noise sigma 5);
 * ``curve-right`` / ``curve-left``: camera A in a tunnel curving with a radius of
   1,500 m, to the right and to the left;
+* ``curve-right-400`` / ``curve-left-400``: camera A in a sharp curve, a radius of
+  400 m (a city tunnel's ramp), to the right and to the left;
 * ``other-curve-fast``: camera B in the right curve, driving at 100-130 km/h;
 * ``gain-0.7-20`` / ``gain-1.3+20``: camera A as another unit of its model: gain 0.7
   and offset -20 grey levels, gain 1.3 and offset +20;
@@ -128,6 +130,8 @@ CONDITIONS = {
     "other-camera": dict(scenario="light", **CAMERA_B),
     "curve-right": dict(scenario="light", curve_radius_m=1500.0, **CAMERA_A),
     "curve-left": dict(scenario="light", curve_radius_m=-1500.0, **CAMERA_A),
+    "curve-right-400": dict(scenario="light", curve_radius_m=400.0, **CAMERA_A),
+    "curve-left-400": dict(scenario="light", curve_radius_m=-400.0, **CAMERA_A),
     "other-curve-fast": dict(scenario="light", curve_radius_m=1500.0,
                              speed_kmh=(100.0, 130.0), **CAMERA_B),
     "gain-0.7-20": dict(scenario="light", gain=0.7, offset=-20.0, **CAMERA_A),
