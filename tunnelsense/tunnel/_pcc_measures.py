@@ -23,7 +23,25 @@ __all__ = [
     "path_travel",
     "pearson_r",
     "straightness",
+    "thirds_shift",
 ]
+
+
+def thirds_shift(a) -> float:
+    """From the mean of a trajectory's first third to that of its last third: the
+    shift of the values ``a`` along it (its centres' coordinates, its heights);
+    0 for fewer than two values.
+
+    Examples
+    --------
+    >>> thirds_shift([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    4.0
+    """
+    a = np.asarray(a, dtype=np.float64)
+    if len(a) < 2:
+        return 0.0
+    k = max(len(a) // 3, 1)
+    return float(a[-k:].mean() - a[:k].mean())
 
 
 def pearson_r(x, y) -> float:
@@ -199,13 +217,9 @@ def path_travel(x, y, h) -> float:
     >>> round(path_travel([5, 6, 5, 6, 5, 6], [9, 10, 9, 10, 9, 10], [16] * 6), 3)
     0.0
     """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    n = len(x)
-    if n < 2:
+    if len(x) < 2:
         return 0.0
-    k = max(n // 3, 1)
-    d = np.hypot(x[-k:].mean() - x[:k].mean(), y[-k:].mean() - y[:k].mean())
+    d = np.hypot(thirds_shift(x), thirds_shift(y))
     return float(d / max(float(np.median(np.asarray(h, dtype=np.float64))), 1e-9))
 
 
@@ -349,12 +363,7 @@ def grows(h) -> bool:
     >>> grows([4, 4, 4, 5, 4, 5]), grows([9, 8, 8, 7, 6, 6])
     (True, False)
     """
-    h = np.asarray(h, dtype=np.float64)
-    n = len(h)
-    if n < 2:
-        return False
-    k = max(n // 3, 1)
-    return bool(h[-k:].mean() > h[:k].mean())
+    return thirds_shift(h) > 0
 
 
 def inward_offset(x, y, width, height) -> float:
@@ -394,8 +403,7 @@ def inward_offset(x, y, width, height) -> float:
         return 0.0
     u = (x - width / 2) / (width / 2)
     v = (y - height / 2) / (height / 2)
-    k = max(n // 3, 1)
-    du, dv = u[-k:].mean() - u[:k].mean(), v[-k:].mean() - v[:k].mean()
+    du, dv = thirds_shift(u), thirds_shift(v)
     norm = float(np.hypot(du, dv))
     if norm <= 1e-12:
         return 0.0

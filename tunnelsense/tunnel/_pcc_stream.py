@@ -47,6 +47,7 @@ from tunnelsense.tunnel._pcc_measures import (  # noqa: F401 (re-exported)
     path_travel,
     pearson_r,
     straightness,
+    thirds_shift,
 )
 
 __all__ = [
@@ -165,18 +166,14 @@ def carried_travel(prior_x, prior_y, x, y, h) -> float:
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    n = len(x)
-    if n < 2:
+    if len(x) < 2:
         return 0.0
-    wx = np.concatenate([np.asarray(prior_x, dtype=np.float64), x])
-    wy = np.concatenate([np.asarray(prior_y, dtype=np.float64), y])
-    kw = max(len(wx) // 3, 1)
-    dx, dy = wx[-kw:].mean() - wx[:kw].mean(), wy[-kw:].mean() - wy[:kw].mean()
+    dx = thirds_shift(np.concatenate([np.asarray(prior_x, dtype=np.float64), x]))
+    dy = thirds_shift(np.concatenate([np.asarray(prior_y, dtype=np.float64), y]))
     norm = float(np.hypot(dx, dy))
     if norm <= 0:
         return 0.0
-    k = max(n // 3, 1)
-    px, py = x[-k:].mean() - x[:k].mean(), y[-k:].mean() - y[:k].mean()
+    px, py = thirds_shift(x), thirds_shift(y)
     along = (px * dx + py * dy) / norm
     return float(along / max(float(np.median(np.asarray(h, dtype=np.float64))), 1e-9))
 
