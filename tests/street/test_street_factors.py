@@ -78,7 +78,8 @@ def test_regions_follow_the_kerb(kerb):
     from tunnelsense.datasets import make_street_scans
     from tunnelsense.metrics import street_scores
     from tunnelsense.street import ScanClusterer
-    from tunnelsense.street._geometry import History, kerb_steps, roi_points
+    from tunnelsense.street._geometry import kerb_steps, roi_points
+    from tunnelsense.street._history import History
 
     run = make_street_scans(600, scenario="sparse", random_state=5, kerb_depth=kerb)
     records = list(run.scans)

@@ -14,7 +14,7 @@ import numbers
 import numpy as np
 import pandas as pd
 
-from tunnelsense.street._geometry import across_lost, period_and_gap
+from tunnelsense.street._history import across_lost, period_and_gap
 
 __all__ = [
     "CENSUS_CLASSES",
@@ -128,7 +128,7 @@ def lost_time(periods):
     """Each stamp difference split into the scan's own time and the time of scans
     lost after it (s): a difference of ``STAMP_GAP`` running scan periods (or
     steps of a coarser clock) or more
-    (:func:`~tunnelsense.street._geometry.period_and_gap`, the detector's rule)
+    (:func:`~tunnelsense.street._history.period_and_gap`, the detector's rule)
     keeps one period; the others are the scan's own.
 
     Examples

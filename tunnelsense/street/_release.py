@@ -16,7 +16,7 @@ from tunnelsense._payload import FINISHED_OBJECTS
 from tunnelsense._records import RUN_LABELS
 from tunnelsense.street._classes import vehicle_class
 from tunnelsense.street._clustering import expand_ranges
-from tunnelsense.street._geometry import metres_from
+from tunnelsense.street._history import metres_from
 from tunnelsense.street._vehicles import extend_occluded
 
 __all__ = []

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat
-from tunnelsense.street._geometry import metres_from
+from tunnelsense.street._history import metres_from
 
 __all__ = ["split_echelon", "split_near_side", "split_objects", "split_profile"]
 
@@ -128,7 +128,7 @@ def split_objects(prof, objects, cum, near, *, min_length, ratio, link_distance,
     ``objects`` and ``prof.position`` are per intra-cluster, as in ``prof``.
     ``gap`` (per scan position, optional): metres of lost scans before it that
     count to its stretch in ``cum``; not an object's that starts there
-    (:func:`~tunnelsense.street._geometry.metres_from`).
+    (:func:`~tunnelsense.street._history.metres_from`).
     """
     new = objects.copy()
     next_object = prof.n

@@ -12,12 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
-from tunnelsense.street._geometry import (
-    DEFAULT_SPEED,
-    History,
-    metres_from,
-    roi_points,
-)
+from tunnelsense.street._geometry import roi_points
+from tunnelsense.street._history import DEFAULT_SPEED, History, metres_from
 from tunnelsense.street._objects import HIDDEN_FLAG, SIDE_HEIGHT, SUSPENDED_FLAG
 from tunnelsense.street._sections import passed_under, section_evidence
 
@@ -176,9 +172,9 @@ class ScanWindow:
         the metres of such a stretch before it (0 where none).  Scans are missing
         where the scan numbers jump (the numbers then win over the stamps), or
         where the stamps do by ``STAMP_GAP`` scan periods (or steps of a clock
-        coarser than the period, :func:`~tunnelsense.street._geometry.running_tick`)
+        coarser than the period, :func:`~tunnelsense.street._history.running_tick`)
         or more while the numbers do not (a recorder that numbers what it
-        received).  A stretch's metres are the speed over it (:func:`~tunnelsense.street._geometry.across_lost`:
+        received).  A stretch's metres are the speed over it (:func:`~tunnelsense.street._history.across_lost`:
         the mean of the speeds reported on both sides) times the scan period
         times the scans it spans; ``unit`` (one scan's metres) only where no
         speed is known."""
