@@ -49,10 +49,9 @@ def scan_distances(stamps, speed):
 
     Scan ``i`` stands for the stretch the vehicle drives during its scan period:
     ``speed[i] * (stamps[i + 1] - stamps[i])`` metres (the last scan takes the
-    period before it).  Where the stamps jump by ``2.5`` scan periods or more
-    (scans lost on the way; the period is the mean of the recent stamp
-    differences, those of lost scans left out, as the detector reads it), the
-    scan before the jump keeps one period of its own, and the rest of the time
+    period before it).  Where the stamps jump by ``2.5`` scan periods, or by 2.5
+    steps of a clock coarser than the period, or more (scans lost on the way, read
+    as :class:`ScanClusterer` reads them), the scan before the jump keeps one period of its own, and the rest of the time
     is a stretch of no scan, driven at the mean of the speeds of the scans on
     both sides of it: nothing was seen there, so its metres belong to no scan,
     and only an object seen on both sides of it spans them.  The street is
@@ -78,7 +77,7 @@ def scan_distances(stamps, speed):
     Raises
     ------
     ValueError
-        Fewer than two stamps, stamps decreasing, equal or not finite, a speed
+        Fewer than two stamps, stamps decreasing, all equal or not finite, a speed
         negative or not finite, or a speed array of another length.
 
     Examples
@@ -275,8 +274,9 @@ def _union(starts, ends):
 def census(objects, distances, *, segment_length=50.0):
     """Count the parked vehicles per street segment, by class, with the kerb occupancy.
 
-    The street driven (from the start of the first scan to the end of the last) is cut into segments of
-    ``segment_length`` metres from its start, the last one shorter.  Each parked
+    The street driven (from the start of the first scan to the end of the last) is
+    cut into segments of ``segment_length`` metres from its start, the last one
+    shorter.  Each parked
     object covers its stretch of :func:`parked_extents` (from the ego motion).  Per
     segment:
 
