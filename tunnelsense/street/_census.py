@@ -49,14 +49,14 @@ def scan_distances(stamps, speed):
 
     Scan ``i`` stands for the stretch the vehicle drives during its scan period:
     ``speed[i] * (stamps[i + 1] - stamps[i])`` metres (the last scan takes the
-    period before it).  Where the stamps jump by ``2.5`` scan periods, or by 2.5
+    period before it). Where the stamps jump by ``2.5`` scan periods, or by 2.5
     steps of a clock coarser than the period, or more (scans lost on the way, read
-    as :class:`ScanClusterer` reads them), the scan before the jump keeps one period of its own, and the rest of the time
-    is a stretch of no scan, driven at the mean of the speeds of the scans on
-    both sides of it: nothing was seen there, so its metres belong to no scan,
-    and only an object seen on both sides of it spans them.  The street is
-    assumed straight and driven forwards (a stop, speed 0, adds no distance);
-    the distance starts at 0 where the first scan begins.
+    as :class:`ScanClusterer` reads them), the scan before the jump keeps one period
+    of its own, and the rest of the time is a stretch of no scan, driven at the mean
+    of the speeds of the scans on both sides of it: nothing was seen there, so its
+    metres belong to no scan, and only an object seen on both sides of it spans
+    them. The street is assumed straight and driven forwards (a stop, speed 0, adds
+    no distance); the distance starts at 0 where the first scan begins.
 
     Parameters
     ----------
