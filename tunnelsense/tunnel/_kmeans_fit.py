@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import threading
 
 import numpy as np
 from sklearn.utils import check_random_state
@@ -33,38 +32,13 @@ __all__ = [
 
 @functools.lru_cache(maxsize=1)
 def _controller():
-    # finding the loaded BLAS libraries (every loaded library's real path) costs
-    # 10-20 ms: once per process, and only when a limit is set
+    # finding the loaded BLAS libraries costs about 0.5 ms: once per process
     return ThreadpoolController()
 
 
-#: Verifications (frames) a :func:`blas_threads` context lets run before it sets its
-#: limit: a short command (ten frames) does not pay for finding the BLAS libraries,
-#: whose small products there spin no thread to speak of.
-LIMIT_AFTER = 30
-
-#: Rows of a verification that set the limit at once (a training set's keypoints,
-#: verified all at once: a product large enough for BLAS to spread over threads).
-_LARGE = 2048
-
-
-class _Limit:
-    """A :func:`blas_threads` context that acts: its limit, the verifications run
-    inside it so far, and the limiter once the limit is set."""
-
-    __slots__ = ("calls", "limiter", "n")
-
-    def __init__(self, n):
-        self.n, self.calls, self.limiter = n, 0, None
-
-
-#: The BLAS thread limit a :func:`blas_threads` context is in force with (set, or
-#: to be set), process-wide (as the limit itself is), or None.
+#: The BLAS thread limit a :func:`blas_threads` context has set, process-wide
+#: (as the limit itself is), or None.
 _IN_FORCE = [None]
-
-#: The contexts that act, innermost last; the lock guards setting and lifting.
-_ACTING = []
-_LOCK = threading.Lock()
 
 
 @contextlib.contextmanager
@@ -76,10 +50,7 @@ def blas_threads(n_jobs=None):
     thread count (the distances are exact, see :func:`fit_kmeans`).  Inside a
     context that set a limit at most as large, nothing is done: the verifier,
     called frame by frame inside the detector's own limit, does not set it again
-    for every frame.  The limit is set when the context's work begins: at once for
-    a k-means (:func:`fit_kmeans`) or a verification of many rows, at the
-    :data:`LIMIT_AFTER`-th verification (:func:`verify_histograms`) otherwise; it is
-    lifted when the context ends.
+    for every frame.
 
     Examples
     --------
@@ -92,33 +63,12 @@ def blas_threads(n_jobs=None):
     if _IN_FORCE[0] is not None and _IN_FORCE[0] <= n:
         yield
         return
-    entry = _Limit(n)
-    with _LOCK:
+    with _controller().limit(limits=n, user_api="blas"):
         outer, _IN_FORCE[0] = _IN_FORCE[0], n
-        _ACTING.append(entry)
-    try:
-        yield
-    finally:
-        with _LOCK:
-            _ACTING.remove(entry)
+        try:
+            yield
+        finally:
             _IN_FORCE[0] = outer
-            if entry.limiter is not None:
-                entry.limiter.restore_original_limits()
-
-
-def _blas_work(at_once=False) -> None:
-    """Called as BLAS work begins: sets the innermost acting context's limit at once
-    (``at_once``) or at its :data:`LIMIT_AFTER`-th call (see :func:`blas_threads`)."""
-    if not _ACTING:
-        return
-    entry = _ACTING[-1]
-    if entry.limiter is not None:
-        return
-    entry.calls += 1
-    if at_once or entry.calls >= LIMIT_AFTER:
-        with _LOCK:  # not after its context ended, nor twice
-            if entry.limiter is None and _ACTING and _ACTING[-1] is entry:
-                entry.limiter = _controller().limit(limits=entry.n, user_api="blas")
 
 
 def fit_kmeans(
@@ -181,7 +131,6 @@ def fit_kmeans(
         rows = X if sample_indices is None else X[sample_indices]
         quantum = grid_quantum(np.abs(rows).max(initial=0.0), np.shape(X)[1])
     with blas_threads(n_jobs):
-        _blas_work(at_once=True)
         U = _fit_kmeans(X, n_clusters, batch_size, n_steps, max_full_samples,
                         check_random_state(random_state), sample_indices, quantum)
     return U * quantum
@@ -293,7 +242,6 @@ def verify_histograms(H, centers, negative_centers, *, max_distance, margin=None
     >>> verify_histograms(H, P, N, max_distance=0.6, margin=0.0).tolist()
     [True, False]
     """
-    _blas_work(at_once=len(H) >= _LARGE)
     centers = np.asarray(centers, dtype=np.float64)
     neg = np.asarray(negative_centers, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
