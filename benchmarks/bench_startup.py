@@ -31,7 +31,12 @@ Budget check (exit status 1 when broken): ``tunnelsense --version`` within 0.15 
 NumPy, OpenCV.  The goal for ``detect`` on 10 frames (0.6 s) is printed, met or not, for the
 compiled copy (what an installed package runs).
 
-    python benchmarks/bench_startup.py [--repeats 7]
+With ``--baseline SRC`` (a source tree, e.g. ``git archive`` of an older commit), the
+compiled ``detect tunnel`` of that tree's package runs too, interleaved (``baseline
+detect tunnel, 10 frames``), and the paired ratio is printed: a before/after on one
+machine at one time.
+
+    python benchmarks/bench_startup.py [--repeats 7] [--baseline SRC]
 """
 
 import argparse
@@ -87,19 +92,23 @@ def _exit_time(how, argv):
     return ended - float(done.stderr.strip().splitlines()[-1])
 
 
-def _package_copies(folder: Path) -> dict:
+def _package_copies(folder: Path, baseline=None) -> dict:
     """Two copies of the package: ``compiled`` (its bytecode written, as ``pip
     install`` does) and ``source`` (none), each a folder to put on ``PYTHONPATH``
-    (ahead of an editable install's finder), with the environment to run it in."""
+    (ahead of an editable install's finder), with the environment to run it in; with
+    ``baseline`` (a source tree), ``baseline``: its package, compiled."""
     import tunnelsense
 
     package = Path(tunnelsense.__file__).parent
+    kinds = {"compiled": package, "source": package}
+    if baseline is not None:
+        kinds["baseline"] = Path(baseline) / "tunnelsense"
     envs = {}
-    for kind in ("compiled", "source"):
-        shutil.copytree(package, folder / kind / "tunnelsense",
+    for kind, origin in kinds.items():
+        shutil.copytree(origin, folder / kind / "tunnelsense",
                         ignore=shutil.ignore_patterns("__pycache__"))
         env = dict(os.environ, PYTHONPATH=str(folder / kind))
-        if kind == "compiled":
+        if kind != "source":
             compileall.compile_dir(folder / kind / "tunnelsense", quiet=1)
         else:
             env["PYTHONDONTWRITEBYTECODE"] = "1"
@@ -129,13 +138,15 @@ def _data(folder: Path) -> dict:
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--baseline", type=Path, default=None, metavar="SRC",
+                        help="also run detect tunnel from this source tree's package")
     args = parser.parse_args()
     heavy = json.loads(subprocess.run([sys.executable, "-c", _HEAVY], check=True,
                                       capture_output=True, text=True).stdout)
     with tempfile.TemporaryDirectory() as tmp:
         d = _data(Path(tmp))
         d["out"].mkdir()
-        envs = _package_copies(Path(tmp) / "package")
+        envs = _package_copies(Path(tmp) / "package", args.baseline)
         detect = ["detect", "tunnel", "--model", str(d["tunnel"]), str(d["t10"]),
                   "--out", str(d["out"] / "r.txt"), "--force", "--quiet"]
         cases = {
@@ -149,6 +160,8 @@ def main():
             "tunnelsense --version": _cli("--version"),
             "detect tunnel, 10 frames": (_cli(*detect), envs["compiled"]),
             "same, no bytecode": (_cli(*detect), envs["source"]),
+            **({"baseline detect tunnel, 10 frames": (_cli(*detect), envs["baseline"])}
+               if args.baseline else {}),
             "detect street, 200 scans": _cli(
                 "detect", "street", str(d["s200"]), "--model", str(d["street"]),
                 "--out", str(d["out"] / "o.csv"), "--force", "--quiet"),
@@ -177,6 +190,12 @@ def main():
     print(f"detect tunnel on 10 frames, package compiled: {goal:.3f} s (goal <= 0.6 s: "
           f"{'met' if goal <= 0.6 else 'not met'}; its floor, import sklearn.pipeline "
           f"deferred, is {med['import sklearn.pipeline, deferred']:.3f} s)")
+    if args.baseline:
+        pairs = [a / b for a, b in zip(times["detect tunnel, 10 frames"],
+                                       times["baseline detect tunnel, 10 frames"],
+                                       strict=True)]
+        print(f"detect tunnel / baseline, paired per repeat: median "
+              f"{statistics.median(pairs):.3f} (range {min(pairs):.3f}-{max(pairs):.3f})")
     broken = []
     if med["tunnelsense --version"] > med["python -c pass"] + 0.15:
         broken.append("tunnelsense --version is more than 0.15 s over python -c pass")

@@ -104,7 +104,10 @@ Usage::
         [--seeds evaluation|tuning]
 
 ``--full`` fits on every condition (the whole matrix); by default the detectors are
-fitted on ``plain`` only.  Tours are cached under ``$TMPDIR/tunnelsense-cross``.
+fitted on ``plain`` only.  ``--train-sample-rates 10 7.5 all`` fits each method on
+samples in time of the training tour (``fit_indicator_detector``'s ``sample_rate``:
+every ``k``-th frame, ``k = floor(frame rate / rate)``; ``all`` every frame), one
+column per method and rate.  Tours are cached under ``$TMPDIR/tunnelsense-cross``.
 """
 
 from __future__ import annotations
@@ -114,6 +117,7 @@ import functools
 import time
 
 from tunnelsense import to_xy
+from tunnelsense._records._sampling import sample_in_time
 from tunnelsense.datasets import make_tunnel_tour
 from tunnelsense.metrics import indicator_scores
 from tunnelsense.metrics._tunnel import hypotheses_from_records, tunnel_scores
@@ -289,6 +293,21 @@ def _fit_or_reason(params, X, y):
         return f"not fitted ({str(exc).split(';')[0]})"
 
 
+def _rate(text):
+    """A ``--train-sample-rates`` item: frames per second, or None for 'all'."""
+    return None if text == "all" else float(text)
+
+
+def fit_sampled(params, X, y, rate, reason=False):
+    """The detector fitted on ``X, y`` sampled in time at ``rate`` (None: every
+    frame), as ``train tunnel --sample-rate`` fits it; with ``reason``, why it could
+    not be fitted instead of the error (:func:`_fit_or_reason`)."""
+    Xs, ys, _ = sample_in_time(X, y, [0] * len(X), rate)
+    if reason:
+        return _fit_or_reason(params, Xs, ys)
+    return make_indicator_pipeline(random_state=0, **params).fit(Xs, ys)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", action="store_true", help="fit on every condition")
@@ -302,6 +321,10 @@ def main(argv=None):
     ap.add_argument("--true-ids", action="store_true",
                     help="score with the tours' own indicator ids (a shaking camera "
                          "breaks the scorer's frame-to-frame linking of boxes)")
+    ap.add_argument("--train-sample-rates", nargs="*", type=_rate, default=[None],
+                    metavar="HZ", help="fit each method on the training tour sampled "
+                    "at these rates (frames per second, or 'all': every frame); one "
+                    "column per method and rate (default: all)")
     args = ap.parse_args(argv)
     if args.set:
         import ast  # noqa: PLC0415
@@ -317,21 +340,25 @@ def main(argv=None):
           f"({args.seeds}); {args.frames} frames per tour\n")
     conditions = args.conditions or list(CONDITIONS)
     methods = args.methods or list(METHODS)
+    rates = args.train_sample_rates or [None]
+    columns = [(m, r) for m in methods for r in rates]
+    names = [m if len(rates) == 1 else f"{m} @{'all' if r is None else f'{r:g} Hz'}"
+             for m, r in columns]
     print("cell: indicators found / indicators, false-alarm trajectories "
-          f"({' | '.join(methods)})\n")
+          f"({' | '.join(names)})\n")
     t0 = time.time()
     for a in fit_on:
         print(f"fitted on {a}:\n")
-        print("| evaluated on | " + " | ".join(methods) + " |")
-        print("|---" * (len(methods) + 1) + "|")
+        print("| evaluated on | " + " | ".join(names) + " |")
+        print("|---" * (len(names) + 1) + "|")
         X, y, _ = to_xy([tour(a, train_seed, args.frames)])
-        models = [make_indicator_pipeline(random_state=0, **METHODS[m]).fit(X, y)
-                  for m in methods]
+        models = [fit_sampled(METHODS[m], X, y, r) for m, r in columns]
         for b in conditions:
             cells = []
             if b in OWN_TRAINING:
                 Xb, yb, _ = to_xy([tour(b, train_seed, args.frames)])
-                row_models = [_fit_or_reason(METHODS[m], Xb, yb) for m in methods]
+                row_models = [fit_sampled(METHODS[m], Xb, yb, r, reason=True)
+                              for m, r in columns]
             else:
                 row_models = models
             for model in row_models:

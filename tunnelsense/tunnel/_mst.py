@@ -30,7 +30,6 @@ import numbers
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, QhullError, cKDTree
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -96,7 +95,11 @@ def _components(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
 
 def _pair_partition(points: np.ndarray, cut: float) -> np.ndarray:
     # query_pairs reports coincident points too (distance 0 <= cut), so duplicates
-    # are joined without special care.
+    # are joined without special care.  SciPy's spatial module is imported here, on
+    # the first set of more than DENSE_MAX_POINTS points (a frame's keypoints seldom
+    # are): a short command that never meets one does not pay its import
+    from scipy.spatial import cKDTree  # noqa: PLC0415
+
     pairs = cKDTree(points).query_pairs(cut, output_type="ndarray")
     return _components(len(points), pairs[:, 0], pairs[:, 1])
 
@@ -115,6 +118,8 @@ def _distinct(points: np.ndarray):
 
 
 def _delaunay_partition(points: np.ndarray, cut: float) -> np.ndarray:
+    from scipy.spatial import Delaunay, QhullError  # noqa: PLC0415 (see _pair_partition)
+
     unique, inverse = _distinct(points)
     if len(unique) < 3:
         return _pair_partition(points, cut)
