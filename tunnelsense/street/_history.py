@@ -1,11 +1,12 @@
 """The recent scans of a run: scan period, lost scans and ego speed, tilt and kerb.
 
 The distance along the track between two scans is the ego speed times the scan
-period (paper section III-C), both taken from the scans seen so far, never from later
-ones, so that a stream and a batch run agree: the period from the stamps (a mean that
-a clock coarser than the period leaves right, and a stretch of lost scans is left out
-of), the speed a running median of the scans' own reports.  Scans whose tilt or kerb
-is unknown take the recent known ones.
+period (paper section III-C), both taken from the scans seen so far (a run's first
+scans take the period of its first stamp differences, which a stream waits for:
+``_clock``), never from later ones, so that a stream and a batch run agree: the
+period from the stamps (a mean that a clock coarser than the period leaves right,
+and a stretch of lost scans is left out of), the speed a running median of the
+scans' own reports.  Scans whose tilt or kerb is unknown take the recent known ones.
 """
 
 from __future__ import annotations
