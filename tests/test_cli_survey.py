@@ -193,3 +193,24 @@ def test_survey_street_is_registered(capsys):
     text = capsys.readouterr().out
     assert "tunnelsense survey street" in text
     assert all(option in text for option in ("--segment-length", "--speed", "--plot"))
+
+
+
+@pytest.mark.parametrize("clock, message", [
+    ("reset", "stamps must not decrease; scan 300"),  # back 5 s at scan 300
+    ("stalled", "stamps must span some time; all 600 scans"),  # never advances
+])
+def test_a_clock_that_resets_or_stalls_is_refused_naming_the_run(tmp_path, capsys,
+                                                                 clock, message):
+    stamps = (np.arange(600) / 75 - np.where(np.arange(600) >= 300, 5.0, 0.0)
+              if clock == "reset" else np.zeros(600))
+    run = write_run(Run.from_arrays(clock, np.full((600, 8), 5.0), stamps, GEOMETRY),
+                    tmp_path / "run")
+    objects = tmp_path / "objects.csv"
+    objects.write_text("id,first_scan,last_scan,label\n0,75,149,parked\n")
+    out = tmp_path / "census.csv"
+    assert main(["survey", "street", str(run), "--objects", str(objects), "--out",
+                 str(out), "--quiet", "--speed", "10"]) == 1
+    err = capsys.readouterr().err
+    assert str(run) in err and message in err
+    assert not out.exists()

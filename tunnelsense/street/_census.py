@@ -14,7 +14,8 @@ import numbers
 import numpy as np
 import pandas as pd
 
-from tunnelsense.street._history import across_lost, period_and_gap
+from tunnelsense.street._clock import STALE_SCANS, period_and_gap
+from tunnelsense.street._history import across_lost
 
 __all__ = [
     "CENSUS_CLASSES",
@@ -137,11 +138,25 @@ def lost_time(periods):
     >>> np.round(own, 9).tolist(), np.round(lost, 9).tolist()
     ([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1], [0.0, 0.0, 0.0, 0.0, 0.0, 0.4, 0.0])
     """
-    period, gap = period_and_gap(np.empty(0), periods)
+    # as the detector reads them: the first scan's difference is none (NaN)
+    period, gap, span = (a[1:] for a in period_and_gap(
+        np.empty(0), np.concatenate([[np.nan], periods])))
     with np.errstate(invalid="ignore"):
         jump = periods >= gap
-    own = np.where(jump, period, periods)
-    return own, periods - own
+    own = np.where(jump, period * span, periods)
+    lost = periods - own
+    # a jump at the run's first scans is a stale stamp: no metres of anything
+    lost[jump & (np.arange(len(periods)) < STALE_SCANS)] = 0.0
+    # the scans that share a stamp share the step after it (a clock that did not
+    # advance: each had its part of the time)
+    n = len(periods)
+    step = np.where(periods != 0, np.arange(n), n)
+    step = np.minimum.accumulate(step[::-1])[::-1]  # the step each scan waits for
+    has = step < n
+    size = np.bincount(step[has], minlength=n)
+    shared = np.zeros(n)
+    shared[has] = own[step[has]] / size[step[has]]
+    return shared, lost
 
 
 def _check_distances(distances):

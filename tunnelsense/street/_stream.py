@@ -6,6 +6,8 @@
 identical results by construction: the decisions below never depend on *when* they are
 taken (after every scan, or once at the end of a run), only on the scans seen.
 
+A run's first scans are held until they give the run's scan period (from its first
+32 stamp differences: ``ScanWindow.can_begin``), then ingested, as in batch.
 This module decides finality; the scans are restored, clustered and linked as they
 arrive by the window (``_window``), the final object-clusters are split, tested and
 queued by ``_labelling`` with the rules of ``_vehicles``, and numbered and released by
@@ -84,8 +86,11 @@ class ScanStream(StreamState):
 
     @property
     def n_held(self):
-        """Scans held now (not yet released, plus history)."""
-        return 0 if self._run is None else len(self._run.records)
+        """Scans held now (not yet released, plus history, plus a run's first scans
+        waiting for its period)."""
+        if self._run is None:
+            return 0
+        return len(self._run.records) + len(self._run.held or ())
 
     def _push(self, record):
         return self._push_many([record])
@@ -102,16 +107,31 @@ class ScanStream(StreamState):
                 out.extend(self._decide(ended=True))
                 self._run = _RunState(self.estimator, name)
             run = self._run
-            k = i
-            while k < j:  # ingest up to each check (every CHECK_EVERY scans)
-                stop = min(j, k + CHECK_EVERY - run.n_seen % CHECK_EVERY)
-                run.ingest(records[k:stop])
-                k = stop
-                if run.n_seen % CHECK_EVERY == 0 and run.overdue_possible():
-                    out.extend(self._decide(ended=False, check=True))
-            if run.decided_at != run.n_seen:
-                out.extend(self._decide(ended=False))
+            block = records[i:j]
+            if run.held is not None:  # a run's first scans wait for its period
+                run.held.extend(block)
+                block = []
+                if run.can_begin(run.held):
+                    block = run.held
+                    run.begin(block)
+                    run.held = None
+            out.extend(self._ingest(block))
             i = j
+        return out
+
+    def _ingest(self, block):
+        """Ingest consecutive scans of the current run, deciding at every check."""
+        out = []
+        run = self._run
+        k = 0
+        while k < len(block):  # ingest up to each check (every CHECK_EVERY scans)
+            stop = min(len(block), k + CHECK_EVERY - run.n_seen % CHECK_EVERY)
+            run.ingest(block[k:stop])
+            k = stop
+            if run.n_seen % CHECK_EVERY == 0 and run.overdue_possible():
+                out.extend(self._decide(ended=False, check=True))
+        if run.decided_at != run.n_seen:
+            out.extend(self._decide(ended=False))
         return out
 
     def _close(self):
@@ -122,6 +142,10 @@ class ScanStream(StreamState):
     def _decide(self, *, ended, check=False):
         if self._run is None:
             return []
+        if ended and self._run.held:  # a run shorter than its period's reading
+            held, self._run.held = self._run.held, None
+            self._run.begin(held)
+            return self._ingest(held) + self._decide(ended=True)
         out, self.n_objects = self._run.decide(self.n_objects, ended=ended, check=check)
         return out
 
@@ -133,6 +157,7 @@ class _RunState(_Release, _Labelling, ScanWindow):
         super().__init__(estimator, name)
         est = estimator
         self.decided_at = -1  # n_seen at the last decision
+        self.held = []  # the run's first scans, until they give its period (None)
         self.queue = []  # final objects waiting for their id, sorted by key
         self.numbered = []  # (region, last) of numbered vehicles still near
         self.spans = []  # (first, last, id, code) of numbered objects not yet released

@@ -11,6 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from tunnelsense.street._clock import (
+    HISTORY,
+    STALE_SCANS,
+    run_start,
+    stamp_differences,
+)
 from tunnelsense.street._clustering import concat, link_pairs, single_linkage
 from tunnelsense.street._geometry import roi_points
 from tunnelsense.street._history import DEFAULT_SPEED, History, metres_from
@@ -75,6 +81,11 @@ def spray(scan, beam, points, above, below, max_beams, cut, sensor=None, passes=
     return (past & (last - first + 1 <= max_beams))[chain]
 
 
+def _start_periods(records):
+    """The stamp differences of a run's first scans (:func:`stamp_differences`)."""
+    return stamp_differences([r.stamp for r in records], [r.scan for r in records])
+
+
 class ScanWindow:
     """The held scans of one run and their intra-clusters.
 
@@ -126,6 +137,26 @@ class ScanWindow:
         self.object_id = np.empty(0, np.int64)  # 0 not final, -1 final without id
         self.links = (np.empty(0, np.int64), np.empty(0, np.int64))
 
+    @classmethod
+    def can_begin(cls, records):
+        """Whether a run's first scans ``records`` give its period (or are as many
+        as it is read over, ``HISTORY``): the scans before that are held."""
+        if len(records) > HISTORY:
+            return True
+        return run_start(_start_periods(records))[3]
+
+    def begin(self, records):
+        """Read the run's scan period from its first scans ``records`` (all it has,
+        or those :meth:`can_begin` waited for), before any is ingested."""
+        if not self.history.begin(_start_periods(records)):
+            stamps = sorted({r.stamp for r in records[:HISTORY + 1]})
+            if len(stamps) == 1:
+                raise ValueError(
+                    f"stamps of run {self.name!r} do not advance: its first "
+                    f"{min(len(records), HISTORY + 1)} scans are all stamped "
+                    f"{stamps[0]}; expected the time of every scan (s), which gives "
+                    "the scan period that turns scans into metres")
+
     def _check_block(self, block):
         """Validate a block of scans (in scan order, checked by the stream); return
         their scan numbers, periods (stamp differences) and how many scan numbers
@@ -171,17 +202,23 @@ class ScanWindow:
         stretch of missing scans at most ``max_missing_length`` metres long), and
         the metres of such a stretch before it (0 where none).  Scans are missing
         where the scan numbers jump (the numbers then win over the stamps), or
-        where the stamps do by ``STAMP_GAP`` scan periods (or steps of a clock
-        coarser than the period, :func:`~tunnelsense.street._history.running_tick`)
-        or more while the numbers do not (a recorder that numbers what it
-        received).  A stretch's metres are the speed over it (:func:`~tunnelsense.street._history.across_lost`:
+        where the stamps do by ``STAMP_GAP`` scan periods (times the periods a
+        repeated stamp before it spans, or steps of a clock coarser than the
+        period: :func:`~tunnelsense.street._clock.period_and_gap`) or more while
+        the numbers do not (a recorder that numbers what it received).  Such a
+        jump within the run's first ``STALE_SCANS + 1`` scans is a stale stamp (a
+        driver's buffered scan): the scans before it are not followed.  A stretch's metres are the speed over it (:func:`~tunnelsense.street._history.across_lost`:
         the mean of the speeds reported on both sides) times the scan period
         times the scans it spans; ``unit`` (one scan's metres) only where no
         speed is known."""
         period = self.history.period
         with np.errstate(invalid="ignore"):
-            by_stamp = np.where((counts == 1) & (periods >= self.history.gap),
-                                np.rint(periods / period), 1.0)
+            jump = (counts == 1) & (periods >= self.history.gap)
+            # the scans sharing the stamp before it had a period each already
+            by_stamp = np.where(jump, np.maximum(
+                np.rint(periods / period) - (self.history.span - 1), 1.0), 1.0)
+        # a jump at the run's first scans is a stale stamp: where they were is unknown
+        stale = jump & (self.n_seen + np.arange(len(periods)) <= STALE_SCANS)
         elapsed = np.maximum(counts, by_stamp)
         lost = elapsed > 1
         metres = np.where(lost, self.history.across * period * (elapsed - 1), 0.0)
@@ -190,7 +227,7 @@ class ScanWindow:
         follows = elapsed == 1
         if bound is not None:
             follows |= lost & (metres <= bound + 1e-9)
-        follows &= counts > 0
+        follows &= (counts > 0) & ~stale
         return follows, np.where(follows & lost, metres, 0.0)
 
     def ingest(self, block):

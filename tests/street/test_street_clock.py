@@ -1,0 +1,195 @@
+"""A run's clock at its start and mid-run: the right length, or a clear error.
+
+A stale first stamp (a driver's buffered scan), stamps that repeat before the clock
+advances, a clock that resets, stamps that never advance: each gives the lengths of
+exact stamps (within a scan) or a ``ValueError`` naming the run, in the detector and
+in the census alike, batch and streaming.
+"""
+
+import dataclasses
+import functools
+
+import numpy as np
+import pytest
+from _street_scenes import make_run, sedan
+
+from tunnelsense.street import ScanClusterer, parked_extents, scan_distances
+from tunnelsense.street._clock import (
+    START_DIFFERENCES,
+    period_and_gap,
+    run_start,
+    stamp_spans,
+)
+from tunnelsense.street._history import History
+
+SPEED = 11.0  # m/s; 75 scans/s: 0.147 m a scan
+PERIOD = 1 / 75
+ONE_SCAN = SPEED * PERIOD
+
+
+def car(s0):
+    return dict(s0=s0, s1=s0 + 4.4, depth=5.0, width=1.8, top=sedan)
+
+
+@functools.lru_cache(maxsize=1)
+def fitted():
+    fit = make_run([car(4.0)], ["parked"], n_scans=80, speed=SPEED)
+    return ScanClusterer(speed=SPEED).fit(fit.scans)
+
+
+@functools.lru_cache(maxsize=4)
+def run_from(s0, n_scans=70):
+    return list(make_run([car(s0)], ["parked"], n_scans=n_scans, speed=SPEED).scans)
+
+
+def restamped(scans, stamps):
+    return [dataclasses.replace(r, stamp=float(t)) for r, t in zip(scans, stamps,
+                                                                   strict=True)]
+
+
+def stale_first(scans, early):
+    """The first scan stamped ``early`` seconds before its time."""
+    return restamped(scans, [scans[0].stamp - early] + [r.stamp for r in scans[1:]])
+
+
+def equal_first(scans, n):
+    """The first ``n`` scans stamped with the first one's stamp (a clock that did
+    not advance), the clock right from then on."""
+    return restamped(scans, [scans[0].stamp] * n + [r.stamp for r in scans[n:]])
+
+
+def parked_lengths(scans):
+    """The parked length of the detector and of the census."""
+    det = fitted().detect(scans)
+    parked = det[det["label"] == "parked"]
+    census = parked_extents(det, scan_distances([r.stamp for r in scans], SPEED))
+    return parked["length"].tolist(), census["length_m"].tolist()
+
+
+# -- the period and the lost scans read from the stamps ----------------------------
+
+def test_a_stale_first_stamp_is_not_the_period():
+    # it read 1.0 s, then 0.51 s: the second scan's step was 11 m
+    values = np.r_[np.nan, 1.0, np.full(40, PERIOD)]
+    period, gap, _ = period_and_gap(np.empty(0), values)
+    np.testing.assert_allclose(period, PERIOD)
+    assert gap[1] < 1.0  # the jump is a jump
+    h = History()
+    h.begin(values)
+    np.testing.assert_allclose(h.steps(values, SPEED), ONE_SCAN)
+
+
+@pytest.mark.parametrize("catch_up", [True, False])
+def test_stamps_that_repeat_at_the_start_are_not_the_period(catch_up):
+    # four scans stamped alike, then the clock catches up (or only runs on): the
+    # period is the clock's from the first scan (it read 0.0033-0.0089 s)
+    first = [0.0, 0.0, 0.0, 4 * PERIOD if catch_up else PERIOD]
+    values = np.r_[np.nan, first, np.full(200, PERIOD)]
+    period, gap, spans = period_and_gap(np.empty(0), values)
+    np.testing.assert_allclose(period, PERIOD, rtol=1e-9)
+    assert spans[4] == 4
+    assert values[4] < gap[4]  # the step that catches up loses no scan
+
+
+def test_a_clock_coarser_than_the_period_is_read_over_whole_steps():
+    # 40 ms stamps at 75 scans/s: the first period is read between steps of the
+    # clock (a window ending between two steps read 0.0125 s)
+    values = np.r_[np.nan, np.tile([0.0, 0.0, 0.04], 20)]
+    period, gap, _ = period_and_gap(np.empty(0), values)
+    np.testing.assert_allclose(period[:START_DIFFERENCES], PERIOD, rtol=1e-9)
+    assert (gap >= 0.1 - 1e-12).all()
+
+
+def test_no_lost_scan_is_read_from_fewer_than_three_steps():
+    _, _, _, ready, trusted, _ = run_start(np.r_[np.nan, 0.01, 0.03, 0.01])
+    assert not ready and not trusted
+    _, gap, _ = period_and_gap(np.empty(0), np.r_[np.nan, 0.01, 0.03])
+    assert np.isinf(gap).all()
+
+
+def test_stamp_spans_count_the_scans_a_stamp_stood_for():
+    assert stamp_spans(np.empty(0), np.r_[np.nan, 0.0, 0.0, 0.1, 0.0, 0.1]).tolist() == [
+        1, 1, 2, 3, 1, 2]
+
+
+# -- the detector and the census ---------------------------------------------------
+
+@pytest.mark.parametrize("s0", [0.0, 0.2])
+@pytest.mark.parametrize("early", [1.0, 0.1])
+def test_a_stale_first_stamp_gives_the_lengths_of_exact_stamps(s0, early):
+    # the first scan stamped 1 s (or 0.1 s: 1.1 m, a stretch the detector would
+    # link across) early: a car right at the start read 9.9 m in the detector and
+    # 15.5 m in the census; it is as long as with exact stamps, within a scan
+    scans = run_from(s0)
+    exact = parked_lengths(scans)
+    stale = parked_lengths(stale_first(scans, early))
+    for a, b in zip(exact, stale, strict=True):
+        assert len(a) == len(b) == 1
+        assert b[0] == pytest.approx(a[0], abs=ONE_SCAN + 1e-9)
+        assert b[0] < 4.6
+
+
+@pytest.mark.parametrize("s0", [0.0, 0.2])
+def test_stamps_that_repeat_at_the_start_give_the_lengths_of_exact_stamps(s0):
+    # the first 4 scans stamped alike (a fine clock that started late): the car
+    # read 3.56-3.72 m (18 % short) in the detector, 4.69 m in the census
+    scans = run_from(s0)
+    exact = parked_lengths(scans)
+    for a, b in zip(exact, parked_lengths(equal_first(scans, 4)), strict=True):
+        assert b == pytest.approx(a, abs=1e-6)
+
+
+def test_a_gap_the_numbers_show_at_the_start_is_lost_scans():
+    # the scan numbers jump too (7 scans lost after the first): no stale stamp but
+    # lost scans, linked as anywhere (1.0 m): the car seen on both sides spans them
+    scans = run_from(0.0)
+    lost = [scans[0]] + scans[8:]
+    det = fitted().detect(lost, all_objects=True)
+    parked = det[det["label"] == "parked"]
+    assert len(parked) == 1 and parked["first_scan"].iloc[0] == 0
+    renumbered = [scans[0]] + [dataclasses.replace(r, scan=i + 1)
+                               for i, r in enumerate(scans[8:])]
+    det = fitted().detect(renumbered, all_objects=True)  # numbers run on: stale
+    parked = det[det["label"] == "parked"]
+    assert len(parked) == 1 and parked["first_scan"].iloc[0] == 1
+
+
+@pytest.mark.parametrize("change", ["stale", "equal", "short"])
+def test_any_chunking_equals_batch_at_a_run_start(change):
+    scans = run_from(0.0)
+    if change == "stale":
+        scans = stale_first(scans, 1.0)
+    elif change == "equal":
+        scans = equal_first(scans, 4)
+    else:  # a run shorter than the differences its period is read over
+        scans = scans[:20]
+    est = fitted()
+    table = est.detect(scans, all_objects=True)
+    rows = [tuple(r) for r in table.itertuples(index=False)]
+    for chunk in (1, 7, 10_000):
+        state = est.start_stream()
+        out = []
+        for i in range(0, len(scans), chunk):
+            out.extend(state.push_many(scans[i:i + chunk]))
+        out.extend(state.close())
+        assert [r.scan for r in out] == [r.scan for r in scans]
+        assert [row for r in out for row in r.payload["finished_objects"]] == rows
+
+
+def test_stamps_that_never_advance_are_refused_naming_the_run():
+    scans = restamped(run_from(0.0), np.zeros(70))
+    with pytest.raises(ValueError, match="stamps of run 'r' do not advance"):
+        fitted().detect(scans)
+    with pytest.raises(ValueError, match="span some time"):
+        scan_distances([r.stamp for r in scans], SPEED)
+
+
+def test_a_clock_that_resets_mid_run_is_refused_naming_the_run_and_scans():
+    scans = run_from(0.0)
+    reset = restamped(scans, [r.stamp - (10.0 if i >= 40 else 0.0)
+                              for i, r in enumerate(scans)])
+    with pytest.raises(ValueError, match=r"run 'r' are not sorted: scan 40"):
+        fitted().detect(reset)
+    with pytest.raises(ValueError, match="non-decreasing; scan 40"):
+        scan_distances([r.stamp for r in reset], SPEED)
+
