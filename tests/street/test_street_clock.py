@@ -193,3 +193,27 @@ def test_a_clock_that_resets_mid_run_is_refused_naming_the_run_and_scans():
     with pytest.raises(ValueError, match="non-decreasing; scan 40"):
         scan_distances([r.stamp for r in reset], SPEED)
 
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_a_run_too_short_to_read_a_period_from_builds_no_object(n):
+    # 2-4 scans on one stamp (a 40-50 ms clock at 75 scans/s): raised "do not
+    # advance" and killed a detect of many runs; no period, so no object, and the
+    # other runs as alone
+    short = [dataclasses.replace(r, run="tail")
+             for r in restamped(run_from(0.2)[:n], np.full(n, 99.0))]
+    assert len(fitted().detect(short, all_objects=True)) == 0
+    long = run_from(0.2)
+    assert fitted().detect(long + short).equals(fitted().detect(long))
+
+
+def test_stamps_frozen_after_a_stale_first_stamp_are_refused():
+    # [0, 1, 1, 1, ...]: read at 1/75 s (a 25 Hz car 1.467 m, "other") and in the
+    # census 11 m, then 0 m
+    scans = run_from(0.0)
+    frozen = restamped(scans, np.r_[0.0, np.ones(len(scans) - 1)])
+    with pytest.raises(ValueError, match=r"stamps of run 'r' do not advance: its "
+                                         r"scans 1 to 69"):
+        fitted().detect(frozen)
+    with pytest.raises(ValueError, match="advance after the clock's first step"):
+        scan_distances([r.stamp for r in frozen], SPEED)

@@ -78,7 +78,9 @@ def scan_distances(stamps, speed):
     Raises
     ------
     ValueError
-        Fewer than two stamps, stamps decreasing, all equal or not finite, a speed
+        Fewer than two stamps, stamps decreasing, all equal (or all equal after
+        the clock's first step: a stale first stamp, then a clock that never
+        advances) or not finite, a speed
         negative or not finite, or a speed array of another length.
 
     Examples
@@ -105,6 +107,11 @@ def scan_distances(stamps, speed):
     if not stamps[-1] > stamps[0]:
         raise ValueError(f"stamps must span some time; all {len(stamps)} are "
                          f"{stamps[0]}")
+    after = np.flatnonzero(periods > 0)[0] + 1  # the clock's first step
+    if len(stamps) > after + 1 and not stamps[-1] > stamps[after]:
+        # a stale first stamp, then a clock that never advances: no period
+        raise ValueError(f"stamps must advance after the clock's first step; scans "
+                         f"{after} to {len(stamps) - 1} are all {stamps[after]}")
     speed = np.asarray(speed, dtype=np.float64)
     if speed.ndim == 0:
         speed = np.full(stamps.shape, float(speed))
