@@ -217,3 +217,23 @@ def test_stamps_frozen_after_a_stale_first_stamp_are_refused():
         fitted().detect(frozen)
     with pytest.raises(ValueError, match="advance after the clock's first step"):
         scan_distances([r.stamp for r in frozen], SPEED)
+
+
+def test_scans_lost_in_a_stall_are_read_once_for_the_jitter():
+    # 5 scans on one stamp, then a step over their 5 periods and 7 lost scans: the
+    # jitter allowance counts once, (5 + 1.5) periods, not 2.5 x 5 = 12.5 periods
+    values = np.r_[np.nan, np.full(60, PERIOD), 0.0, 0.0, 0.0, 0.0, 12 * PERIOD,
+                   np.full(40, PERIOD)]
+    period, gap, spans = period_and_gap(np.empty(0), values)
+    assert spans[65] == 5
+    assert 6 * PERIOD < gap[65] < 7 * PERIOD <= values[65]  # about 6.5 periods
+    # the car over the stall read 3.541 m (the 7 lost scans unseen)
+    scans = list(make_run([car(0.2), car(8.0)], ["parked"] * 2, n_scans=130,
+                          speed=SPEED).scans)
+    kept = scans[:65] + scans[72:]
+    stamps = [r.stamp for r in kept]
+    stamps[60:65] = [stamps[60]] * 5
+    kept = [dataclasses.replace(r, stamp=t, scan=i)
+            for i, (r, t) in enumerate(zip(kept, stamps, strict=True))]
+    lengths, _ = parked_lengths(kept)
+    assert lengths[1] == pytest.approx(4.4, abs=0.1)

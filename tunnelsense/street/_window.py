@@ -214,7 +214,7 @@ class ScanWindow:
         stretch of missing scans at most ``max_missing_length`` metres long), and
         the metres of such a stretch before it (0 where none).  Scans are missing
         where the scan numbers jump (the numbers then win over the stamps), or
-        where the stamps do by ``STAMP_GAP`` scan periods (times the periods a
+        where the stamps do by ``STAMP_GAP`` scan periods (plus the periods a
         repeated stamp before it spans, or steps of a clock coarser than the
         period: :func:`~tunnelsense.street._clock.period_and_gap`) or more while
         the numbers do not (a recorder that numbers what it received).  Such a
