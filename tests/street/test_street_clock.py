@@ -237,3 +237,17 @@ def test_scans_lost_in_a_stall_are_read_once_for_the_jitter():
             for i, (r, t) in enumerate(zip(kept, stamps, strict=True))]
     lengths, _ = parked_lengths(kept)
     assert lengths[1] == pytest.approx(4.4, abs=0.1)
+
+
+@pytest.mark.parametrize("n", [4, 10, 40])
+def test_census_gives_stamps_that_repeat_at_the_start_a_period_each(n):
+    # the first n scans on one stamp, the clock then running on without catching
+    # up: the census shared one period among them (4.18 / 3.344 / 0.11 m for a
+    # 4.4 m car) where the detector gives each a period
+    scans = run_from(0.2)
+    stamps = np.array([r.stamp for r in scans])
+    stamps[:n] = stamps[0]
+    stamps[n:] -= (n - 1) * PERIOD
+    detector, census = parked_lengths(restamped(scans, stamps))
+    assert census == pytest.approx(detector, abs=1e-6)
+    assert census == pytest.approx(parked_lengths(scans)[1], abs=1e-6)
