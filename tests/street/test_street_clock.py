@@ -251,3 +251,27 @@ def test_census_gives_stamps_that_repeat_at_the_start_a_period_each(n):
     detector, census = parked_lengths(restamped(scans, stamps))
     assert census == pytest.approx(detector, abs=1e-6)
     assert census == pytest.approx(parked_lengths(scans)[1], abs=1e-6)
+
+
+@pytest.mark.parametrize("clock", [0.03, 0.05])
+@pytest.mark.parametrize("phase", [0.0, 0.0123, 0.021])
+def test_a_coarse_clock_at_the_start_gives_the_length_within_a_scan(clock, phase):
+    # the clock's steps fall anywhere between the scans: the first step may come
+    # after one scan or after several (a car right at the start, 4.4 m)
+    scans = run_from(0.2, 60)
+    stamps = np.floor((np.array([r.stamp for r in scans]) + phase) / clock + 1e-9) * clock
+    for lengths in parked_lengths(restamped(scans, stamps)):
+        assert len(lengths) == 1
+        assert lengths[0] == pytest.approx(4.4, abs=ONE_SCAN)
+
+
+@pytest.mark.parametrize("after", [0, 1, 2, 3, 4])
+def test_the_census_reads_a_jump_in_the_first_four_scans_as_a_stale_stamp(after):
+    # a 0.5 s jump after scan `after`: within the run's first four scans a stale
+    # stamp (no metres), from the fifth scan on lost scans (5.5 m nobody saw)
+    stamps = np.arange(100) / 75
+    stamps[after + 1:] += 0.5
+    d = scan_distances(stamps, SPEED)
+    lost = 0.0 if after < 3 else 0.5 * SPEED
+    assert d[-1, 1] == pytest.approx(100 * ONE_SCAN + lost)
+    assert d[after + 1, 0] - d[after, 1] == pytest.approx(lost)
