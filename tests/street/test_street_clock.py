@@ -205,6 +205,12 @@ def test_a_run_too_short_to_read_a_period_from_builds_no_object(n):
     assert len(fitted().detect(short, all_objects=True)) == 0
     long = run_from(0.2)
     assert fitted().detect(long + short).equals(fitted().detect(long))
+    state = fitted().start_stream()  # scan by scan, as in batch
+    out = [o for r in long + short for o in state.push(r)] + list(state.close())
+    assert [r.scan for r in out] == [r.scan for r in long + short]
+    rows = [tuple(r) for r in fitted().detect(long, all_objects=True).itertuples(
+        index=False)]
+    assert [row for r in out for row in r.payload["finished_objects"]] == rows
 
 
 def test_stamps_frozen_after_a_stale_first_stamp_are_refused():
