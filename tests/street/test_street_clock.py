@@ -193,3 +193,91 @@ def test_a_clock_that_resets_mid_run_is_refused_naming_the_run_and_scans():
     with pytest.raises(ValueError, match="non-decreasing; scan 40"):
         scan_distances([r.stamp for r in reset], SPEED)
 
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_a_run_too_short_to_read_a_period_from_builds_no_object(n):
+    # 2-4 scans on one stamp (a 40-50 ms clock at 75 scans/s): raised "do not
+    # advance" and killed a detect of many runs; no period, so no object, and the
+    # other runs as alone
+    short = [dataclasses.replace(r, run="tail")
+             for r in restamped(run_from(0.2)[:n], np.full(n, 99.0))]
+    assert len(fitted().detect(short, all_objects=True)) == 0
+    long = run_from(0.2)
+    assert fitted().detect(long + short).equals(fitted().detect(long))
+    state = fitted().start_stream()  # scan by scan, as in batch
+    out = [o for r in long + short for o in state.push(r)] + list(state.close())
+    assert [r.scan for r in out] == [r.scan for r in long + short]
+    rows = [tuple(r) for r in fitted().detect(long, all_objects=True).itertuples(
+        index=False)]
+    assert [row for r in out for row in r.payload["finished_objects"]] == rows
+
+
+def test_stamps_frozen_after_a_stale_first_stamp_are_refused():
+    # [0, 1, 1, 1, ...]: read at 1/75 s (a 25 Hz car 1.467 m, "other") and in the
+    # census 11 m, then 0 m
+    scans = run_from(0.0)
+    frozen = restamped(scans, np.r_[0.0, np.ones(len(scans) - 1)])
+    with pytest.raises(ValueError, match=r"stamps of run 'r' do not advance: its "
+                                         r"scans 1 to 69"):
+        fitted().detect(frozen)
+    with pytest.raises(ValueError, match="advance after the clock's first step"):
+        scan_distances([r.stamp for r in frozen], SPEED)
+
+
+def test_scans_lost_in_a_stall_are_read_once_for_the_jitter():
+    # 5 scans on one stamp, then a step over their 5 periods and 7 lost scans: the
+    # jitter allowance counts once, (5 + 1.5) periods, not 2.5 x 5 = 12.5 periods
+    values = np.r_[np.nan, np.full(60, PERIOD), 0.0, 0.0, 0.0, 0.0, 12 * PERIOD,
+                   np.full(40, PERIOD)]
+    period, gap, spans = period_and_gap(np.empty(0), values)
+    assert spans[65] == 5
+    assert 6 * PERIOD < gap[65] < 7 * PERIOD <= values[65]  # about 6.5 periods
+    # the car over the stall read 3.541 m (the 7 lost scans unseen)
+    scans = list(make_run([car(0.2), car(8.0)], ["parked"] * 2, n_scans=130,
+                          speed=SPEED).scans)
+    kept = scans[:65] + scans[72:]
+    stamps = [r.stamp for r in kept]
+    stamps[60:65] = [stamps[60]] * 5
+    kept = [dataclasses.replace(r, stamp=t, scan=i)
+            for i, (r, t) in enumerate(zip(kept, stamps, strict=True))]
+    lengths, _ = parked_lengths(kept)
+    assert lengths[1] == pytest.approx(4.4, abs=0.1)
+
+
+@pytest.mark.parametrize("n", [4, 10, 40])
+def test_census_gives_stamps_that_repeat_at_the_start_a_period_each(n):
+    # the first n scans on one stamp, the clock then running on without catching
+    # up: the census shared one period among them (4.18 / 3.344 / 0.11 m for a
+    # 4.4 m car) where the detector gives each a period
+    scans = run_from(0.2)
+    stamps = np.array([r.stamp for r in scans])
+    stamps[:n] = stamps[0]
+    stamps[n:] -= (n - 1) * PERIOD
+    detector, census = parked_lengths(restamped(scans, stamps))
+    assert census == pytest.approx(detector, abs=1e-6)
+    assert census == pytest.approx(parked_lengths(scans)[1], abs=1e-6)
+
+
+@pytest.mark.parametrize("clock", [0.03, 0.05])
+@pytest.mark.parametrize("phase", [0.0, 0.0123, 0.021])
+def test_a_coarse_clock_at_the_start_gives_the_length_within_a_scan(clock, phase):
+    # the clock's steps fall anywhere between the scans: the first step may come
+    # after one scan or after several (a car right at the start, 4.4 m)
+    scans = run_from(0.2, 60)
+    stamps = np.floor((np.array([r.stamp for r in scans]) + phase) / clock + 1e-9) * clock
+    for lengths in parked_lengths(restamped(scans, stamps)):
+        assert len(lengths) == 1
+        assert lengths[0] == pytest.approx(4.4, abs=ONE_SCAN)
+
+
+@pytest.mark.parametrize("after", [0, 1, 2, 3, 4])
+def test_the_census_reads_a_jump_in_the_first_four_scans_as_a_stale_stamp(after):
+    # a 0.5 s jump after scan `after`: within the run's first four scans a stale
+    # stamp (no metres), from the fifth scan on lost scans (5.5 m nobody saw)
+    stamps = np.arange(100) / 75
+    stamps[after + 1:] += 0.5
+    d = scan_distances(stamps, SPEED)
+    lost = 0.0 if after < 3 else 0.5 * SPEED
+    assert d[-1, 1] == pytest.approx(100 * ONE_SCAN + lost)
+    assert d[after + 1, 0] - d[after, 1] == pytest.approx(lost)

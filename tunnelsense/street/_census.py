@@ -78,7 +78,9 @@ def scan_distances(stamps, speed):
     Raises
     ------
     ValueError
-        Fewer than two stamps, stamps decreasing, all equal or not finite, a speed
+        Fewer than two stamps, stamps decreasing, all equal (or all equal after
+        the clock's first step: a stale first stamp, then a clock that never
+        advances) or not finite, a speed
         negative or not finite, or a speed array of another length.
 
     Examples
@@ -105,6 +107,11 @@ def scan_distances(stamps, speed):
     if not stamps[-1] > stamps[0]:
         raise ValueError(f"stamps must span some time; all {len(stamps)} are "
                          f"{stamps[0]}")
+    after = np.flatnonzero(periods > 0)[0] + 1  # the clock's first step
+    if len(stamps) > after + 1 and not stamps[-1] > stamps[after]:
+        # a stale first stamp, then a clock that never advances: no period
+        raise ValueError(f"stamps must advance after the clock's first step; scans "
+                         f"{after} to {len(stamps) - 1} are all {stamps[after]}")
     speed = np.asarray(speed, dtype=np.float64)
     if speed.ndim == 0:
         speed = np.full(stamps.shape, float(speed))
@@ -126,10 +133,15 @@ def scan_distances(stamps, speed):
 
 def lost_time(periods):
     """Each stamp difference split into the scan's own time and the time of scans
-    lost after it (s): a difference of ``STAMP_GAP`` running scan periods (or
-    steps of a coarser clock) or more
-    (:func:`~tunnelsense.street._history.period_and_gap`, the detector's rule)
-    keeps one period; the others are the scan's own.
+    lost after it (s), by the detector's rule
+    (:func:`~tunnelsense.street._clock.period_and_gap`): a difference of
+    ``STAMP_GAP`` running scan periods (plus the periods a step after a repeated
+    stamp spans beyond its own, or ``STAMP_GAP`` steps of a coarser clock) or more
+    keeps a period for each scan it spans and holds lost scans beyond them; the
+    others are the scan's own.  Scans that share a stamp (a clock that did not
+    advance) share the step after it; at the run's start, before the clock's
+    first step, they have at least the run's first period each, as in the
+    detector, whether or not the clock catches up after them.
 
     Examples
     --------
@@ -156,6 +168,12 @@ def lost_time(periods):
     size = np.bincount(step[has], minlength=n)
     shared = np.zeros(n)
     shared[has] = own[step[has]] / size[step[has]]
+    # before the clock's first step (and at it) at least a period each, as in the
+    # detector: the run's start period, whether or not the clock catches up (it
+    # may hold more: the phase of a clock coarser than the period)
+    first = int(step[0]) + 1 if n and step[0] > 0 else 0  # 0: no repeated stamp
+    shared[:first] = np.where(jump[:first], shared[:first],
+                              np.maximum(shared[:first], period[:first]))
     return shared, lost
 
 

@@ -13,7 +13,8 @@ read for what they are:
   period read where that many are known (:func:`run_start`, a look forward that a
   stream waits for), so a stale first stamp or stamps that repeat at the start
   count as what they are, not as the period;
-* **a jump** of ``STAMP_GAP`` periods or more (or steps of a coarser clock) is a
+* **a jump** of ``STAMP_GAP`` periods or more (plus the periods a step after a
+  repeated stamp spans beyond its own; or ``STAMP_GAP`` steps of a coarser clock) is a
   stretch of lost scans; within a run's first ``STALE_SCANS + 1`` scans, with
   the scan numbers running on, it is a stale stamp (a driver's buffered scan): the scans
   before it are not linked to the rest and the jump holds no metres.
@@ -135,10 +136,11 @@ def running_period(history, values, window=HISTORY, tick=None, history_spans=Non
                    spans=None):
     """The scan period for every new stamp difference: the mean of the finite ones
     among the last ``window`` (history then values), leaving out those of
-    ``STAMP_GAP`` times the mean of all (times the periods they span,
-    :func:`stamp_spans`: the step after a repeated stamp), or of the stamps' step
-    (``tick``, by default :func:`running_tick`), whichever is larger, or more (a gap
-    over lost scans); NaN where there is none.
+    ``STAMP_GAP`` times the mean of all (plus the periods a step after a repeated
+    stamp spans beyond its own, :func:`stamp_spans`: the jitter allowance counts
+    once), or of ``STAMP_GAP`` stamps' steps (``tick``, by default
+    :func:`running_tick`), whichever is larger, or more (a gap over lost scans);
+    NaN where there is none.
 
     A median reads a clock coarser than the period wrong: at 75 scans/s stamps on
     a 10 ms clock differ by 10 ms twice and 20 ms once (and by 0 or 30 ms when they
@@ -177,7 +179,8 @@ def running_period(history, values, window=HISTORY, tick=None, history_spans=Non
     n = finite.sum(axis=1)
     mean = np.where(finite, win, 0.0).sum(axis=1) / np.maximum(n, 1)
     with np.errstate(invalid="ignore"):
-        near = finite & (win < STAMP_GAP * np.fmax(mean[:, None] * span, tick[:, None]))
+        near = finite & (win < np.fmax(mean[:, None] * (span + STAMP_GAP - 1),
+                                       STAMP_GAP * tick[:, None]))
     k = near.sum(axis=1)
     # a step whose repeated stamps began before the window: only its scans inside
     inside = np.minimum(span, np.arange(1, window + 1)) / span
@@ -253,10 +256,10 @@ def run_start(values, window=HISTORY):
 def period_and_gap(history, values, window=HISTORY, *, history_spans=None, start=None,
                    offset=0):
     """For every new stamp difference, the scan period (:func:`running_period`),
-    the difference from which scans are lost (``STAMP_GAP`` periods times the
-    periods it spans, :func:`stamp_spans`, or steps of a clock coarser than the
-    period, :func:`running_tick`, whichever is larger; infinite where the period is
-    not trusted) and the periods it spans.  The detector and the census read lost
+    the difference from which scans are lost (the periods it spans,
+    :func:`stamp_spans`, plus ``STAMP_GAP - 1`` periods of jitter, or ``STAMP_GAP``
+    steps of a clock coarser than the period, :func:`running_tick`, whichever is
+    larger; infinite where the period is not trusted) and the periods it spans.  The detector and the census read lost
     scans by this rule.
 
     ``start`` (:func:`run_start`) gives the period of the run's first scans, those
@@ -294,6 +297,6 @@ def period_and_gap(history, values, window=HISTORY, *, history_spans=None, start
         period[early], tick[early] = first_period, first_tick
         untrusted = early & (not trusted)
     with np.errstate(invalid="ignore"):
-        gap = np.where(np.isfinite(period), STAMP_GAP * np.fmax(period * spans, tick),
-                       np.nan)
+        gap = np.where(np.isfinite(period),
+                       np.fmax(period * (spans + STAMP_GAP - 1), STAMP_GAP * tick), np.nan)
     return period, np.where(untrusted, np.inf, gap), spans

@@ -119,9 +119,10 @@ class History:
     def begin(self, periods):
         """Read the period of the run's first scans from its first stamp differences
         ``periods`` (s, NaN for the first scan; :func:`~tunnelsense.street._clock.run_start`);
-        return whether they give one (they do not if the stamps never advance)."""
+        return whether they give one (they do not if the stamps do not advance
+        after the clock's first step, or a run has one scan)."""
         self.start = run_start(periods)
-        return bool(np.isfinite(self.start[1])) or len(periods) < 2
+        return bool(np.isfinite(self.start[1]))
 
     def steps(self, periods, speeds, counts=None):
         """Metres travelled per scan: the scan's own speed x the recent period.

@@ -194,6 +194,10 @@ class _RunState(_Release, _Labelling, ScanWindow):
         n = len(self.records)
         if n == 0:
             return [], next_id
+        if self.no_period:  # no metres: no object (ScanWindow.begin)
+            self.object_id[self.object_id == 0] = -1
+            return self._number_and_release(np.inf if ended else self.n_seen, ended,
+                                            next_id)
         pending = np.flatnonzero(self.object_id == 0)
         frontier = np.inf if ended else self.n_seen  # no non-final object starts before
         if len(pending):

@@ -14,6 +14,7 @@ import numpy as np
 from tunnelsense.street._clock import (
     HISTORY,
     STALE_SCANS,
+    START_DIFFERENCES,
     run_start,
     stamp_differences,
 )
@@ -109,6 +110,7 @@ class ScanWindow:
         self.last_stamp = None
         self.n_seen = 0  # scans seen in this run (absolute position of the next)
         self.history = History()
+        self.no_period = False  # a short run whose stamps give no period (begin)
         # per held scan
         self.base = 0
         self.records = []
@@ -147,15 +149,25 @@ class ScanWindow:
 
     def begin(self, records):
         """Read the run's scan period from its first scans ``records`` (all it has,
-        or those :meth:`can_begin` waited for), before any is ingested."""
-        if not self.history.begin(_start_periods(records)):
-            stamps = sorted({r.stamp for r in records[:HISTORY + 1]})
-            if len(stamps) == 1:
-                raise ValueError(
-                    f"stamps of run {self.name!r} do not advance: its first "
-                    f"{min(len(records), HISTORY + 1)} scans are all stamped "
-                    f"{stamps[0]}; expected the time of every scan (s), which gives "
-                    "the scan period that turns scans into metres")
+        or those :meth:`can_begin` waited for), before any is ingested.
+
+        Stamps that do not advance after the clock's first step (a stale first
+        stamp may come before it) give no period: over more than
+        ``START_DIFFERENCES`` scans that is an error; a shorter run (a clock
+        coarser than its few scans, or a run of one scan) has no period, and no
+        object is built from it (``no_period``): its scans have no metres."""
+        self.no_period = not self.history.begin(_start_periods(records))
+        if self.no_period and len(records) > START_DIFFERENCES:
+            # the stamps do not advance after the clock's first step (if any)
+            read = records[:HISTORY + 1]
+            stamps = np.array([r.stamp for r in read])
+            k = int(np.flatnonzero(np.r_[True, stamps[1:] != stamps[:-1]])[-1])
+            raise ValueError(
+                f"stamps of run {self.name!r} do not advance: its scans "
+                f"{read[k].scan} to {read[-1].scan} ({len(read) - k} of its first "
+                f"{len(read)}) are all stamped {stamps[k]}; expected the time of "
+                "every scan (s), which gives the scan period that turns scans into "
+                "metres")
 
     def _check_block(self, block):
         """Validate a block of scans (in scan order, checked by the stream); return
@@ -202,7 +214,7 @@ class ScanWindow:
         stretch of missing scans at most ``max_missing_length`` metres long), and
         the metres of such a stretch before it (0 where none).  Scans are missing
         where the scan numbers jump (the numbers then win over the stamps), or
-        where the stamps do by ``STAMP_GAP`` scan periods (times the periods a
+        where the stamps do by ``STAMP_GAP`` scan periods (plus the periods a
         repeated stamp before it spans, or steps of a clock coarser than the
         period: :func:`~tunnelsense.street._clock.period_and_gap`) or more while
         the numbers do not (a recorder that numbers what it received).  Such a
