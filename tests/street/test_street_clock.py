@@ -281,3 +281,31 @@ def test_the_census_reads_a_jump_in_the_first_four_scans_as_a_stale_stamp(after)
     lost = 0.0 if after < 3 else 0.5 * SPEED
     assert d[-1, 1] == pytest.approx(100 * ONE_SCAN + lost)
     assert d[after + 1, 0] - d[after, 1] == pytest.approx(lost)
+
+
+@pytest.mark.parametrize("stuck", [19, 39, 69])
+def test_a_clock_that_starts_late_is_read_from_its_first_step_on(stuck):
+    # the first `stuck` scans on one stamp, the clock catching up at the next: the
+    # first step leaves too few differences to read a period from at the start;
+    # the run is read from the step on (it had been refused as "do not advance",
+    # or built no object, and the census gave NaN to every scan)
+    scans = run_from(0.2, 70)[:stuck + 1]
+    late = restamped(scans, [scans[0].stamp] * stuck + [scans[stuck].stamp])
+    det = fitted().detect(late)
+    assert det.equals(fitted().detect(scans))
+    distances = scan_distances([r.stamp for r in late], SPEED)
+    assert np.isfinite(distances).all()
+    assert distances[-1, 1] == pytest.approx(
+        scan_distances([r.stamp for r in scans], SPEED)[-1, 1])
+
+
+@pytest.mark.parametrize("n", [32, 33])
+def test_one_stamp_over_more_scans_than_a_period_is_read_from_is_refused(n):
+    # 32 scans on one stamp (a coarse clock, a short run) build no object; 33 are a
+    # clock that does not advance
+    scans = restamped(run_from(0.2)[:n], np.full(n, 5.0))
+    if n <= 32:
+        assert len(fitted().detect(scans, all_objects=True)) == 0
+    else:
+        with pytest.raises(ValueError, match="do not advance"):
+            fitted().detect(scans)

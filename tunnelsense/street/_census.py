@@ -173,7 +173,7 @@ def lost_time(periods):
     # may hold more: the phase of a clock coarser than the period)
     first = int(step[0]) + 1 if n and step[0] > 0 else 0  # 0: no repeated stamp
     shared[:first] = np.where(jump[:first], shared[:first],
-                              np.maximum(shared[:first], period[:first]))
+                              np.fmax(shared[:first], period[:first]))
     return shared, lost
 
 

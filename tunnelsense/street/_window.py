@@ -152,22 +152,30 @@ class ScanWindow:
         or those :meth:`can_begin` waited for), before any is ingested.
 
         Stamps that do not advance after the clock's first step (a stale first
-        stamp may come before it) give no period: over more than
-        ``START_DIFFERENCES`` scans that is an error; a shorter run (a clock
-        coarser than its few scans, or a run of one scan) has no period, and no
-        object is built from it (``no_period``): its scans have no metres."""
+        stamp may come before it) give no period.  Over more than
+        ``START_DIFFERENCES`` scans on the last stamp that is an error (a frozen
+        clock).  A clock whose first step comes too late in the held scans to read
+        a period there (a clock that started late) is read from the scans after it,
+        as anywhere in a run.  A shorter run on one stamp (a clock coarser than its
+        few scans, or a run of one scan) has no period, and no object is built from
+        it (``no_period``): its scans have no metres."""
         self.no_period = not self.history.begin(_start_periods(records))
-        if self.no_period and len(records) > START_DIFFERENCES:
-            # the stamps do not advance after the clock's first step (if any)
-            read = records[:HISTORY + 1]
-            stamps = np.array([r.stamp for r in read])
-            k = int(np.flatnonzero(np.r_[True, stamps[1:] != stamps[:-1]])[-1])
+        if not self.no_period:
+            return
+        read = records[:HISTORY + 1]
+        stamps = np.array([r.stamp for r in read])
+        steps = np.flatnonzero(stamps[1:] != stamps[:-1])
+        k = int(steps[-1]) + 1 if steps.size else 0  # the first scan on the last stamp
+        if len(read) - k > START_DIFFERENCES:
             raise ValueError(
                 f"stamps of run {self.name!r} do not advance: its scans "
                 f"{read[k].scan} to {read[-1].scan} ({len(read) - k} of its first "
                 f"{len(read)}) are all stamped {stamps[k]}; expected the time of "
                 "every scan (s), which gives the scan period that turns scans into "
                 "metres")
+        # the clock advanced past a stale first stamp's jump: its period is read
+        # from the scans after, as anywhere in a run
+        self.no_period = not (steps.size and steps[-1] > STALE_SCANS)
 
     def _check_block(self, block):
         """Validate a block of scans (in scan order, checked by the stream); return
