@@ -128,6 +128,11 @@ def scan_distances(stamps, speed):
     steps = speed * own
     gaps = across_lost(speed[:-1], speed[1:]) * lost
     starts = np.concatenate([[0.0], np.cumsum(steps[:-1] + gaps)])
+    if not np.isfinite(starts[-1] + steps[-1]):
+        raise ValueError(f"stamps give no scan period: the clock first advances at "
+                         f"scan {after}, too late to read the period of the scans "
+                         "before it (a clock stuck over the run's first scans); "
+                         "expected the time of every scan (s)")
     return np.column_stack([starts, starts + steps])
 
 
@@ -173,7 +178,7 @@ def lost_time(periods):
     # may hold more: the phase of a clock coarser than the period)
     first = int(step[0]) + 1 if n and step[0] > 0 else 0  # 0: no repeated stamp
     shared[:first] = np.where(jump[:first], shared[:first],
-                              np.fmax(shared[:first], period[:first]))
+                              np.maximum(shared[:first], period[:first]))
     return shared, lost
 
 

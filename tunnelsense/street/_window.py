@@ -152,30 +152,34 @@ class ScanWindow:
         or those :meth:`can_begin` waited for), before any is ingested.
 
         Stamps that do not advance after the clock's first step (a stale first
-        stamp may come before it) give no period.  Over more than
-        ``START_DIFFERENCES`` scans on the last stamp that is an error (a frozen
-        clock).  A clock whose first step comes too late in the held scans to read
-        a period there (a clock that started late) is read from the scans after it,
-        as anywhere in a run.  A shorter run on one stamp (a clock coarser than its
-        few scans, or a run of one scan) has no period, and no object is built from
-        it (``no_period``): its scans have no metres."""
+        stamp may come before it) give no period: over more than
+        ``START_DIFFERENCES`` scans that is an error; a shorter run (a clock
+        coarser than its few scans, or a run of one scan) has no period, and no
+        object is built from it (``no_period``): its scans have no metres.  A clock
+        that first advances too late in the held scans to read a period there is an
+        error too: the scans before its step have no known period (measured at a
+        guessed one, a car at 25 scans a second would read a third of its length)."""
         self.no_period = not self.history.begin(_start_periods(records))
-        if not self.no_period:
-            return
-        read = records[:HISTORY + 1]
-        stamps = np.array([r.stamp for r in read])
-        steps = np.flatnonzero(stamps[1:] != stamps[:-1])
-        k = int(steps[-1]) + 1 if steps.size else 0  # the first scan on the last stamp
-        if len(read) - k > START_DIFFERENCES:
+        if self.no_period and len(records) > START_DIFFERENCES:
+            read = records[:HISTORY + 1]
+            stamps = np.array([r.stamp for r in read])
+            steps = np.flatnonzero(stamps[1:] != stamps[:-1])
+            k = int(steps[-1]) + 1 if steps.size else 0  # first scan on the last stamp
+            if len(read) - k > START_DIFFERENCES:  # the stamps do not advance
+                raise ValueError(
+                    f"stamps of run {self.name!r} do not advance: its scans "
+                    f"{read[k].scan} to {read[-1].scan} ({len(read) - k} of its "
+                    f"first {len(read)}) are all stamped {stamps[k]}; expected the "
+                    "time of every scan (s), which gives the scan period that turns "
+                    "scans into metres")
+            first = int(steps[0]) + 1  # the clock's first step
             raise ValueError(
-                f"stamps of run {self.name!r} do not advance: its scans "
-                f"{read[k].scan} to {read[-1].scan} ({len(read) - k} of its first "
-                f"{len(read)}) are all stamped {stamps[k]}; expected the time of "
-                "every scan (s), which gives the scan period that turns scans into "
-                "metres")
-        # the clock advanced past a stale first stamp's jump: its period is read
-        # from the scans after, as anywhere in a run
-        self.no_period = not (steps.size and steps[-1] > STALE_SCANS)
+                f"stamps of run {self.name!r} give no scan period: its clock first "
+                f"advances at scan {read[first].scan}, after {first} scans on one "
+                f"stamp, which leaves fewer than {START_DIFFERENCES} stamp differences "
+                f"among its first {len(read)} scans to read the period from; expected the "
+                "time of every scan (s), which gives the scan period that turns "
+                "scans into metres")
 
     def _check_block(self, block):
         """Validate a block of scans (in scan order, checked by the stream); return
